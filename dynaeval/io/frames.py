@@ -1,0 +1,234 @@
+"""Finding frames in a folder and pairing predictions with ground truth.
+
+Layout: a folder of images (one camera, named ``"."``) or one sub-folder per camera (any depth:
+the camera is the folder's path relative to the root, e.g. ``"cam03"``), or video files (one
+camera each, named by the file's path without extension). Non-image files are ignored.
+
+Pairing rules (driven by the prediction folder, see ``pair_frames``):
+
+* image cameras are matched by relative path with the extension ignored: pred ``cam03/0007.jpg``
+  pairs with gt ``cam03/0007.png``;
+* when either side of a camera is a video, frames are paired by position;
+* a prediction with no ground truth is an error;
+* a ground-truth camera with no prediction at all is not scored (renders often cover only the
+  evaluation cameras) and is listed in ``Pairing.unscored_cameras``;
+* a camera with some ground-truth frames missing from the prediction is an error listing them,
+  unless ``allow_missing``: then the intersection is scored and the rest listed in ``skipped``.
+
+Frames within a camera are ordered by natural sort (``2.png`` before ``10.png``); a frame's
+``index`` is its position in the ground-truth camera's sequence, so consecutive indices are
+consecutive frames for temporal metrics.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from dynaeval.errors import InputError
+from dynaeval.io.images import IMAGE_EXTENSIONS, read_image
+from dynaeval.io.video import VIDEO_EXTENSIONS, count_frames, read_video_frame
+
+ROOT_CAMERA = "."
+
+
+def natural_key(text: str) -> tuple:
+    """Sort key that orders digit runs by value: ``frame2`` < ``frame10``."""
+    return tuple(int(t) if t.isdigit() else t.lower() for t in re.split(r"(\d+)", text))
+
+
+@dataclass(frozen=True)
+class FrameRef:
+    """Where one frame lives: an image file, or frame ``index`` of a video file."""
+
+    path: Path
+    """Image or video file."""
+    index: int | None = None
+    """0-based frame number inside a video file; None for an image file."""
+
+    def read(self, background: str | float = "white") -> np.ndarray:
+        """The frame as (H, W, C) float32, C in {1, 3}, in [0, 1] (float files as stored)."""
+        if self.index is None:
+            return read_image(self.path, background=background)
+        from dynaeval.io.images import to_float
+
+        return to_float(read_video_frame(self.path, self.index), path=self.path)
+
+    def __str__(self) -> str:
+        return str(self.path) if self.index is None else f"{self.path}#{self.index}"
+
+
+@dataclass(frozen=True)
+class FramePair:
+    """A prediction and the ground-truth frame it is scored against."""
+
+    camera: str
+    """Camera name: folder relative to the root (``"."`` for a flat folder) or video stem."""
+    frame: str
+    """Frame name: the ground-truth file's stem (``"0007"``), or the 0-based number for video."""
+    index: int
+    """Position of the frame in the ground-truth camera's natural order (0-based)."""
+    pred: FrameRef
+    gt: FrameRef
+
+
+@dataclass
+class Pairing:
+    """Result of pairing a prediction folder with a ground-truth folder."""
+
+    pairs: list[FramePair]
+    """Pairs to score, ordered by camera (natural order) then frame index."""
+    unscored_cameras: list[str] = field(default_factory=list)
+    """Ground-truth cameras with no prediction at all (not scored)."""
+    skipped: list[dict] = field(default_factory=list)
+    """With ``allow_missing``: ground-truth frames with no prediction, ``{camera, frame}``."""
+
+
+@dataclass
+class Camera:
+    """The frames of one camera found in a folder, in natural order."""
+
+    name: str
+    frames: list[tuple[str, FrameRef]]
+    """(frame name, reference) pairs."""
+    is_video: bool = False
+
+
+def find_frames(root: str | Path, *, role: str = "input") -> dict[str, Camera]:
+    """Find every camera and frame below ``root``.
+
+    Args:
+        root: folder to scan (hidden files and folders are skipped).
+        role: ``"prediction"`` or ``"ground truth"``, for error messages.
+
+    Returns:
+        Mapping camera name -> Camera, in natural order of camera names.
+
+    Raises:
+        InputError: ``root`` is not a folder, holds no frame, or a camera has two files with the
+            same stem (``0001.png`` and ``0001.jpg``).
+    """
+    root = Path(root)
+    if not root.exists():
+        raise InputError(f"{role} folder not found", path=root)
+    if not root.is_dir():
+        raise InputError(f"{role} must be a folder of frames (or of camera folders)", path=root)
+    images: dict[str, dict[str, Path]] = {}
+    videos: dict[str, Path] = {}
+    for dirpath, dirnames, filenames in os.walk(root):
+        dirnames[:] = sorted(d for d in dirnames if not d.startswith("."))
+        rel = Path(dirpath).relative_to(root).as_posix()
+        for name in sorted(filenames):
+            if name.startswith("."):
+                continue
+            path = Path(dirpath) / name
+            ext = path.suffix.lower()
+            if ext in IMAGE_EXTENSIONS:
+                cam = images.setdefault(rel, {})
+                stem = path.stem
+                if stem in cam:
+                    raise InputError(
+                        f"two {role} files share the frame name {stem!r}: {cam[stem].name} and "
+                        f"{name}; keep one of them",
+                        path=Path(dirpath),
+                    )
+                cam[stem] = path
+            elif ext in VIDEO_EXTENSIONS:
+                cam_name = (Path(rel) / path.stem).as_posix() if rel != "." else path.stem
+                videos[cam_name] = path
+    cameras: dict[str, Camera] = {}
+    for name, stems in images.items():
+        ordered = sorted(stems, key=natural_key)
+        cameras[name] = Camera(name, [(s, FrameRef(stems[s])) for s in ordered])
+    for name, path in videos.items():
+        if name in cameras:
+            raise InputError(
+                f"camera {name!r} is both a folder of images and a video file; keep one", path=path
+            )
+        n = count_frames(path)
+        cameras[name] = Camera(name, [(str(i), FrameRef(path, i)) for i in range(n)], True)
+    if not cameras:
+        raise InputError(
+            f"no {role} frames found (looked for {', '.join(sorted(IMAGE_EXTENSIONS | VIDEO_EXTENSIONS))})",
+            path=root,
+        )
+    return {k: cameras[k] for k in sorted(cameras, key=natural_key)}
+
+
+def _listing(items: Iterable[str], limit: int = 8) -> str:
+    items = list(items)
+    shown = ", ".join(items[:limit])
+    return shown + (f", … ({len(items)} in all)" if len(items) > limit else "")
+
+
+def pair_frames(
+    pred_root: str | Path, gt_root: str | Path, *, allow_missing: bool = False
+) -> Pairing:
+    """Pair every prediction frame with its ground truth (rules in the module docstring).
+
+    Raises:
+        InputError: a prediction has no ground truth, a camera misses frames (without
+            ``allow_missing``), or either folder is empty or malformed.
+    """
+    pred = find_frames(pred_root, role="prediction")
+    gt = find_frames(gt_root, role="ground truth")
+    extra_cams = [c for c in pred if c not in gt]
+    if extra_cams:
+        hint = ""
+        if extra_cams == [ROOT_CAMERA]:
+            hint = (
+                f"; the prediction folder is flat but the ground truth has cameras "
+                f"{_listing(gt)}: point GT at one camera's folder, or put predictions in camera folders"
+            )
+        elif ROOT_CAMERA in gt and len(gt) == 1:
+            hint = "; the ground truth folder is flat: point PRED at one camera's folder"
+        raise InputError(
+            f"prediction cameras with no ground-truth camera: {_listing(extra_cams)}{hint}",
+            path=pred_root,
+        )
+    pairs: list[FramePair] = []
+    skipped: list[dict] = []
+    for cam_name, pcam in pred.items():
+        gcam = gt[cam_name]
+        if pcam.is_video or gcam.is_video:
+            n = len(pcam.frames)
+            if n > len(gcam.frames):
+                raise InputError(
+                    f"camera {cam_name!r}: the prediction has {n} frames, the ground truth only "
+                    f"{len(gcam.frames)}",
+                    path=pcam.frames[0][1].path,
+                )
+            matched = [(i, gcam.frames[i], pcam.frames[i][1]) for i in range(n)]
+            missing = [name for name, _ in gcam.frames[n:]]
+        else:
+            gt_index = {name: i for i, (name, _) in enumerate(gcam.frames)}
+            no_gt = [name for name, _ in pcam.frames if name not in gt_index]
+            if no_gt:
+                raise InputError(
+                    f"camera {cam_name!r}: predictions with no ground-truth frame: "
+                    f"{_listing(no_gt)}",
+                    path=Path(pred_root) / cam_name,
+                )
+            pred_refs = dict(pcam.frames)
+            matched = [
+                (i, gcam.frames[i], pred_refs[name])
+                for i, (name, _) in enumerate(gcam.frames)
+                if name in pred_refs
+            ]
+            missing = [name for name, _ in gcam.frames if name not in pred_refs]
+        if missing and not allow_missing:
+            raise InputError(
+                f"camera {cam_name!r}: ground-truth frames with no prediction: {_listing(missing)} "
+                f"(pass --allow-missing to score the {len(matched)} frames present)",
+                path=Path(pred_root) / cam_name,
+            )
+        skipped.extend({"camera": cam_name, "frame": name} for name in missing)
+        for index, (gt_name, gt_ref), pred_ref in matched:
+            pairs.append(FramePair(cam_name, gt_name, index, pred_ref, gt_ref))
+    unscored = [c for c in gt if c not in pred]
+    return Pairing(pairs=pairs, unscored_cameras=unscored, skipped=skipped)

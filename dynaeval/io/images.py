@@ -1,0 +1,147 @@
+"""Reading image files into float arrays in [0, 1], with the range taken from the dtype.
+
+Supported: PNG (8 and 16 bit), JPEG, TIFF (8/16 bit, float), WebP, BMP via OpenCV; OpenEXR (float)
+via the ``OpenEXR`` package. Grayscale stays one channel ``(H, W, 1)``; RGB is returned in RGB order
+(OpenCV's BGR is converted); RGBA is composited over a background colour (see ``composite_alpha``).
+
+Value range: uint8 / 255, uint16 / 65535; float files (EXR, float TIFF) are taken as they are, which
+means linear HDR values above 1 stay above 1 (PSNR/SSIM with ``data_range=1`` then say so; LPIPS
+refuses them). The range is never guessed from the pixel values.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from dynaeval.errors import InputError
+
+IMAGE_EXTENSIONS = frozenset(
+    {".png", ".jpg", ".jpeg", ".tif", ".tiff", ".exr", ".webp", ".bmp"}
+)
+
+BACKGROUNDS = {"white": 1.0, "black": 0.0}
+
+
+def to_float(image: np.ndarray, path: str | Path | None = None) -> np.ndarray:
+    """Convert an integer or float image to float32, dividing by the dtype's maximum.
+
+    Args:
+        image: (H, W) or (H, W, C) array, dtype uint8, uint16, float16, float32 or float64.
+        path: file the image came from, for error messages.
+
+    Returns:
+        float32 array of the same shape; integers mapped to [0, 1] by ``x / iinfo(dtype).max``.
+    """
+    if image.dtype == np.uint8 or image.dtype == np.uint16:
+        return image.astype(np.float32) / np.float32(np.iinfo(image.dtype).max)
+    if image.dtype in (np.float16, np.float32, np.float64):
+        return image.astype(np.float32)
+    raise InputError(
+        f"unsupported pixel type {image.dtype}; expected uint8, uint16 or float", path=path
+    )
+
+
+def composite_alpha(rgba: np.ndarray, background: str | float) -> np.ndarray:
+    """Blend an (H, W, 4) float image in [0, 1] (straight alpha) over a uniform background.
+
+    ``out = rgb * a + bg * (1 - a)``, as Blender-style datasets (NeRF synthetic) are evaluated.
+
+    Args:
+        rgba: (H, W, 4) float32 in [0, 1], channels R, G, B, A.
+        background: ``"white"``, ``"black"`` or a grey level in [0, 1].
+
+    Returns:
+        (H, W, 3) float32.
+    """
+    bg = BACKGROUNDS[background] if isinstance(background, str) else float(background)
+    alpha = rgba[..., 3:4]
+    return (rgba[..., :3] * alpha + np.float32(bg) * (1.0 - alpha)).astype(np.float32)
+
+
+def _read_exr(path: Path) -> np.ndarray:
+    try:
+        import OpenEXR
+    except ImportError as err:  # pragma: no cover - depends on the environment
+        raise InputError(
+            "reading OpenEXR needs the 'openexr' package: pip install openexr", path=path
+        ) from err
+    try:
+        with OpenEXR.File(str(path), separate_channels=True) as f:
+            channels = {name: np.asarray(c.pixels) for name, c in f.channels().items()}
+    except Exception as err:  # OpenEXR raises bare RuntimeError/ValueError on corrupt files
+        raise InputError(f"cannot read OpenEXR file ({err})", path=path) from err
+    for names in (("R", "G", "B", "A"), ("R", "G", "B"), ("Y", "A"), ("Y",)):
+        if all(n in channels for n in names):
+            planes = [channels[n].astype(np.float32) for n in names]
+            return np.stack(planes, axis=-1)
+    raise InputError(
+        f"OpenEXR channels {sorted(channels)} hold no R,G,B or Y image", path=path
+    )
+
+
+def _jpeg_complete(path: Path) -> bool:
+    """True when a JPEG file ends with its end-of-image marker (OpenCV decodes truncated JPEGs
+    silently, filling the missing part with grey)."""
+    with open(path, "rb") as f:
+        f.seek(0, 2)
+        size = f.tell()
+        f.seek(max(0, size - 64))
+        tail = f.read()
+    return b"\xff\xd9" in tail
+
+
+def read_image(path: str | Path, *, background: str | float = "white") -> np.ndarray:
+    """Read one image file as float32 in [0, 1] (float files: as stored).
+
+    Args:
+        path: image file; the format is taken from the extension.
+        background: colour that RGBA images are composited over (``composite_alpha``); images
+            without alpha are unaffected.
+
+    Returns:
+        (H, W, 3) or (H, W, 1) float32 array, RGB order. Grey+alpha gives (H, W, 1).
+
+    Raises:
+        InputError: the file is missing, unreadable, truncated, of an unsupported type, or holds
+            NaN/Inf values.
+    """
+    import cv2
+
+    path = Path(path)
+    if not path.is_file():
+        raise InputError("file not found", path=path)
+    ext = path.suffix.lower()
+    if ext not in IMAGE_EXTENSIONS:
+        raise InputError(
+            f"unsupported image extension {ext!r}; expected one of {sorted(IMAGE_EXTENSIONS)}",
+            path=path,
+        )
+    if ext == ".exr":
+        image = _read_exr(path)
+    else:
+        if ext in (".jpg", ".jpeg") and not _jpeg_complete(path):
+            raise InputError("truncated JPEG (no end-of-image marker)", path=path)
+        raw = np.fromfile(path, dtype=np.uint8)
+        image = cv2.imdecode(raw, cv2.IMREAD_UNCHANGED) if raw.size else None
+        if image is None:
+            raise InputError("cannot decode image (corrupt, truncated or not an image)", path=path)
+        if image.ndim == 3 and image.shape[2] == 3:
+            image = image[..., ::-1]
+        elif image.ndim == 3 and image.shape[2] == 4:
+            image = image[..., [2, 1, 0, 3]]
+    image = to_float(np.ascontiguousarray(image), path=path)
+    if image.ndim == 2:
+        image = image[..., None]
+    if not np.all(np.isfinite(image)):
+        bad = int(np.count_nonzero(~np.isfinite(image)))
+        raise InputError(f"{bad} pixel values are NaN or Inf", path=path)
+    if image.shape[2] == 4:
+        image = composite_alpha(image, background)
+    elif image.shape[2] == 2:  # grey + alpha
+        grey = np.concatenate([np.repeat(image[..., :1], 3, axis=2), image[..., 1:]], axis=2)
+        image = composite_alpha(grey, background)[..., :1]
+    elif image.shape[2] not in (1, 3):
+        raise InputError(f"unsupported channel count {image.shape[2]}", path=path)
+    return np.ascontiguousarray(image)

@@ -1,0 +1,155 @@
+"""Finding frames and pairing predictions with ground truth."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from dynaeval.errors import InputError
+from dynaeval.io import find_frames, natural_key, pair_frames
+
+
+def write(path: Path, value: int = 0, size=(6, 8)) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    img = np.full((*size, 3), value, np.uint8)
+    if path.suffix == ".jpg":
+        cv2.imwrite(str(path), img)
+    else:
+        cv2.imwrite(str(path), img)
+    return path
+
+
+def layout(root: Path, files: list[str]) -> Path:
+    for f in files:
+        write(root / f)
+    return root
+
+
+def test_natural_sort():
+    names = ["10", "2", "1", "frame10", "frame9"]
+    assert sorted(names, key=natural_key) == ["1", "2", "10", "frame9", "frame10"]
+
+
+def test_flat_folder_is_one_camera(tmp_path):
+    cams = find_frames(layout(tmp_path / "p", ["10.png", "2.png", "1.png"]))
+    assert list(cams) == ["."]
+    assert [n for n, _ in cams["."].frames] == ["1", "2", "10"]
+
+
+def test_camera_folders_and_non_images_ignored(tmp_path):
+    root = layout(tmp_path / "gt", ["cam10/0.png", "cam2/0.png", "cam2/1.png"])
+    (root / "transforms.json").write_text("{}")
+    (root / ".hidden").mkdir()
+    write(root / ".hidden" / "0.png")
+    cams = find_frames(root)
+    assert list(cams) == ["cam2", "cam10"]
+
+
+def test_extension_ignored_when_pairing(tmp_path):
+    pred = layout(tmp_path / "pred", ["cam03/0007.jpg"])
+    gt = layout(tmp_path / "gt", ["cam03/0006.png", "cam03/0007.png"])
+    with pytest.raises(InputError, match=r"ground-truth frames with no prediction: 0006"):
+        pair_frames(pred, gt)
+    pairing = pair_frames(pred, gt, allow_missing=True)
+    (pair,) = pairing.pairs
+    assert (pair.camera, pair.frame, pair.index) == ("cam03", "0007", 1)
+    assert pair.pred.path.name == "0007.jpg" and pair.gt.path.name == "0007.png"
+    assert pairing.skipped == [{"camera": "cam03", "frame": "0006"}]
+
+
+def test_gt_camera_without_predictions_is_listed_not_scored(tmp_path):
+    pred = layout(tmp_path / "pred", ["eval00/0.png", "eval00/1.png"])
+    gt = layout(tmp_path / "gt", ["cam00/0.png", "eval00/0.png", "eval00/1.png"])
+    pairing = pair_frames(pred, gt)
+    assert [p.camera for p in pairing.pairs] == ["eval00", "eval00"]
+    assert pairing.unscored_cameras == ["cam00"]
+
+
+def test_prediction_without_ground_truth_is_an_error(tmp_path):
+    pred = layout(tmp_path / "pred", ["cam00/0.png", "cam00/5.png"])
+    gt = layout(tmp_path / "gt", ["cam00/0.png"])
+    with pytest.raises(InputError, match=r"predictions with no ground-truth frame: 5"):
+        pair_frames(pred, gt)
+
+
+def test_prediction_camera_without_ground_truth(tmp_path):
+    pred = layout(tmp_path / "pred", ["camX/0.png"])
+    gt = layout(tmp_path / "gt", ["cam00/0.png"])
+    with pytest.raises(InputError, match=r"prediction cameras with no ground-truth camera: camX"):
+        pair_frames(pred, gt)
+
+
+def test_flat_prediction_against_camera_folders_hints(tmp_path):
+    pred = layout(tmp_path / "pred", ["0.png"])
+    gt = layout(tmp_path / "gt", ["cam00/0.png"])
+    with pytest.raises(InputError, match="prediction folder is flat"):
+        pair_frames(pred, gt)
+
+
+def test_duplicate_stems_are_an_error(tmp_path):
+    root = layout(tmp_path / "pred", ["0001.png", "0001.jpg"])
+    with pytest.raises(InputError, match=r"share the frame name '0001': 0001\.jpg and 0001\.png"):
+        find_frames(root)
+
+
+def test_empty_folder(tmp_path):
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(InputError, match=r"empty: no prediction frames found"):
+        find_frames(tmp_path / "empty", role="prediction")
+
+
+def test_missing_folder_and_file_instead_of_folder(tmp_path):
+    with pytest.raises(InputError, match="ground truth folder not found"):
+        find_frames(tmp_path / "nope", role="ground truth")
+    f = write(tmp_path / "a.png")
+    with pytest.raises(InputError, match="must be a folder"):
+        find_frames(f)
+
+
+def test_pairs_order_is_camera_then_index(tmp_path):
+    files = [f"cam{c}/{i}.png" for c in (1, 0) for i in (2, 10, 1)]
+    pairing = pair_frames(layout(tmp_path / "p", files), layout(tmp_path / "g", files))
+    assert [(p.camera, p.frame, p.index) for p in pairing.pairs] == [
+        ("cam0", "1", 0), ("cam0", "2", 1), ("cam0", "10", 2),
+        ("cam1", "1", 0), ("cam1", "2", 1), ("cam1", "10", 2),
+    ]
+
+
+def _video(path: Path, n: int, size=(32, 48)) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    w = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 10, (size[1], size[0]))
+    for i in range(n):
+        w.write(np.full((*size, 3), 20 * i, np.uint8))
+    w.release()
+    return path
+
+
+def test_video_is_a_camera_paired_by_position(tmp_path):
+    _video(tmp_path / "pred" / "cam00.avi", 3)
+    gt = layout(tmp_path / "gt", [f"cam00/{i:04d}.png" for i in range(3)])
+    pairing = pair_frames(tmp_path / "pred", gt)
+    assert [(p.frame, p.index) for p in pairing.pairs] == [("0000", 0), ("0001", 1), ("0002", 2)]
+    frames = [p.pred.read() for p in pairing.pairs]
+    assert frames[0].shape == (32, 48, 3)
+    # decoded in order, values increase with the frame number (MJPG is lossy: compare roughly)
+    means = [f.mean() for f in frames]
+    assert means[0] < means[1] < means[2]
+    # reading an earlier frame again re-opens the video and gives the same pixels
+    np.testing.assert_array_equal(pairing.pairs[0].pred.read(), frames[0])
+
+
+def test_video_longer_than_ground_truth(tmp_path):
+    _video(tmp_path / "pred" / "cam00.avi", 4)
+    gt = layout(tmp_path / "gt", [f"cam00/{i}.png" for i in range(2)])
+    with pytest.raises(InputError, match="prediction has 4 frames, the ground truth only 2"):
+        pair_frames(tmp_path / "pred", gt)
+
+
+def test_corrupt_video(tmp_path):
+    (tmp_path / "pred").mkdir()
+    (tmp_path / "pred" / "cam00.mp4").write_bytes(b"not a video")
+    with pytest.raises(InputError, match=r"cam00\.mp4: cannot open video|holds no decodable frame"):
+        find_frames(tmp_path / "pred")

@@ -1,0 +1,135 @@
+"""Reading images: range from the dtype, channels, alpha, corrupt files."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+
+from dynaeval.errors import InputError
+from dynaeval.io import composite_alpha, read_image, to_float
+
+
+@pytest.fixture
+def rgb8(rng) -> np.ndarray:
+    return rng.integers(0, 256, size=(13, 17, 3), dtype=np.uint8)
+
+
+def test_png8_is_rgb_in_unit_range(tmp_path, rgb8):
+    cv2.imwrite(str(tmp_path / "a.png"), rgb8[..., ::-1])  # cv2 writes BGR
+    img = read_image(tmp_path / "a.png")
+    assert img.dtype == np.float32 and img.shape == (13, 17, 3)
+    np.testing.assert_array_equal(img, rgb8.astype(np.float32) / 255)
+
+
+def test_png16_and_png8_of_same_picture_agree_to_quantisation(tmp_path, rgb8):
+    cv2.imwrite(str(tmp_path / "a8.png"), rgb8[..., ::-1])
+    cv2.imwrite(str(tmp_path / "a16.png"), (rgb8.astype(np.uint16) * 257)[..., ::-1])
+    a8, a16 = read_image(tmp_path / "a8.png"), read_image(tmp_path / "a16.png")
+    np.testing.assert_allclose(a8, a16, atol=1e-7)  # x*257/65535 == x/255 exactly
+
+
+def test_range_comes_from_dtype_not_content(tmp_path):
+    dark = np.full((4, 4, 3), 3, np.uint8)  # a dark image is not rescaled to its own max
+    cv2.imwrite(str(tmp_path / "d.png"), dark)
+    np.testing.assert_allclose(read_image(tmp_path / "d.png"), 3 / 255)
+
+
+def test_grayscale_keeps_one_channel(tmp_path, rng):
+    g = rng.integers(0, 256, size=(5, 6), dtype=np.uint8)
+    cv2.imwrite(str(tmp_path / "g.png"), g)
+    img = read_image(tmp_path / "g.png")
+    assert img.shape == (5, 6, 1)
+    np.testing.assert_array_equal(img[..., 0], g / np.float32(255))
+
+
+@pytest.mark.parametrize("background,expected", [("white", 1.0), ("black", 0.0)])
+def test_rgba_composited_over_background(tmp_path, background, expected):
+    rgba = np.zeros((2, 2, 4), np.uint8)
+    rgba[..., 2] = 255  # red in BGRA order
+    rgba[0, 0, 3] = 255  # opaque red
+    rgba[1, 1, 3] = 0  # fully transparent
+    cv2.imwrite(str(tmp_path / "a.png"), rgba)
+    img = read_image(tmp_path / "a.png", background=background)
+    np.testing.assert_allclose(img[0, 0], [1, 0, 0])
+    np.testing.assert_allclose(img[1, 1], [expected] * 3)
+
+
+def test_composite_alpha_half():
+    rgba = np.array([[[1.0, 0.0, 0.0, 0.5]]], np.float32)
+    np.testing.assert_allclose(composite_alpha(rgba, "white"), [[[1.0, 0.5, 0.5]]])
+
+
+def test_jpeg_and_tiff_read(tmp_path, rgb8):
+    cv2.imwrite(str(tmp_path / "a.jpg"), rgb8, [cv2.IMWRITE_JPEG_QUALITY, 100])
+    cv2.imwrite(str(tmp_path / "a.tif"), (rgb8.astype(np.uint16) * 257))
+    assert read_image(tmp_path / "a.jpg").shape == (13, 17, 3)
+    np.testing.assert_allclose(read_image(tmp_path / "a.tif"), rgb8[..., ::-1] / 255, atol=1e-7)
+
+
+def test_exr_float_read_as_stored(tmp_path, rng):
+    OpenEXR = pytest.importorskip("OpenEXR")
+    rgb = rng.random((4, 5, 3), dtype=np.float32) * 2  # HDR values above 1 stay above 1
+    hdr = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    with OpenEXR.File(hdr, {"RGB": rgb}) as f:
+        f.write(str(tmp_path / "a.exr"))
+    np.testing.assert_array_equal(read_image(tmp_path / "a.exr"), rgb)
+
+
+def test_exr_with_nan_is_an_error_naming_the_file(tmp_path):
+    OpenEXR = pytest.importorskip("OpenEXR")
+    rgb = np.zeros((3, 3, 3), np.float32)
+    rgb[1, 1, 0] = np.nan
+    hdr = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    with OpenEXR.File(hdr, {"RGB": rgb}) as f:
+        f.write(str(tmp_path / "nan.exr"))
+    with pytest.raises(InputError, match=r"nan\.exr: 1 pixel values are NaN or Inf"):
+        read_image(tmp_path / "nan.exr")
+
+
+def test_float16_array_to_float():
+    assert to_float(np.ones((2, 2), np.float16)).dtype == np.float32
+
+
+def test_unsupported_dtype():
+    with pytest.raises(InputError, match="unsupported pixel type int32"):
+        to_float(np.ones((2, 2), np.int32))
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(InputError, match=r"nope\.png: file not found"):
+        read_image(tmp_path / "nope.png")
+
+
+def test_truncated_png(tmp_path, rgb8):
+    cv2.imwrite(str(tmp_path / "a.png"), rgb8)
+    data = (tmp_path / "a.png").read_bytes()
+    (tmp_path / "t.png").write_bytes(data[: len(data) // 2])
+    with pytest.raises(InputError, match=r"t\.png: cannot decode image"):
+        read_image(tmp_path / "t.png")
+
+
+def test_truncated_jpeg_is_not_silently_grey(tmp_path, rgb8):
+    cv2.imwrite(str(tmp_path / "a.jpg"), rgb8)
+    data = (tmp_path / "a.jpg").read_bytes()
+    (tmp_path / "t.jpg").write_bytes(data[: len(data) // 2])
+    with pytest.raises(InputError, match=r"t\.jpg: truncated JPEG"):
+        read_image(tmp_path / "t.jpg")
+
+
+def test_not_an_image(tmp_path):
+    (tmp_path / "x.png").write_bytes(b"hello")
+    with pytest.raises(InputError, match="cannot decode image"):
+        read_image(tmp_path / "x.png")
+
+
+def test_empty_file(tmp_path):
+    (tmp_path / "x.png").write_bytes(b"")
+    with pytest.raises(InputError, match="cannot decode image"):
+        read_image(tmp_path / "x.png")
+
+
+def test_unknown_extension(tmp_path):
+    (tmp_path / "x.gif").write_bytes(b"GIF89a")
+    with pytest.raises(InputError, match="unsupported image extension '.gif'"):
+        read_image(tmp_path / "x.gif")
