@@ -1,0 +1,195 @@
+"""The results document (leaderboard JSON, schema ``dynaeval/results/v1``) and writing it safely.
+
+Layout (docs/results-format.md documents every field; the JSON Schema ships as
+``dynaeval/schemas/results-v1.schema.json``)::
+
+    {"schema": "dynaeval/results/v1", "dynaeval_version": ..., "created": ISO-8601 UTC,
+     "method": ..., "scene": ...,
+     "inputs": {"pred": ..., "gt": ..., "n_frames": ..., "cameras": [...],
+                "unscored_cameras": [...], "skipped_frames": [...]},
+     "settings": {...every setting that changes a number...},
+     "metrics": {name: {"higher_is_better": bool, "unit": str}},
+     "frames": [{"camera", "frame", "index", "pred", "gt", <metric>: value|null, ...}],
+     "cameras": {camera: {"n_frames": int, <metric>: mean|null}},
+     "summary": {"n_frames": int, <metric>: mean|null},
+     "counts": {<metric>: frames with a defined value},
+     "timing": {"total_s": ..., "read": ..., <metric>: seconds summed over frames},
+     "warnings": [{"metric", "reason", "camera"?, "frame"?}]}
+
+Summaries are the mean of per-frame values (every frame weighs the same, cameras with more frames
+weigh more), never a metric of the pooled error. A per-frame value that is undefined (empty region)
+or infinite (PSNR of identical images) is ``null`` with a warning; a summary over frames that
+include an infinite value is ``null`` too (its mean is infinite), over undefined ones it is the mean
+of the defined values with ``counts`` saying how many.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import tempfile
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+from dynaeval.errors import InputError
+
+SCHEMA = "dynaeval/results/v1"
+
+# direction and unit of the per-frame metrics; the metrics registry has the full description
+_DIRECTIONS = {"psnr": (True, "dB"), "ssim": (True, ""), "lpips": (False, "")}
+
+
+def _direction(name: str) -> tuple[bool, str]:
+    try:
+        from dynaeval.metrics import METRICS
+
+        info = METRICS[name]
+        return bool(info.higher_is_better), str(info.unit)
+    except (ImportError, KeyError, AttributeError):
+        base = name.split("_", 1)[-1] if name.startswith(("focused_", "masked_")) else name
+        return _DIRECTIONS.get(base, (False, ""))
+
+
+def _mean(values: list[float | None]) -> tuple[float | None, int, str | None]:
+    """Mean of the defined values; (mean or None, count defined, reason when None)."""
+    defined = [v for v in values if v is not None]
+    if not defined:
+        return None, 0, "no frame has a defined value"
+    if any(math.isinf(v) for v in defined):
+        n_inf = sum(math.isinf(v) for v in defined)
+        return None, len(defined), f"{n_inf} frame(s) have an infinite value (identical images)"
+    return math.fsum(defined) / len(defined), len(defined), None
+
+
+def build_results(
+    *,
+    rows: list[dict[str, Any]],
+    metric_names: list[str],
+    method: str,
+    scene: str,
+    pred_dir: str,
+    gt_dir: str,
+    settings: dict[str, Any],
+    unscored_cameras: list[str],
+    skipped: list[dict],
+    warnings: list[dict],
+    timing: dict[str, float],
+    version: str,
+) -> dict[str, Any]:
+    """Assemble the results document from per-frame rows (values may be inf; made strict here)."""
+    warnings = list(warnings)
+    cameras: dict[str, dict[str, Any]] = {}
+    by_camera: dict[str, list[dict]] = {}
+    for row in rows:
+        by_camera.setdefault(row["camera"], []).append(row)
+    for cam, cam_rows in by_camera.items():
+        entry: dict[str, Any] = {"n_frames": len(cam_rows)}
+        for name in metric_names:
+            entry[name], _, _ = _mean([r.get(name) for r in cam_rows])
+        cameras[cam] = entry
+    summary: dict[str, Any] = {"n_frames": len(rows)}
+    counts: dict[str, int] = {}
+    for name in metric_names:
+        summary[name], counts[name], reason = _mean([r.get(name) for r in rows])
+        if reason and rows:
+            warnings.append({"metric": name, "reason": f"summary is null: {reason}"})
+    frames = [
+        {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in r.items()}
+        for r in rows
+    ]
+    doc = {
+        "schema": SCHEMA,
+        "dynaeval_version": version,
+        "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "method": method,
+        "scene": scene,
+        "inputs": {
+            "pred": pred_dir,
+            "gt": gt_dir,
+            "n_frames": len(rows),
+            "cameras": list(by_camera),
+            "unscored_cameras": list(unscored_cameras),
+            "skipped_frames": list(skipped),
+        },
+        "settings": settings,
+        "metrics": {
+            n: dict(zip(("higher_is_better", "unit"), _direction(n), strict=True))
+            for n in metric_names
+        },
+        "frames": frames,
+        "cameras": cameras,
+        "summary": summary,
+        "counts": counts,
+        "timing": {k: round(v, 6) for k, v in timing.items()},
+        "warnings": warnings,
+    }
+    return strict(doc)
+
+
+def strict(obj: Any) -> Any:
+    """Replace every non-finite float in a JSON-like structure by None (strict JSON)."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: strict(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [strict(v) for v in obj]
+    return obj
+
+
+def write_json_atomic(path: str | Path, doc: Any, *, overwrite: bool = False) -> Path:
+    """Write ``doc`` as strict JSON to ``path`` atomically (temp file in the same folder, then
+    rename): a failed run never leaves a half-written file.
+
+    Raises:
+        InputError: ``path`` exists and ``overwrite`` is False, or its folder is missing.
+    """
+    path = Path(path)
+    if path.exists() and not overwrite:
+        raise InputError("results file exists; pass --overwrite or choose another -o", path=path)
+    if not path.parent.is_dir():
+        raise InputError("folder for the results file does not exist", path=path.parent)
+    text = json.dumps(doc, indent=1, allow_nan=False, ensure_ascii=False)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(text + "\n")
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def schema_path() -> Path:
+    """Path of the JSON Schema of the results document shipped in the package."""
+    return Path(__file__).resolve().parent.parent / "schemas" / "results-v1.schema.json"
+
+
+def load_results(path: str | Path) -> dict[str, Any]:
+    """Read a results file, checking it is one and of a schema version this dynaeval reads.
+
+    Raises:
+        InputError: not JSON, not a dynaeval results file, or another schema version.
+    """
+    path = Path(path)
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError as err:
+        raise InputError("results file not found", path=path) from err
+    except (json.JSONDecodeError, UnicodeDecodeError) as err:
+        raise InputError(f"not a JSON file ({err})", path=path) from err
+    schema = doc.get("schema") if isinstance(doc, dict) else None
+    if not isinstance(schema, str) or not schema.startswith("dynaeval/results/"):
+        raise InputError("not a dynaeval results file (no 'schema' field)", path=path)
+    if schema != SCHEMA:
+        raise InputError(
+            f"results schema {schema!r} is not the one this dynaeval reads ({SCHEMA!r}); "
+            "score again with this version",
+            path=path,
+        )
+    return doc

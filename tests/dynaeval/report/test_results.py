@@ -1,0 +1,97 @@
+"""The results document: summaries, strict JSON, atomic writes, schema checks."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+
+from dynaeval.errors import InputError
+from dynaeval.report import build_results, load_results, schema_path, strict, write_json_atomic
+
+
+def _doc(rows, names=("psnr",)):
+    return build_results(
+        rows=rows, metric_names=list(names), method="m", scene="s", pred_dir="p", gt_dir="g",
+        settings={}, unscored_cameras=[], skipped=[], warnings=[], timing={"total_s": 1.0},
+        version="0",
+    )
+
+
+def _row(cam, i, **values):
+    return {"camera": cam, "frame": str(i), "index": i, "pred": "p", "gt": "g", **values}
+
+
+def test_summary_is_mean_of_frames_and_cameras_mean_their_frames():
+    doc = _doc([_row("a", 0, psnr=10.0), _row("a", 1, psnr=20.0), _row("b", 0, psnr=40.0)])
+    assert doc["cameras"]["a"]["psnr"] == 15.0 and doc["cameras"]["b"]["psnr"] == 40.0
+    # every frame weighs the same: (10 + 20 + 40) / 3, not the mean of camera means (27.5)
+    assert doc["summary"]["psnr"] == pytest.approx(70 / 3)
+    assert doc["summary"]["n_frames"] == 3 and doc["counts"]["psnr"] == 3
+
+
+def test_infinite_frame_value_becomes_null_and_summary_null_with_reason():
+    doc = _doc([_row("a", 0, psnr=math.inf), _row("a", 1, psnr=30.0)])
+    assert doc["frames"][0]["psnr"] is None and doc["frames"][1]["psnr"] == 30.0
+    assert doc["summary"]["psnr"] is None
+    assert any("infinite" in w["reason"] for w in doc["warnings"])
+    json.dumps(doc, allow_nan=False)  # strict JSON
+
+
+def test_undefined_frames_are_left_out_of_the_mean_and_counted():
+    doc = _doc([_row("a", 0, psnr=None), _row("a", 1, psnr=30.0)])
+    assert doc["summary"]["psnr"] == 30.0 and doc["counts"]["psnr"] == 1
+
+
+def test_strict_replaces_non_finite_everywhere():
+    assert strict({"a": [1.0, math.nan, {"b": -math.inf}]}) == {"a": [1.0, None, {"b": None}]}
+
+
+def test_document_validates_against_shipped_schema():
+    jsonschema = pytest.importorskip("jsonschema")
+    schema = json.loads(schema_path().read_text())
+    doc = _doc([_row("a", 0, psnr=12.0, ssim=0.5)], names=("psnr", "ssim"))
+    jsonschema.validate(doc, schema)
+    doc["frames"][0]["psnr"] = "12"
+    with pytest.raises(jsonschema.ValidationError):
+        jsonschema.validate(doc, schema)
+
+
+def test_write_is_atomic_and_refuses_to_overwrite(tmp_path):
+    out = tmp_path / "r.json"
+    write_json_atomic(out, {"a": 1})
+    with pytest.raises(InputError, match=r"r\.json: results file exists; pass --overwrite"):
+        write_json_atomic(out, {"a": 2})
+    write_json_atomic(out, {"a": 3}, overwrite=True)
+    assert json.loads(out.read_text()) == {"a": 3}
+
+
+def test_failed_write_leaves_no_file(tmp_path):
+    out = tmp_path / "r.json"
+    with pytest.raises(ValueError):
+        write_json_atomic(out, {"a": math.nan})  # allow_nan=False refuses
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_write_into_missing_folder(tmp_path):
+    with pytest.raises(InputError, match="folder for the results file does not exist"):
+        write_json_atomic(tmp_path / "no" / "r.json", {})
+
+
+def test_load_results_checks_schema(tmp_path):
+    good = tmp_path / "good.json"
+    good.write_text(json.dumps(_doc([_row("a", 0, psnr=1.0)])))
+    assert load_results(good)["method"] == "m"
+    old = tmp_path / "old.json"
+    old.write_text(json.dumps({"schema": "dynaeval/results/v0"}))
+    with pytest.raises(InputError, match=r"old\.json: results schema 'dynaeval/results/v0' is not"):
+        load_results(old)
+    other = tmp_path / "other.json"
+    other.write_text("[1, 2]")
+    with pytest.raises(InputError, match="not a dynaeval results file"):
+        load_results(other)
+    bad = tmp_path / "bad.json"
+    bad.write_text("{")
+    with pytest.raises(InputError, match="not a JSON file"):
+        load_results(bad)
