@@ -1,0 +1,466 @@
+"""Temporal metrics: flow direction, warping, occlusion, the four metrics and the sequence API."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from dynaeval.errors import EmptyRegionError, InputError
+from dynaeval.metrics.flow import (
+    FlowCache,
+    FlowConfig,
+    in_frame_mask,
+    optical_flow,
+    to_gray_u8,
+    valid_warp_mask,
+    warp,
+    warp_reference,
+)
+from dynaeval.metrics.temporal import (
+    TEMPORAL_METRICS,
+    TemporalConfig,
+    TemporalStd,
+    flicker,
+    temporal_metrics,
+    tlp,
+    tof,
+    warp_error,
+)
+
+H, W = 64, 80
+ALL_NAMES = [*TEMPORAL_METRICS, *(f"focused_{n}" for n in TEMPORAL_METRICS)]
+
+
+def texture(rng: np.random.Generator, h: int = H + 40, w: int = W + 40) -> np.ndarray:
+    """Smooth random RGB texture in [0.1, 0.9] (blurred noise: trackable by every flow method)."""
+    import cv2
+
+    t = cv2.GaussianBlur(rng.random((h, w, 3)).astype(np.float32), (0, 0), 2.0)
+    t = (t - t.min()) / (t.max() - t.min())
+    return (0.1 + 0.8 * t).astype(np.float32)
+
+
+def panning(base: np.ndarray, n: int, step: tuple[int, int] = (2, -1)) -> list[np.ndarray]:
+    """n frames in which the content moves by ``step = (dx, dy)`` px per frame."""
+    dx, dy = step
+    return [
+        base[20 - k * dy : 20 - k * dy + H, 20 - k * dx : 20 - k * dx + W].copy() for k in range(n)
+    ]
+
+
+def mean_abs(a: np.ndarray, b: np.ndarray) -> float:
+    """A cheap stand-in for LPIPS: deterministic, 0 on identical frames, grows with change."""
+    return float(np.abs(np.asarray(a, np.float64) - b).mean())
+
+
+# ------------------------------------------------------------------------------ optical flow
+
+
+@pytest.mark.parametrize("method", ["dis", "farneback", "tvl1"])
+def test_flow_of_known_translation_has_right_sign_and_direction(rng, method):
+    base = texture(rng)
+    a = base[20 : 20 + H, 20 : 20 + W]
+    b = base[22 : 22 + H, 17 : 17 + W]  # content moves by (+3, -2) px from a to b
+    flow = optical_flow(a, b, FlowConfig(method=method))
+    assert flow.shape == (H, W, 2) and flow.dtype == np.float32
+    interior = flow[12:-12, 12:-12].reshape(-1, 2)
+    np.testing.assert_allclose(np.median(interior, axis=0), [3.0, -2.0], atol=0.25)
+
+
+def test_flow_of_uint8_equals_flow_of_float_over_255(rng):
+    a = (texture(rng)[:H, :W] * 255).round().astype(np.uint8)
+    b = np.roll(a, 2, axis=1)
+    np.testing.assert_array_equal(
+        optical_flow(a, b), optical_flow(a / 255.0, b.astype(np.float32) / 255)
+    )
+
+
+def test_gray_conversion_is_bt601_luma():
+    img = np.array(
+        [[[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 1.0, 1.0]]], np.float32
+    )
+    np.testing.assert_array_equal(to_gray_u8(img), [[76, 150, 29, 255]])
+
+
+def test_flow_config_rejects_unknown_method_and_preset():
+    with pytest.raises(InputError, match="flow method must be one of"):
+        FlowConfig(method="raft")
+    with pytest.raises(InputError, match="DIS preset must be one of"):
+        FlowConfig(dis_preset="slow")
+
+
+def test_flow_rejects_bad_input(rng):
+    a = texture(rng)[:H, :W]
+    with pytest.raises(InputError, match="two frames of one size"):
+        optical_flow(a, a[:-1])
+    with pytest.raises(InputError, match="NaN or Inf"):
+        optical_flow(a, np.full_like(a, np.nan))
+    with pytest.raises(InputError, match=r"\(H, W\) or \(H, W, C\)"):
+        optical_flow(a[..., 0].ravel(), a[..., 0].ravel())
+    with pytest.raises(InputError, match="1, 3 or 4 channels"):
+        optical_flow(a[..., :2], a[..., :2])
+    with pytest.raises(InputError, match="uint8 or float"):
+        optical_flow(a > 0.5, a > 0.5)
+
+
+def test_flow_cache_computes_each_pair_once_and_keys_on_content(rng, tmp_path):
+    base = texture(rng)
+    a, b = panning(base, 2)
+    cache = FlowCache()
+    f1 = cache.flow(a, b)
+    f2 = cache.flow(a.copy(), b.copy())  # other arrays, same content
+    assert f2 is f1 and (cache.hits, cache.misses) == (1, 1)
+    cache.flow(b, a)
+    cache.flow(a, b, FlowConfig(method="farneback"))
+    assert cache.misses == 3
+    np.testing.assert_array_equal(f1, optical_flow(a, b))
+    assert not f1.flags.writeable
+
+    disk = FlowCache(max_bytes=0, directory=tmp_path)
+    f3 = disk.flow(a, b)
+    assert len(disk) == 0 and len(list(tmp_path.glob("*.npy"))) == 1
+    np.testing.assert_array_equal(FlowCache(directory=tmp_path).flow(a, b), f3)
+
+
+def test_flow_cache_memory_is_bounded(rng):
+    frames = panning(texture(rng), 4)
+    one = H * W * 2 * 4
+    cache = FlowCache(max_bytes=2 * one)
+    for x, y in zip(frames, frames[1:], strict=False):
+        cache.flow(x, y)
+    assert len(cache) == 2
+    with pytest.raises(InputError, match="max_bytes must be >= 0"):
+        FlowCache(max_bytes=-1)
+
+
+# ------------------------------------------------------------------------------ warping
+
+
+def test_warp_matches_the_numpy_reference(rng):
+    img = rng.random((H, W, 3)).astype(np.float32)
+    flow = (rng.normal(size=(H, W, 2)) * 3).astype(np.float32)
+    # OpenCV 5.0 here agrees to 6e-8; OpenCV 4.x rounds sample positions to 1/32 px (INTER_TAB_SIZE),
+    # up to ~0.02 on this white-noise image: the tolerance covers both.
+    np.testing.assert_allclose(warp(img, flow), warp_reference(img, flow), rtol=0, atol=0.02)
+    np.testing.assert_allclose(
+        warp(img[..., 0], flow), warp_reference(img[..., 0], flow), atol=0.02
+    )
+
+
+def test_warp_by_integer_flow_is_an_exact_shift(rng):
+    img = rng.random((H, W, 3)).astype(np.float32)
+    flow = np.zeros((H, W, 2), np.float32)
+    flow[..., 0], flow[..., 1] = 3, -2
+    out = warp(img, flow)  # out(y, x) = img(y - 2, x + 3)
+    np.testing.assert_array_equal(out[2:, : W - 3], img[:-2, 3:])
+    np.testing.assert_array_equal(warp(img, np.zeros_like(flow)), img)
+
+
+def test_warp_rejects_mismatched_shapes(rng):
+    img = rng.random((H, W, 3)).astype(np.float32)
+    with pytest.raises(InputError, match="image and flow of one size"):
+        warp(img, np.zeros((H + 1, W, 2), np.float32))
+    with pytest.raises(InputError, match=r"\(H, W, 2\)"):
+        warp(img, np.zeros((H, W, 3), np.float32))
+    with pytest.raises(InputError, match="at most 4 channels"):
+        warp(rng.random((H, W, 5)), np.zeros((H, W, 2), np.float32))
+
+
+def test_valid_mask_keeps_consistent_pixels_and_drops_out_of_frame():
+    flow_ts = np.zeros((H, W, 2), np.float32)
+    flow_ts[..., 0] = -3.0  # frame t samples s three pixels to the left
+    flow_st = -flow_ts
+    valid = valid_warp_mask(flow_ts, flow_st)
+    assert not valid[:, :3].any() and valid[:, 3:].all()
+    np.testing.assert_array_equal(in_frame_mask(flow_ts), valid)
+    # the same flow both ways is inconsistent (|f + g| = 2|f|) once |f| is large enough
+    assert not valid_warp_mask(flow_ts, flow_ts)[:, 3:].any()
+    # ... but tolerated for sub-pixel flows by the 0.5 px^2 slack
+    small = np.full((H, W, 2), 0.2, np.float32)
+    assert valid_warp_mask(small, small)[: H - 1, : W - 1].all()
+    with pytest.raises(InputError, match="one shape"):
+        valid_warp_mask(flow_ts, flow_st[1:])
+
+
+# ------------------------------------------------------------------------------ pair metrics
+
+
+def test_warp_error_direction_uses_the_flow_from_t_to_t_minus_1(rng):
+    prev, cur = panning(texture(rng), 2, step=(3, -2))
+    back = np.zeros((H, W, 2), np.float32)
+    back[..., 0], back[..., 1] = -3, 2  # flow t -> t-1: content came from (x - 3, y + 2)
+    valid = valid_warp_mask(back, -back)
+    assert warp_error(prev, cur, back, valid) == 0.0
+    assert warp_error(prev, cur, -back, valid_warp_mask(-back, back)) > 1e-3  # wrong direction
+    assert warp_error(prev, cur, np.zeros_like(back)) > 1e-3
+
+
+def test_warp_error_is_mse_on_kept_pixels_only(rng):
+    prev = rng.random((H, W, 3)).astype(np.float32)
+    cur = prev.copy()
+    cur[:10] += 0.5  # error only in the top rows
+    zero = np.zeros((H, W, 2), np.float32)
+    region = np.zeros((H, W), bool)
+    region[20:] = True
+    assert warp_error(prev, cur, zero, region=region) == 0.0
+    np.testing.assert_allclose(warp_error(prev, cur, zero), 0.25 * 10 / H, rtol=1e-6)
+    with pytest.raises(EmptyRegionError, match="no pixel"):
+        warp_error(prev, cur, zero, valid=np.zeros((H, W), bool))
+    with pytest.raises(InputError, match="bool mask of shape"):
+        warp_error(prev, cur, zero, region=region[1:])
+    with pytest.raises(InputError, match="one shape"):
+        warp_error(prev, cur[1:], zero)
+
+
+def test_tof_is_mean_endpoint_difference():
+    fp = np.zeros((H, W, 2), np.float32)
+    fg = np.zeros((H, W, 2), np.float32)
+    fg[..., 0], fg[..., 1] = 3.0, 4.0
+    assert tof(fp, fg) == pytest.approx(5.0)
+    assert tof(fg, fg) == 0.0
+    region = np.zeros((H, W), bool)
+    with pytest.raises(EmptyRegionError, match="holds no pixel"):
+        tof(fp, fg, region)
+    with pytest.raises(InputError, match="one shape"):
+        tof(fp, fg[1:])
+
+
+def test_tlp_focused_crop_is_grown_to_min_crop(rng):
+    frames = [rng.random((H, W, 3)).astype(np.float32) for _ in range(2)]
+    sizes = []
+
+    def size_probe(a, b):
+        sizes.append(a.shape[:2])
+        return mean_abs(a, b)
+
+    region = np.zeros((H, W), bool)
+    region[60:63, 2:5] = True  # 3x3 px near the bottom-left corner
+    tlp(*frames, *frames, size_probe, region, min_crop=32)
+    assert sizes == [(32, 32), (32, 32)]
+    with pytest.raises(EmptyRegionError, match="holds no pixel"):
+        tlp(*frames, *frames, mean_abs, np.zeros((H, W), bool))
+
+
+def test_tlp_with_random_backbone_lpips_is_zero_on_ground_truth(rng):
+    torch = pytest.importorskip("torch")
+    lpips = pytest.importorskip("lpips")
+    net = lpips.LPIPS(pretrained=True, net="alex", pnet_rand=True, verbose=False)
+
+    def lp(a, b):
+        ta, tb = (
+            torch.from_numpy(np.ascontiguousarray(x)).permute(2, 0, 1)[None] * 2 - 1 for x in (a, b)
+        )
+        with torch.no_grad():
+            return float(net(ta, tb).item())
+
+    prev, cur = panning(texture(rng), 2)
+    assert tlp(prev, cur, prev, cur, lp) == 0.0
+    noisy = cur + rng.normal(0, 0.1, cur.shape).astype(np.float32)
+    assert tlp(prev, noisy, prev, cur, lp) > 0.0
+
+
+# ------------------------------------------------------------------------------ flicker
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(1, 6), st.integers(0, 2**32 - 1))
+def test_temporal_std_matches_numpy(n_frames, seed):
+    rng = np.random.default_rng(seed)
+    frames = rng.random((n_frames, 5, 6, 3))
+    pixels = rng.random((5, 6)) < 0.5
+    acc = TemporalStd(pixels)
+    for f in frames:
+        acc.update(f)
+    np.testing.assert_allclose(acc.std(), frames.std(axis=0)[pixels], rtol=1e-9, atol=1e-12)
+
+
+def test_flicker_grows_with_brightness_flicker_amplitude(rng):
+    gt = panning(texture(rng), 5, step=(0, 0))
+    static = np.ones((H, W), bool)
+    values = [
+        flicker([g * (1 + a * (-1) ** t) for t, g in enumerate(gt)], gt, static)
+        for a in (0, 0.02, 0.05, 0.1)
+    ]
+    assert values[0] == 0.0
+    assert all(x < y for x, y in zip(values, values[1:], strict=False))
+
+
+def test_flicker_undefined_cases_raise():
+    frame = np.zeros((H, W, 3), np.float32)
+    with pytest.raises(InputError, match="at least 2 frames, got 1"):
+        flicker([frame], [frame], np.ones((H, W), bool))
+    with pytest.raises(EmptyRegionError, match="no static pixel"):
+        flicker([frame, frame], [frame, frame], np.zeros((H, W), bool))
+    with pytest.raises(InputError, match="static_mask must be a bool"):
+        flicker([frame, frame], [frame, frame], np.ones((H, W), np.uint8))
+    with pytest.raises(InputError, match="frame 1 has shape"):
+        flicker([frame, frame[1:]], [frame, frame[1:]], np.ones((H, W), bool))
+
+
+# ------------------------------------------------------------------------------ sequence API
+
+
+def test_ground_truth_against_itself_is_exactly_zero_for_every_metric(rng):
+    gt = panning(texture(rng), 4)
+    boxes = [np.array([[10 + 2 * t, 10, 40 + 2 * t, 40]]) for t in range(4)]
+    res = temporal_metrics(
+        gt,
+        [g.copy() for g in gt],
+        static_mask=np.ones((H, W), bool),
+        region_masks=boxes,
+        lpips_fn=mean_abs,
+    )
+    assert list(res) == ALL_NAMES
+    for name, entry in res.items():
+        assert entry["value"] == 0.0 and entry["reason"] is None, name
+        if name != "flicker" and name != "focused_flicker":
+            assert entry["per_pair"] == [0.0, 0.0, 0.0], name
+
+
+def test_ground_truth_is_zero_without_a_shared_cache_for_every_flow_method(rng):
+    gt = panning(texture(rng), 3)
+    for method in ("dis", "farneback"):
+        cfg = TemporalConfig(flow=FlowConfig(method=method), tlp=False)
+        res = temporal_metrics(gt, gt, config=cfg)
+        assert res["warp_error"]["value"] == 0.0 and res["tof"]["value"] == 0.0
+
+
+def test_region_boxes_and_masks_give_the_same_focused_values(rng):
+    from dynaeval.regions import boxes_to_mask
+
+    gt = panning(texture(rng), 3)
+    pred = [g + rng.normal(0, 0.05, g.shape).astype(np.float32) for g in gt]
+    boxes = [np.array([[5, 5, 30, 30], [40, 20, 70, 60]])] * 3
+    masks = [boxes_to_mask(b, H, W) for b in boxes]
+    a = temporal_metrics(pred, gt, region_masks=boxes, lpips_fn=mean_abs)
+    b = temporal_metrics(pred, gt, region_masks=masks, lpips_fn=mean_abs)
+    for name in ALL_NAMES:
+        assert a[name]["value"] == b[name]["value"], name
+    assert a["focused_warp_error"]["value"] != a["warp_error"]["value"]
+
+
+def test_warp_error_summary_is_pred_minus_gt_mean_of_pairs(rng):
+    gt = panning(texture(rng), 4)
+    pred = [g + rng.normal(0, 0.05, g.shape).astype(np.float32) for g in gt]
+    res = temporal_metrics(pred, gt, config=TemporalConfig(tlp=False))
+    e = res["warp_error"]
+    assert e["value"] == pytest.approx(e["pred"] - e["gt"], abs=1e-12)
+    assert e["value"] == pytest.approx(np.mean(e["per_pair"]), abs=1e-12)
+    assert e["value"] > 0 and len(e["per_pair"]) == 3
+
+
+def test_brightness_flicker_moves_the_metrics_monotonically(rng):
+    gt = panning(texture(rng), 5)
+    static = np.ones((H, W), bool)
+    rows = []
+    for amp in (0.0, 0.03, 0.06, 0.12):
+        pred = [g * (1 + amp * (-1) ** t) for t, g in enumerate(gt)]
+        res = temporal_metrics(pred, gt, static_mask=static, lpips_fn=mean_abs)
+        rows.append([res[n]["value"] for n in ("warp_error", "tlp", "flicker")])
+    rows = np.array(rows)
+    assert np.all(rows[0] == 0)
+    assert np.all(np.diff(rows, axis=0) > 0), rows
+
+
+def test_temporally_varying_noise_is_told_apart_from_static_noise_of_equal_psnr(rng):
+    gt = panning(texture(rng), 5, step=(0, 0))  # static camera, static scene
+    noise = rng.normal(0, 0.05, (H, W, 3)).astype(np.float32)
+    static_noise = [g + noise for g in gt]
+    # the same noise values, shuffled anew every frame: identical per-frame MSE, hence PSNR
+    varying = [g + rng.permutation(noise.reshape(-1, 3)).reshape(noise.shape) for g in gt]
+    mse = lambda ps: [float(((p - g) ** 2).mean()) for p, g in zip(ps, gt, strict=True)]  # noqa: E731
+    np.testing.assert_allclose(mse(static_noise), mse(varying), rtol=1e-5)
+    mask = np.ones((H, W), bool)
+    s = temporal_metrics(static_noise, gt, static_mask=mask, lpips_fn=mean_abs)
+    v = temporal_metrics(varying, gt, static_mask=mask, lpips_fn=mean_abs)
+    assert s["flicker"]["value"] == pytest.approx(0.0, abs=1e-6)
+    assert v["flicker"]["value"] > 0.02
+    assert v["warp_error"]["value"] > s["warp_error"]["value"] + 1e-3
+    assert v["tlp"]["value"] > s["tlp"]["value"]
+
+
+def test_single_frame_gives_null_with_a_reason_for_every_metric(rng):
+    frame = texture(rng)[:H, :W]
+    res = temporal_metrics([frame], [frame], static_mask=np.ones((H, W), bool), lpips_fn=mean_abs)
+    for name, entry in res.items():
+        assert entry["value"] is None and "at least 2 frames, got 1" in entry["reason"], name
+    res = temporal_metrics([], [], lpips_fn=mean_abs)
+    assert res["tof"]["reason"] == "needs at least 2 frames, got 0"
+
+
+def test_all_dynamic_mask_gives_null_flicker_with_a_reason(rng):
+    gt = panning(texture(rng), 3)
+    res = temporal_metrics(gt, gt, static_mask=np.zeros((H, W), bool), lpips_fn=mean_abs)
+    assert res["flicker"]["value"] is None
+    assert res["flicker"]["reason"] == "no static pixel: the static mask is empty"
+    res = temporal_metrics(gt, gt, lpips_fn=mean_abs)
+    assert res["flicker"]["reason"].startswith("no static mask given")
+    assert res["focused_tof"]["reason"].startswith("no region masks given")
+
+
+def test_empty_regions_give_null_per_pair_and_a_reason(rng):
+    gt = panning(texture(rng), 3)
+    empty = [np.zeros((0, 4))] * 3
+    res = temporal_metrics(
+        gt, gt, static_mask=np.ones((H, W), bool), region_masks=empty, lpips_fn=mean_abs
+    )
+    for name in ("focused_warp_error", "focused_tof", "focused_tlp"):
+        assert res[name]["value"] is None and res[name]["per_pair"] == [None, None], name
+        assert res[name]["reason"] == "every pair's region was empty"
+    assert res["focused_flicker"]["reason"] == "no static pixel inside the regions"
+    # one pair with a region is enough for a value
+    some = [np.zeros((0, 4)), np.zeros((0, 4)), np.array([[0, 0, 20, 20]])]
+    res = temporal_metrics(gt, gt, region_masks=some, lpips_fn=mean_abs)
+    assert res["focused_tof"]["per_pair"] == [None, 0.0] and res["focused_tof"]["value"] == 0.0
+
+
+def test_tlp_is_null_with_the_reason_when_lpips_is_off_or_missing(rng, monkeypatch):
+    gt = panning(texture(rng), 2)
+    res = temporal_metrics(gt, gt, config=TemporalConfig(tlp=False))
+    assert res["tlp"]["value"] is None and "disabled" in res["tlp"]["reason"]
+
+    import dynaeval.metrics.temporal as temporal
+
+    def missing():
+        raise ImportError("no module named lpips")
+
+    monkeypatch.setattr(temporal, "default_lpips", missing)
+    res = temporal_metrics(gt, gt)
+    assert res["tlp"]["reason"] == "LPIPS unavailable: ImportError: no module named lpips"
+    assert res["tof"]["value"] == 0.0
+
+
+def test_sequence_api_rejects_bad_input(rng):
+    gt = panning(texture(rng), 3)
+    with pytest.raises(InputError, match="different numbers of frames"):
+        temporal_metrics(gt, gt[:2], lpips_fn=mean_abs)
+    with pytest.raises(InputError, match="differ in shape"):
+        temporal_metrics(gt, [g[1:] for g in gt], lpips_fn=mean_abs)
+    with pytest.raises(InputError, match="fewer items than the 2 frames"):
+        temporal_metrics(gt, gt, region_masks=[np.zeros((0, 4))], lpips_fn=mean_abs)
+    with pytest.raises(InputError, match="region mask of frame 0 must have shape"):
+        temporal_metrics(gt, gt, region_masks=[np.ones((3, 3), bool)] * 3, lpips_fn=mean_abs)
+    with pytest.raises(InputError, match="frame 1 has shape"):
+        temporal_metrics([gt[0], gt[1][1:]], [gt[0], gt[1][1:]], lpips_fn=mean_abs)
+    with pytest.raises(InputError, match="static_mask must be a bool"):
+        temporal_metrics(gt, gt, static_mask=np.ones((H, W)), lpips_fn=mean_abs)
+
+
+def test_settings_describe_the_flow_method():
+    d = TemporalConfig(flow=FlowConfig(method="farneback")).describe()
+    assert d["flow"]["method"] == "farneback" and d["flow"]["winsize"] == 15
+    assert TemporalConfig().describe()["flow"] == {"method": "dis", "dis_preset": "medium"}
+
+
+def test_importing_the_temporal_metrics_pulls_in_neither_torch_nor_cv2():
+    code = (
+        "import sys, dynaeval.metrics.temporal; "
+        "print(sorted(m for m in ('torch', 'cv2', 'lpips') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
