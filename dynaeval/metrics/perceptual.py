@@ -1,0 +1,270 @@
+"""LPIPS (Zhang et al. 2018) through the ``lpips`` package: whole image, masked (spatial map), focused (crops).
+
+The network is the package's own ``lpips.LPIPS`` (its calibrated linear layers, shipped inside the
+package) on a torchvision AlexNet/VGG16 backbone whose ImageNet weights come from torchvision's
+cache directory (``$TORCH_HOME/hub/checkpoints``, default ``~/.cache/torch/hub/checkpoints``).
+Nothing is downloaded: when the file is absent, ``WeightsUnavailableError`` names the file and
+the directory. Torch is imported only inside these functions; models are built on first use and
+cached per (net, device, spatial, backbone), in eval mode, and run under ``torch.no_grad``.
+"""
+
+from __future__ import annotations
+
+import threading
+import warnings
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dynaeval.errors import InputError, WeightsUnavailableError
+from dynaeval.metrics._common import check_pair, clipped_boxes, grow_box, region_mask
+
+LPIPS_NETS = ("alex", "vgg")
+MIN_SIZE = {"alex": 31, "vgg": 16}
+"""Smallest image side (pixels) each backbone accepts: AlexNet's strided conv + two max-pools need
+31 px before conv3; VGG16's four 2x2 pools before conv5 need 16 px. Smaller crops are grown."""
+REGION_MODES = ("crop", "map")
+
+_MODELS: dict[tuple[Any, ...], Any] = {}
+_LOCK = threading.Lock()
+
+
+def _check_net(net: str) -> None:
+    if net not in LPIPS_NETS:
+        raise InputError(f"LPIPS net must be one of {', '.join(LPIPS_NETS)}, got {net!r}")
+
+
+def backbone_weights_file(net: str = "alex") -> Path:
+    """Path where torchvision keeps the pretrained backbone of ``net`` (may not exist).
+
+    The file name comes from torchvision's weights enum (``AlexNet_Weights.IMAGENET1K_V1``,
+    ``VGG16_Weights.IMAGENET1K_V1``); the directory is ``torch.hub.get_dir()/checkpoints``, which
+    honours ``TORCH_HOME``.
+    """
+    _check_net(net)
+    import torch
+    from torchvision.models import AlexNet_Weights, VGG16_Weights
+
+    url = (AlexNet_Weights if net == "alex" else VGG16_Weights).IMAGENET1K_V1.url
+    return Path(torch.hub.get_dir()) / "checkpoints" / url.rsplit("/", 1)[-1]
+
+
+def _backbone_url(net: str) -> str:
+    from torchvision.models import AlexNet_Weights, VGG16_Weights
+
+    return (AlexNet_Weights if net == "alex" else VGG16_Weights).IMAGENET1K_V1.url
+
+
+def _build(net: str, spatial: bool, pretrained_backbone: bool, seed: int) -> Any:
+    import lpips as lpips_pkg
+    import torch
+
+    path = backbone_weights_file(net)
+    if pretrained_backbone and not path.is_file():
+        raise WeightsUnavailableError(
+            f"LPIPS ({net}) needs torchvision's pretrained {net} backbone, which is not on this "
+            f"machine: place {path.name} (from {_backbone_url(net)}) in {path.parent} "
+            "(set TORCH_HOME to use another cache directory), or score without LPIPS (--no-lpips)"
+        )
+    # The package builds its backbone through torchvision's deprecated ``pretrained=`` argument;
+    # pnet_rand=True makes torchvision build it without weights (no download is ever tried).
+    with torch.random.fork_rng(devices=[]), warnings.catch_warnings():
+        warnings.filterwarnings("ignore", category=UserWarning, module="torchvision")
+        torch.manual_seed(seed)
+        model = lpips_pkg.LPIPS(
+            pretrained=True, net=net, pnet_rand=True, spatial=spatial, verbose=False
+        )
+    if pretrained_backbone:
+        state = torch.load(path, map_location="cpu", weights_only=True)
+        # the package slices torchvision's ``features`` into slice1..5 keeping the layer index:
+        # ``slice2.3.weight`` is ``features.3.weight``
+        mapped = {
+            key: state["features." + key.split(".", 1)[1]] for key in model.net.state_dict()
+        }
+        model.net.load_state_dict(mapped, strict=True)
+    model.eval()
+    for p in model.parameters():
+        p.requires_grad_(False)
+    if any(m.training for m in model.modules()):
+        raise RuntimeError("LPIPS model is not in eval mode: its dropout would change results")
+    return model
+
+
+def load_lpips(
+    net: str = "alex",
+    *,
+    device: object = None,
+    spatial: bool = False,
+    pretrained_backbone: bool = True,
+    seed: int = 0,
+) -> Any:
+    """The ``lpips.LPIPS`` network, built once per argument set and cached (never at import time).
+
+    Args:
+        net: ``"alex"`` (default, what NeRF papers report) or ``"vgg"``.
+        device: torch device (or string); None means CPU.
+        spatial: True gives the per-pixel map (the package's ``spatial=True``), False the mean.
+        pretrained_backbone: True loads torchvision's ImageNet backbone from its cache
+            (WeightsUnavailableError when absent); False keeps a randomly initialised backbone
+            drawn with ``seed`` (for tests; equals ``lpips.LPIPS(pretrained=True, net=net,
+            pnet_rand=True)`` built after ``torch.manual_seed(seed)``).
+        seed: seed of the random backbone (ignored when ``pretrained_backbone``).
+
+    Returns:
+        The ``torch.nn.Module`` in eval mode, parameters frozen, on ``device``.
+    """
+    _check_net(net)
+    import torch
+
+    dev = torch.device("cpu" if device is None else device)
+    key = (net, str(dev), bool(spatial), bool(pretrained_backbone), None if pretrained_backbone else int(seed))
+    with _LOCK:
+        model = _MODELS.get(key)
+        if model is None:
+            model = _build(net, spatial, pretrained_backbone, seed).to(dev)
+            _MODELS[key] = model
+    if model.training:  # someone called .train() on the cached model
+        model.eval()
+    return model
+
+
+def _check_lpips_image(p: np.ndarray, name: str) -> np.ndarray:
+    lo, hi = float(p.min()), float(p.max())
+    if lo < 0.0 or hi > 1.0:
+        raise InputError(
+            f"LPIPS expects {name} in [0, 1] (dynaeval scales it to the network's [-1, 1] itself); "
+            f"got values in [{lo:.4g}, {hi:.4g}]. Images already in [-1, 1]: pass (x + 1) / 2; "
+            "uint8: divide by 255"
+        )
+    if p.ndim == 2:
+        p = p[..., None]
+    if p.shape[2] == 1:
+        p = np.repeat(p, 3, axis=2)
+    if p.shape[2] != 3:
+        raise InputError(
+            f"LPIPS needs RGB (H, W, 3) or grayscale images, got {p.shape[2]} channels "
+            "(composite RGBA over a background first)"
+        )
+    return p
+
+
+def _to_tensor(batch: list[np.ndarray], device: Any) -> Any:
+    """List of (h, w, 3) arrays in [0, 1] -> (B, 3, h, w) float32 tensor in [-1, 1]."""
+    import torch
+
+    arr = np.stack(batch).astype(np.float32, copy=False).transpose(0, 3, 1, 2)
+    t = torch.from_numpy(np.ascontiguousarray(arr)).to(device)
+    return t * 2.0 - 1.0
+
+
+def _prepare(pred: object, gt: object, net: str) -> tuple[np.ndarray, np.ndarray]:
+    _check_net(net)
+    p, g = check_pair(pred, gt)
+    p = _check_lpips_image(p, "pred")
+    g = _check_lpips_image(g, "gt")
+    h, w = p.shape[:2]
+    if min(h, w) < MIN_SIZE[net]:
+        raise InputError(
+            f"LPIPS ({net}) needs images of at least {MIN_SIZE[net]}x{MIN_SIZE[net]} pixels "
+            f"(the backbone's pooling), got {h}x{w}; score larger images or skip LPIPS"
+        )
+    return p, g
+
+
+def lpips_map(
+    pred: object,
+    gt: object,
+    *,
+    net: str = "alex",
+    device: object = None,
+    pretrained_backbone: bool = True,
+    seed: int = 0,
+) -> np.ndarray:
+    """Spatial LPIPS map: (H, W) float32, >= 0, lower is better (the package's ``spatial=True``).
+
+    Args:
+        pred, gt: (H, W, 3) or (H, W) arrays/tensors in [0, 1], H, W >= MIN_SIZE[net].
+        net, device, pretrained_backbone, seed: see ``load_lpips``.
+    """
+    import torch
+
+    p, g = _prepare(pred, gt, net)
+    model = load_lpips(net, device=device, spatial=True, pretrained_backbone=pretrained_backbone, seed=seed)
+    dev = next(model.parameters()).device
+    with torch.no_grad():
+        out = model(_to_tensor([p], dev), _to_tensor([g], dev))
+    return out[0, 0].float().cpu().numpy()
+
+
+def lpips(
+    pred: object,
+    gt: object,
+    *,
+    net: str = "alex",
+    mask: object = None,
+    boxes: object = None,
+    region_mode: str | None = None,
+    device: object = None,
+    pretrained_backbone: bool = True,
+    seed: int = 0,
+) -> float:
+    """Learned perceptual image patch similarity (LPIPS v0.1), whole image or region; lower is better.
+
+    Args:
+        pred, gt: (H, W, 3) RGB or (H, W) grayscale (replicated to RGB) numpy arrays/tensors in
+            [0, 1] (checked: values outside raise InputError), H, W >= MIN_SIZE[net].
+        net: ``"alex"`` (default) or ``"vgg"``.
+        mask: optional bool (H, W): mean of the spatial LPIPS map over the masked pixels.
+        boxes: optional (N, 4) ``[x_min, y_min, x_max, y_max]`` max exclusive.
+        region_mode: ``"crop"``: each box is cropped and scored by the network as an image of its
+            own (crops of equal size are batched), a box below MIN_SIZE[net] in a dimension is
+            grown to it with its real neighbours; the frame value is the box-area-weighted mean.
+            ``"map"``: mean of the whole frame's spatial map over the region's pixels (the map
+            sees pixels outside the region through the receptive field). Default None:
+            ``"crop"`` for boxes, ``"map"`` for a mask.
+        device, pretrained_backbone, seed: see ``load_lpips``.
+
+    Returns:
+        LPIPS as a float >= 0 (0 for identical images).
+
+    Raises:
+        InputError: shapes, range, channels, size, NaN/Inf, bad mask/boxes/mode/net.
+        EmptyRegionError: the region holds no pixel.
+        WeightsUnavailableError: the pretrained backbone is not in torchvision's cache.
+    """
+    import torch
+
+    if region_mode is not None and region_mode not in REGION_MODES:
+        raise InputError(f"region_mode must be one of {REGION_MODES} or None, got {region_mode!r}")
+    if mask is not None and region_mode == "crop":
+        raise InputError("region_mode='crop' needs boxes; a mask is scored with region_mode='map'")
+    p, g = _prepare(pred, gt, net)
+    h, w = p.shape[:2]
+    m = region_mask(mask, boxes, h, w)
+    kw = {"device": device, "pretrained_backbone": pretrained_backbone, "seed": seed}
+    if m is not None and (mask is not None or region_mode == "map"):
+        smap = lpips_map(p, g, net=net, **kw)
+        return float(smap[m].mean(dtype=np.float64))
+    model = load_lpips(net, spatial=False, **kw)
+    dev = next(model.parameters()).device
+    if m is None:
+        with torch.no_grad():
+            return float(model(_to_tensor([p], dev), _to_tensor([g], dev)).item())
+    # crop mode: group equal-sized crops into one batch each
+    groups: dict[tuple[int, int], list[tuple[int, np.ndarray]]] = {}
+    for box in clipped_boxes(boxes, h, w):
+        area = int((box[2] - box[0]) * (box[3] - box[1]))
+        x0, y0, x1, y1 = grow_box(box, MIN_SIZE[net], MIN_SIZE[net], h, w)
+        groups.setdefault((y1 - y0, x1 - x0), []).append((area, np.array([x0, y0, x1, y1])))
+    total = 0.0
+    weight = 0
+    with torch.no_grad():
+        for items in groups.values():
+            crops_p = [p[b[1] : b[3], b[0] : b[2]] for _, b in items]
+            crops_g = [g[b[1] : b[3], b[0] : b[2]] for _, b in items]
+            vals = model(_to_tensor(crops_p, dev), _to_tensor(crops_g, dev)).reshape(-1).double().cpu().numpy()
+            for (area, _), v in zip(items, vals, strict=True):
+                total += area * float(v)
+                weight += area
+    return total / weight
