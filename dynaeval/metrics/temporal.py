@@ -24,7 +24,7 @@ from itertools import repeat
 
 import numpy as np
 
-from dynaeval.errors import EmptyRegionError, InputError
+from dynaeval.errors import EmptyRegionError, InputError, WeightsUnavailableError
 from dynaeval.metrics.flow import (
     FlowCache,
     FlowConfig,
@@ -51,6 +51,10 @@ class TemporalConfig:
     tlp: bool = True
     """Compute tLP (needs LPIPS: torch + weights). False records ``tlp`` as null."""
 
+    lpips_net: str = "alex"
+    """Backbone of the default LPIPS (``dynaeval.metrics.lpips``): ``"alex"`` or ``"vgg"``.
+    Ignored when a ``lpips_fn`` is passed to :func:`temporal_metrics`."""
+
     tlp_min_crop: int = 32
     """focused_tlp: the tight box of the region is grown to at least this many pixels per side
     (centred, kept inside the frame) so that LPIPS's five pooling stages have something left."""
@@ -63,6 +67,7 @@ class TemporalConfig:
             "pred minus gt; occlusion: Sundaram et al. 2010 forward-backward check",
             "tof": "mean endpoint difference of the (t-1 -> t) flows, pixels",
             "tlp": self.tlp,
+            "lpips_net": self.lpips_net,
             "tlp_min_crop": self.tlp_min_crop,
             "flicker": "mean temporal std (ddof=0) over static pixels and channels, pred minus gt",
         }
@@ -149,8 +154,12 @@ def tof(flow_pred: np.ndarray, flow_gt: np.ndarray, region: np.ndarray | None = 
     return float(epe[r].mean())
 
 
-def default_lpips() -> LpipsFn:
-    """``(a, b) -> float`` calling ``dynaeval.metrics.lpips`` (imported here, lazily)."""
+def default_lpips(net: str = "alex") -> LpipsFn:
+    """``(a, b) -> float`` calling ``dynaeval.metrics.lpips(a, b, net=net)`` (imported lazily).
+
+    That function wants frames in ``[0, 1]`` (it raises InputError outside) and raises
+    WeightsUnavailableError on its first call when the pretrained backbone is not on disk.
+    """
     import dynaeval.metrics as _metrics  # lazy: pulls in torch
 
     _lpips = _metrics.lpips
@@ -158,7 +167,7 @@ def default_lpips() -> LpipsFn:
         _lpips = _lpips.lpips
 
     def fn(a: np.ndarray, b: np.ndarray) -> float:
-        return float(np.asarray(_lpips(a, b)))
+        return float(np.asarray(_lpips(a, b, net=net)))
 
     return fn
 
@@ -381,8 +390,8 @@ def temporal_metrics(
         lpips_reason = "tLP disabled in the configuration (no LPIPS)"
     elif lpips_fn is None:
         try:
-            lpips_fn = default_lpips()
-        except Exception as exc:  # ImportError, WeightsUnavailableError: recorded, not fatal
+            lpips_fn = default_lpips(config.lpips_net)
+        except (ImportError, AttributeError) as exc:  # no LPIPS in this install: recorded
             lpips_reason = f"LPIPS unavailable: {type(exc).__name__}: {exc}"
 
     regions_iter = iter(region_masks) if region_masks is not None else repeat(None)
@@ -439,12 +448,15 @@ def temporal_metrics(
             )
 
             if lpips_reason is None:
-                per_pair["tlp"].append(tlp(pp, p, gp, g, lpips_fn))
-                per_pair["focused_tlp"].append(
-                    None
-                    if pair_region is None or not pair_region.any()
-                    else tlp(pp, p, gp, g, lpips_fn, pair_region, config.tlp_min_crop)
-                )
+                try:
+                    per_pair["tlp"].append(tlp(pp, p, gp, g, lpips_fn))
+                    per_pair["focused_tlp"].append(
+                        None
+                        if pair_region is None or not pair_region.any()
+                        else tlp(pp, p, gp, g, lpips_fn, pair_region, config.tlp_min_crop)
+                    )
+                except WeightsUnavailableError as exc:  # raised by the first LPIPS call
+                    lpips_reason = f"LPIPS unavailable: WeightsUnavailableError: {exc}"
         prev = (p, g, reg)
 
     out: dict[str, dict] = {}

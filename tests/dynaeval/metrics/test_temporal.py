@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from dynaeval.errors import EmptyRegionError, InputError
+from dynaeval.errors import EmptyRegionError, InputError, WeightsUnavailableError
 from dynaeval.metrics.flow import (
     FlowCache,
     FlowConfig,
@@ -426,13 +426,22 @@ def test_tlp_is_null_with_the_reason_when_lpips_is_off_or_missing(rng, monkeypat
 
     import dynaeval.metrics.temporal as temporal
 
-    def missing():
+    def missing(net="alex"):
         raise ImportError("no module named lpips")
 
     monkeypatch.setattr(temporal, "default_lpips", missing)
     res = temporal_metrics(gt, gt)
     assert res["tlp"]["reason"] == "LPIPS unavailable: ImportError: no module named lpips"
     assert res["tof"]["value"] == 0.0
+
+    def no_weights(a, b):
+        raise WeightsUnavailableError("alexnet-owt-7be5be79.pth is not in ~/.cache/torch")
+
+    res = temporal_metrics(gt, gt, lpips_fn=no_weights, region_masks=[np.ones((H, W), bool)] * 2)
+    for name in ("tlp", "focused_tlp"):
+        assert res[name]["value"] is None and res[name]["per_pair"] == []
+        assert res[name]["reason"].startswith("LPIPS unavailable: WeightsUnavailableError: alexnet")
+    assert res["focused_tof"]["value"] == 0.0
 
 
 def test_sequence_api_rejects_bad_input(rng):
