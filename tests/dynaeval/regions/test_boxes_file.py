@@ -1,0 +1,113 @@
+"""Boxes files: both layouts read, strict validation, atomic writes."""
+
+from __future__ import annotations
+
+import json
+import os
+
+import numpy as np
+import pytest
+
+from dynaeval.errors import InputError
+from dynaeval.regions.boxes_file import (
+    BOXES_SCHEMA,
+    frame_key,
+    read_boxes_file,
+    records_to_boxes,
+    write_boxes_file,
+)
+
+GEN = {
+    "cam00/000000": [
+        {"class": "person", "id": 3, "box": [10, 20, 42, 96], "visible": 0.8, "team": "home"},
+        {"class": "ball", "id": 0, "box": [100, 50, 106, 56], "visible": 1.0},
+    ],
+    "cam00/000001": [],
+}
+
+
+def _write(tmp_path, data, name="b.json"):
+    p = tmp_path / name
+    p.write_text(json.dumps(data))
+    return p
+
+
+def test_bare_mapping_from_generator(tmp_path):
+    bf = read_boxes_file(_write(tmp_path, GEN))
+    assert bf.schema is None and bf.source is None
+    assert bf.boxes == GEN  # extra fields ("team") kept, empty frames kept
+    np.testing.assert_array_equal(records_to_boxes(bf.boxes["cam00/000000"], ["ball"]), [[100, 50, 106, 56]])
+    assert records_to_boxes(bf.boxes["cam00/000001"]).shape == (0, 4)
+
+
+def test_write_then_read_wrapper(tmp_path):
+    src = {"kind": "detector", "model_sha256": "ab" * 32, "settings": {"score_threshold": np.float32(0.25)}}
+    recs = {"cam01/000007": [{"class": "person", "id": np.int64(0), "box": np.array([1, 2, 3, 4]), "score": 0.5}]}
+    p = write_boxes_file(tmp_path / "sub" / "boxes.json", recs, src)
+    raw = json.loads(p.read_text())
+    assert raw["schema"] == BOXES_SCHEMA and set(raw) == {"schema", "source", "boxes"}
+    bf = read_boxes_file(p)
+    assert bf.boxes == {"cam01/000007": [{"class": "person", "id": 0, "box": [1, 2, 3, 4], "score": 0.5}]}
+    assert bf.source["settings"]["score_threshold"] == 0.25
+    assert [f for f in os.listdir(p.parent) if f.endswith(".tmp")] == []
+
+
+def test_failed_write_leaves_old_file(tmp_path):
+    p = write_boxes_file(tmp_path / "boxes.json", GEN)
+    before = p.read_bytes()
+    with pytest.raises(InputError, match="x_max > x_min"):
+        write_boxes_file(p, {"cam00/000000": [{"class": "person", "box": [5, 5, 5, 9]}]})
+    with pytest.raises(ValueError, match="Out of range float values"):
+        write_boxes_file(p, GEN, {"bad": float("nan")})
+    assert p.read_bytes() == before
+    assert [f for f in os.listdir(tmp_path) if f.endswith(".tmp")] == []
+
+
+def test_frame_key():
+    assert frame_key("cam00", "000012.png") == "cam00/000012"
+    assert frame_key("cam00", "000012") == "cam00/000012"
+
+
+@pytest.mark.parametrize(
+    ("data", "match"),
+    [
+        ([1, 2], "must hold a JSON object"),
+        ({"cam00": []}, r"key 'cam00': expected '<camera>/<frame>'"),
+        ({"cam00/": []}, "camera and frame must both be non-empty"),
+        ({"cam00/000001.png": []}, r"without extension, e.g. 'cam00/000001'"),
+        ({"cam00/1": {"class": "person"}}, "expected a list of records"),
+        ({"cam00/1": ["person"]}, "record 0: expected an object"),
+        ({"cam00/1": [{"box": [0, 0, 1, 1]}]}, "'class' must be a non-empty string"),
+        ({"cam00/1": [{"class": "person", "box": [0, 0, 1]}]}, r"'box' must be \[x_min"),
+        ({"cam00/1": [{"class": "person", "box": [0, 0, 1.5, 2]}]}, "must be integers"),
+        ({"cam00/1": [{"class": "person", "box": [0, 0, True, 2]}]}, "must be integers"),
+        ({"cam00/1": [{"class": "person", "box": [4, 0, 2, 2]}]}, r"record 0: 'box' \[4, 0, 2, 2\] is empty"),
+        ({"cam00/1": [{"class": "person", "box": [0, 0, 2, 2], "id": "p1"}]}, "'id' must be an integer"),
+        ({"cam00/1": [{"class": "person", "box": [0, 0, 2, 2], "visible": 1.5}]}, r"'visible' must be a number in \[0, 1\]"),
+        ({"schema": "dynaeval/boxes/v9", "boxes": {}}, "unknown boxes schema"),
+        ({"schema": BOXES_SCHEMA}, "has no 'boxes' object"),
+        ({"schema": BOXES_SCHEMA, "boxes": {}, "source": 3}, "'source' must be an object"),
+        ({"schema": BOXES_SCHEMA, "boxes": []}, "boxes must be a JSON object"),
+    ],
+)
+def test_invalid_files_name_file_and_key(tmp_path, data, match):
+    p = _write(tmp_path, data)
+    with pytest.raises(InputError, match=match) as exc:
+        read_boxes_file(p)
+    assert exc.value.path == str(p)
+
+
+def test_nan_visible_rejected(tmp_path):
+    p = tmp_path / "b.json"
+    p.write_text('{"cam00/1": [{"class": "ball", "box": [0, 0, 2, 2], "visible": NaN}]}')
+    with pytest.raises(InputError, match="'visible' must be a number"):
+        read_boxes_file(p)
+
+
+def test_missing_and_not_json(tmp_path):
+    with pytest.raises(InputError, match="boxes file not found"):
+        read_boxes_file(tmp_path / "nope.json")
+    p = tmp_path / "b.json"
+    p.write_text("{not json")
+    with pytest.raises(InputError, match="not valid JSON"):
+        read_boxes_file(p)
