@@ -1,16 +1,22 @@
 """Temporal consistency metrics over consecutive frames of one camera: warping error, tOF, tLP, flicker.
 
-All four are *differences to the ground truth*, so that what the ground truth itself does (motion,
-sensor noise, flow-estimation error) cancels: the ground truth scored against itself gives exactly
-0 for every metric. Lower is better. Exact definitions, with the direction of every flow, are in
-docs/temporal-metrics.md; in short, for a pair of frames ``(t-1, t)``:
+All four compare the prediction's temporal behaviour with the ground truth's, so that what the
+ground truth itself does (motion, sensor noise, flow-estimation error) cancels: the ground truth
+scored against itself gives exactly 0 for every metric, every value is >= 0, lower is better.
+Exact definitions, with the direction of every flow, are in docs/temporal-metrics.md; in short,
+for a pair of frames ``(t-1, t)``:
 
-* ``warp_error``: ``E(pred) - E(gt)`` with ``E(x) = mean_{p in V, c} (x_t(p) - x_{t-1}(p + b(p)))^2``,
+* ``warp_error``: ``|E(pred) - E(gt)|`` with ``E(x) = mean_{p in V, c} (x_t(p) - x_{t-1}(p + b(p)))^2``,
   ``b`` the ground-truth flow ``t -> t-1`` (backward warping of ``t-1`` onto ``t``'s grid) and
   ``V`` the pixels of ``t`` visible in ``t-1`` (forward-backward check, in frame). Lai et al. 2018.
 * ``tof``: ``mean_p |F(pred_{t-1}, pred_t)(p) - F(gt_{t-1}, gt_t)(p)|_2`` in pixels (TecoGAN).
 * ``tlp``: ``|LPIPS(pred_{t-1}, pred_t) - LPIPS(gt_{t-1}, gt_t)|`` (TecoGAN).
-* ``flicker`` (static cameras): ``mean_{p static, c} std_t pred(p, c) - (same for gt)``.
+* ``flicker`` (static cameras, whole sequence): ``|S(pred) - S(gt)|``,
+  ``S(x) = mean_{p static, c} std_t x(p, c)``.
+
+The absolute value is taken per pair (like tLP), not after averaging, and the signed means are
+kept in the sequence results (``"signed"``): a signed warping-error difference goes negative when
+the prediction *loses* content the flow cannot follow (a ball that vanishes, see the study).
 
 Frames are ``(H, W, 3)`` RGB, float32 in ``[0, 1]`` (uint8 is divided by 255). The sequence API
 :func:`temporal_metrics` streams over pairs and keeps two frames and their flows in memory.
@@ -63,13 +69,15 @@ class TemporalConfig:
         """The settings for the results JSON."""
         return {
             "flow": self.flow.describe(),
-            "warp_error": "mean squared error over channels and visible pixels, [0, 1] scale; "
-            "pred minus gt; occlusion: Sundaram et al. 2010 forward-backward check",
+            "warp_error": "per pair |E(pred) - E(gt)|, E = mean squared error over channels and "
+            "visible pixels on the [0, 1] scale; occlusion: Sundaram et al. 2010 "
+            "forward-backward check; mean over pairs",
             "tof": "mean endpoint difference of the (t-1 -> t) flows, pixels",
             "tlp": self.tlp,
             "lpips_net": self.lpips_net,
             "tlp_min_crop": self.tlp_min_crop,
-            "flicker": "mean temporal std (ddof=0) over static pixels and channels, pred minus gt",
+            "flicker": "|S(pred) - S(gt)|, S = mean temporal std (ddof=0) over static pixels "
+            "and channels",
         }
 
 
@@ -265,14 +273,14 @@ def flicker(
     static_mask: np.ndarray,
     region: np.ndarray | None = None,
 ) -> float:
-    """Static-region flicker of one static camera: ``mean std_t(pred) - mean std_t(gt)``.
+    """Static-region flicker of one static camera: ``|mean std_t(pred) - mean std_t(gt)|``.
 
     ``pred_frames``, ``gt_frames``: T frames each, ``(H, W, 3)`` float in ``[0, 1]`` (uint8
     divided by 255). ``static_mask``: ``(H, W)`` bool, True where the scene does not move (from the
     motion masks). ``region``: optional ``(H, W)`` bool restricting the pixels further.
     The std is per pixel and channel over time (ddof=0); the mean is over the kept pixels and
     channels. Raises InputError for fewer than 2 frames and EmptyRegionError when no pixel is kept.
-    Can be negative (a prediction steadier than a noisy ground truth).
+    Returns a float >= 0; :func:`temporal_metrics` also reports the signed difference.
     """
     result = _flicker_stream(pred_frames, gt_frames, static_mask, region)
     if result["value"] is None:
@@ -303,7 +311,7 @@ def _flicker_stream(pred_frames, gt_frames, static_mask, region) -> dict:
             "error": EmptyRegionError("flicker: no static pixel (in the region)"),
         }
     vp, vg = float(sp.std().mean()), float(sg.std().mean())
-    return {"value": vp - vg, "pred": vp, "gt": vg}
+    return {"value": abs(vp - vg), "signed": vp - vg, "pred": vp, "gt": vg}
 
 
 def _zip_frames(pred_frames, gt_frames):
@@ -371,7 +379,9 @@ def temporal_metrics(
     for ``warp_error, tof, tlp, flicker`` and their ``focused_`` variants. ``value`` is the mean of
     the defined per-pair values (pair i = frames ``(i, i+1)``); None exactly when ``reason`` says
     why (fewer than 2 frames, no static pixels, empty regions, LPIPS missing). ``warp_error`` and
-    ``flicker`` entries also carry ``"pred"`` and ``"gt"`` (the two terms of the difference).
+    ``flicker`` entries (and their focused variants) also carry ``"pred"`` and ``"gt"`` (the two
+    terms, means over pairs) and ``"signed"`` (the mean of ``pred - gt`` without the absolute
+    value; > 0: the prediction is less stable than the ground truth).
     Flicker has no per-pair values (``per_pair == []``).
     Convention: undefined -> null with a reason, never an exception; bad input (shapes, NaN)
     raises InputError.
@@ -382,7 +392,7 @@ def temporal_metrics(
     names = [*TEMPORAL_METRICS, *(f"focused_{n}" for n in TEMPORAL_METRICS)]
     per_pair: dict[str, list] = {n: [] for n in names}
     parts: dict[str, dict[str, list]] = {
-        n: {"pred": [], "gt": []} for n in ("warp_error", "focused_warp_error")
+        n: {"pred": [], "gt": [], "signed": []} for n in ("warp_error", "focused_warp_error")
     }
 
     lpips_reason = None
@@ -439,7 +449,8 @@ def temporal_metrics(
                         ep = eg = None
                 parts[name]["pred"].append(ep)
                 parts[name]["gt"].append(eg)
-                per_pair[name].append(None if ep is None else ep - eg)
+                per_pair[name].append(None if ep is None else abs(ep - eg))
+                parts[name]["signed"].append(None if ep is None else ep - eg)
 
             fp = cache.flow(pp, p, fcfg)
             per_pair["tof"].append(tof(fp, fw))
@@ -484,6 +495,7 @@ def temporal_metrics(
         value, reason = _mean_or_reason(per_pair[name], empty)
         out[name] = {"value": value, "reason": reason, "per_pair": per_pair[name]}
         if base == "warp_error":
+            out[name]["signed"] = _mean_or_reason(parts[name]["signed"], empty)[0]
             out[name]["pred"] = _mean_or_reason(parts[name]["pred"], empty)[0]
             out[name]["gt"] = _mean_or_reason(parts[name]["gt"], empty)[0]
 
@@ -507,6 +519,6 @@ def temporal_metrics(
                 sel = keep[static_keep]  # static_keep's pixels, in the accumulators' order
                 vp = float(static_p.std()[sel].mean())
                 vg = float(static_g.std()[sel].mean())
-                entry.update(value=vp - vg, pred=vp, gt=vg)
+                entry.update(value=abs(vp - vg), signed=vp - vg, pred=vp, gt=vg)
         out[name] = entry
     return {name: out[name] for name in names}

@@ -349,9 +349,20 @@ def test_warp_error_summary_is_pred_minus_gt_mean_of_pairs(rng):
     pred = [g + rng.normal(0, 0.05, g.shape).astype(np.float32) for g in gt]
     res = temporal_metrics(pred, gt, config=TemporalConfig(tlp=False))
     e = res["warp_error"]
-    assert e["value"] == pytest.approx(e["pred"] - e["gt"], abs=1e-12)
+    assert e["signed"] == pytest.approx(e["pred"] - e["gt"], abs=1e-12)
     assert e["value"] == pytest.approx(np.mean(e["per_pair"]), abs=1e-12)
     assert e["value"] > 0 and len(e["per_pair"]) == 3
+    assert e["value"] >= abs(e["signed"])
+
+
+def test_warp_error_and_flicker_are_absolute_differences(rng):
+    gt = panning(texture(rng), 4, step=(0, 0))
+    gt = [g + rng.normal(0, 0.03, g.shape).astype(np.float32) for g in gt]  # noisy sensor
+    steady = [gt[0]] * 4  # a prediction steadier than its ground truth
+    res = temporal_metrics(steady, gt, static_mask=np.ones((H, W), bool), lpips_fn=mean_abs)
+    for name in ("warp_error", "flicker"):
+        assert res[name]["signed"] < 0 and res[name]["value"] == pytest.approx(-res[name]["signed"])
+    assert flicker(steady, gt, np.ones((H, W), bool)) == res["flicker"]["value"]
 
 
 def test_brightness_flicker_moves_the_metrics_monotonically(rng):
