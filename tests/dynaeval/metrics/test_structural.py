@@ -1,0 +1,239 @@
+"""SSIM: fast path vs scikit-image (1e-6) and vs the float64 reference, hard cases, regions.
+
+Oracle: ``skimage.metrics.structural_similarity(gaussian_weights=True, sigma=1.5,
+use_sample_covariance=False, data_range=1)`` on float64 input.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from dynaeval.errors import EmptyRegionError, InputError
+from dynaeval.metrics import ssim, ssim_map, ssim_reference
+from dynaeval.metrics.structural import K1, K2, WIN_SIZE, gaussian_window
+
+skm = pytest.importorskip("skimage.metrics")
+
+TOL = 1e-6
+
+
+def _sk(a: np.ndarray, b: np.ndarray, data_range: float = 1.0) -> float:
+    kw = {"gaussian_weights": True, "sigma": 1.5, "use_sample_covariance": False, "data_range": data_range}
+    if a.ndim == 3:
+        kw["channel_axis"] = -1
+    return float(skm.structural_similarity(a.astype(np.float64), b.astype(np.float64), **kw))
+
+
+def _structured(h: int, w: int) -> np.ndarray:
+    y, x = np.mgrid[0:h, 0:w].astype(np.float64)
+    return np.stack([x / (w - 1), 0.5 + 0.5 * np.sin(x / 3.0 + y / 5.0), (x > w / 2).astype(float)], -1)
+
+
+@pytest.mark.parametrize("shape", [(11, 11, 3), (13, 29, 3), (37, 53, 3), (64, 41), (30, 30, 1), (25, 40, 5)])
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_ssim_matches_skimage_random(rng, shape, dtype):
+    a = rng.random(shape).astype(dtype)
+    b = np.clip(a + 0.1 * rng.standard_normal(shape), 0, 1).astype(dtype)
+    assert abs(ssim(a, b) - _sk(a, b)) < TOL
+
+
+@pytest.mark.parametrize("shape", [(31, 45), (64, 77)])
+def test_ssim_matches_skimage_structured(rng, shape):
+    a = _structured(*shape)
+    b = np.clip(a + rng.normal(0, 0.03, a.shape), 0, 1)
+    blurred = (a + np.roll(a, 1, axis=1)) / 2  # structural change, no noise
+    assert abs(ssim(a, b) - _sk(a, b)) < TOL
+    assert abs(ssim(a, blurred) - _sk(a, blurred)) < TOL
+
+
+def test_ssim_matches_skimage_uint8_with_data_range_255(rng):
+    a = rng.integers(0, 256, (40, 33, 3), dtype=np.uint8)
+    b = np.clip(a.astype(int) + rng.integers(-20, 20, a.shape), 0, 255).astype(np.uint8)
+    assert abs(ssim(a, b, data_range=255) - _sk(a, b, data_range=255)) < TOL
+    assert abs(ssim(a, b, data_range=255) - ssim(a / 255.0, b / 255.0)) < TOL
+
+
+def test_fast_map_equals_float64_reference(rng):
+    a = rng.random((45, 38, 3))
+    b = np.clip(a + 0.2 * rng.standard_normal(a.shape), 0, 1)
+    fast, ref = ssim_map(a, b), ssim_reference(a, b)
+    assert fast.shape == ref.shape == (45 - 10, 38 - 10)
+    np.testing.assert_allclose(fast, ref, rtol=0, atol=1e-5)  # per window (float32 work)
+    assert abs(fast.mean(dtype=np.float64) - ref.mean()) < TOL  # the score
+    assert abs(ref.mean() - _sk(a, b)) < 1e-12  # the reference is scikit-image's number
+
+
+def test_window_is_11_taps_summing_to_one():
+    k = gaussian_window()
+    assert k.shape == (WIN_SIZE,) == (11,)
+    assert k.sum() == pytest.approx(1.0, abs=1e-15)
+    assert k[5] == k.max() and np.allclose(k, k[::-1])
+
+
+def test_constant_images():
+    a = np.full((15, 15, 3), 0.25)
+    assert ssim(a, a) == 1.0
+    assert ssim(np.zeros((15, 15)), np.zeros((15, 15))) == 1.0  # 0/0 is handled by C1, C2
+    b = np.full((15, 15, 3), 0.75)
+    c1 = K1**2
+    expected = (2 * 0.25 * 0.75 + c1) / (0.25**2 + 0.75**2 + c1)  # the structure term is C2/C2
+    assert ssim(a, b) == pytest.approx(expected, abs=TOL)
+    assert abs(ssim(a, b) - _sk(a, b)) < TOL
+    assert K2 == 0.03
+
+
+@pytest.mark.parametrize("shape", [(10, 20, 3), (20, 10), (1, 1, 3), (1, 1)])
+def test_images_smaller_than_the_window_raise(shape):
+    with pytest.raises(InputError, match=rf"at least 11x11 pixels.*got {shape[0]}x{shape[1]}"):
+        ssim(np.zeros(shape), np.zeros(shape))
+    with pytest.raises(InputError, match="at least 11x11"):
+        ssim_map(np.zeros(shape), np.zeros(shape))
+
+
+def test_float16_is_upcast(rng):
+    a = rng.random((20, 20, 3)).astype(np.float16)
+    b = rng.random((20, 20, 3)).astype(np.float16)
+    assert ssim(a, b) == ssim(a.astype(np.float32), b.astype(np.float32))
+    assert abs(ssim(a, b) - _sk(a, b)) < TOL
+
+
+def test_grayscale_2d_equals_single_channel(rng):
+    a, b = rng.random((20, 24)), rng.random((20, 24))
+    assert ssim(a, b) == ssim(a[..., None], b[..., None])
+
+
+def test_torch_tensor_input(rng):
+    torch = pytest.importorskip("torch")
+    a, b = rng.random((16, 16, 3)), rng.random((16, 16, 3))
+    assert ssim(torch.from_numpy(a), torch.from_numpy(b)) == ssim(a, b)
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**31), h=st.integers(11, 30), w=st.integers(11, 30), sigma=st.floats(0.02, 0.3))
+def test_ssim_properties(seed, h, w, sigma):
+    rng = np.random.default_rng(seed)
+    gt = rng.random((h, w, 3))
+    noise = sigma * rng.standard_normal(gt.shape)
+    p1, p2 = gt + noise, gt + 2 * noise
+    assert ssim(p1, gt) == ssim(gt, p1)  # symmetric
+    assert ssim(gt, gt) == 1.0  # identical -> ideal
+    assert ssim(p1, gt) <= 1.0 + 1e-7  # bounded (float32 work may round up by < 1e-7)
+    assert ssim(p2, gt) < ssim(p1, gt)  # more noise -> worse
+
+
+# ---- regions ----------------------------------------------------------------------------------
+
+
+def _pair(rng, shape=(60, 70, 3)):
+    a = rng.random(shape)
+    return a, np.clip(a + 0.15 * rng.standard_normal(shape), 0, 1)
+
+
+def test_masked_ssim_is_the_map_mean_over_the_mask(rng):
+    a, b = _pair(rng)
+    mask = np.zeros(a.shape[:2], bool)
+    mask[20:35, 12:50] = True
+    mask[2:8, 2:8] = True  # partly within 5 px of the border: those pixels have no window
+    ref = ssim_reference(a, b)  # map of pixels [5:-5, 5:-5]
+    expected = ref[mask[5:-5, 5:-5]].mean()
+    assert abs(ssim(a, b, mask=mask) - expected) < TOL
+
+
+def test_counting_windows_without_mask_support_as_one_biases_towards_one(rng):
+    """The trap: fill the map with 1 outside the mask (or copy gt there) and average everything."""
+    a, b = _pair(rng)
+    mask = np.zeros(a.shape[:2], bool)
+    mask[20:35, 12:50] = True
+    ours = ssim(a, b, mask=mask)
+    full = ssim_map(a, b).astype(np.float64)
+    biased = np.where(mask[5:-5, 5:-5], full, 1.0).mean()
+    pasted = ssim(np.where(mask[..., None], b, a), a)  # pred = gt outside the mask
+    assert ours + 0.05 < biased and ours < pasted
+    assert abs(ours - full[mask[5:-5, 5:-5]].mean()) < TOL
+
+
+def test_masked_ssim_uses_real_pixels_outside_the_mask(rng):
+    a, b = _pair(rng)
+    mask = np.zeros(a.shape[:2], bool)
+    mask[30, 30] = True
+    # the single window centred at (30, 30) sees pixels outside the mask
+    expected = _sk(a[25:36, 25:36], b[25:36, 25:36])
+    assert abs(ssim(a, b, mask=mask) - expected) < TOL
+
+
+def test_mask_only_in_the_border_band_is_empty(rng):
+    a, b = _pair(rng)
+    mask = np.zeros(a.shape[:2], bool)
+    mask[:5, :] = True
+    with pytest.raises(EmptyRegionError, match="within 5 px of the image border"):
+        ssim(a, b, mask=mask)
+
+
+def test_focused_crop_mode_is_area_weighted_ssim_of_crops(rng):
+    a, b = _pair(rng)
+    boxes = np.array([[0, 0, 30, 20], [40, 30, 70, 60]])
+    vals = [_sk(a[y0:y1, x0:x1], b[y0:y1, x0:x1]) for x0, y0, x1, y1 in boxes]
+    areas = [600, 900]
+    assert abs(ssim(a, b, boxes=boxes) - np.average(vals, weights=areas)) < TOL
+
+
+def test_boxes_smaller_than_the_window_are_grown_with_real_pixels(rng):
+    a, b = _pair(rng)
+    # 4x4 box at (x 20..24, y 10..14) -> 11x11 crop x 17..28, y 7..18 (3 px before, 4 after)
+    assert abs(ssim(a, b, boxes=[[20, 10, 24, 14]]) - _sk(a[7:18, 17:28], b[7:18, 17:28])) < TOL
+    # near the corner with negative coordinates: clipped to [0, 0, 3, 2], grown to [0, 0, 11, 11]
+    assert abs(ssim(a, b, boxes=[[-5, -5, 3, 2]]) - _sk(a[:11, :11], b[:11, :11])) < TOL
+
+
+def test_crop_mode_ignores_differences_outside_the_boxes_map_mode_does_not(rng):
+    gt = rng.random((60, 70, 3))
+    pred = np.clip(gt + 0.2 * rng.standard_normal(gt.shape), 0, 1)
+    box = np.array([[20, 20, 45, 40]])
+    inside = np.zeros(gt.shape[:2], bool)
+    inside[20:40, 20:45] = True
+    pred[inside] = gt[inside]  # differs only outside the box
+    assert ssim(pred, gt, boxes=box) == 1.0
+    assert ssim(pred, gt, boxes=box, region_mode="crop") == 1.0
+    assert ssim(pred, gt, boxes=box, region_mode="map") < 0.99  # windows at the box edge see outside
+
+
+def test_map_mode_with_boxes_equals_mask_of_their_union(rng):
+    a, b = _pair(rng)
+    boxes = [[0, 0, 30, 20], [10, 10, 50, 50]]
+    from dynaeval.regions.boxes import boxes_to_mask
+
+    m = boxes_to_mask(boxes, 60, 70)
+    assert ssim(a, b, boxes=boxes, region_mode="map") == ssim(a, b, mask=m)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"region_mode": "mean"}, r"region_mode must be one of \('crop', 'map'\)"),
+        ({"region_mode": "crop", "mask": np.ones((20, 20), bool)}, "region_mode='crop' needs boxes"),
+        ({"data_range": -1}, "positive number"),
+    ],
+)
+def test_ssim_input_errors(kwargs, match):
+    with pytest.raises(InputError, match=match):
+        ssim(np.zeros((20, 20)), np.zeros((20, 20)), **kwargs)
+
+
+def test_ssim_shape_mismatch_and_nan():
+    with pytest.raises(InputError, match="same shape"):
+        ssim(np.zeros((20, 20)), np.zeros((20, 21)))
+    bad = np.zeros((20, 20))
+    bad[3, 3] = np.nan
+    with pytest.raises(InputError, match="NaN or Inf"):
+        ssim(bad, np.zeros((20, 20)))
+
+
+def test_empty_regions_raise():
+    z = np.zeros((20, 20))
+    with pytest.raises(EmptyRegionError, match="mask holds no pixel"):
+        ssim(z, z, mask=np.zeros((20, 20), bool))
+    with pytest.raises(EmptyRegionError, match="no box"):
+        ssim(z, z, boxes=[[30, 30, 40, 40]])
