@@ -333,7 +333,7 @@ class Ball:
                         if pn[2] < 2.44:
                             tau = tn
                             p, rot = pn, rot_axis(spin, np.linalg.norm(spin) * tn) @ rot
-                            v = (v + g * tn) * np.array([0.05, 0.05, 0.5])
+                            v = (v + g * tn) * np.array([-0.1, -0.1, 0.5])
                             t += tn
                             continue
                 p = p + v * tau + 0.5 * g * tau * tau
