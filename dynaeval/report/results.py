@@ -77,9 +77,16 @@ def build_results(
     warnings: list[dict],
     timing: dict[str, float],
     version: str,
+    temporal: dict[str, dict[str, dict]] | None = None,
 ) -> dict[str, Any]:
-    """Assemble the results document from per-frame rows (values may be inf; made strict here)."""
+    """Assemble the results document from per-frame rows (values may be inf; made strict here).
+
+    ``temporal``: per camera, ``dynaeval.metrics.temporal.temporal_metrics`` output; each camera
+    gets the ``value`` of every term, the summary the mean over all frame pairs of all cameras
+    (``flicker``, which has no per-pair value: the mean over cameras).
+    """
     warnings = list(warnings)
+    temporal = temporal or {}
     cameras: dict[str, dict[str, Any]] = {}
     by_camera: dict[str, list[dict]] = {}
     for row in rows:
@@ -95,6 +102,21 @@ def build_results(
         summary[name], counts[name], reason = _mean([r.get(name) for r in rows])
         if reason and rows:
             warnings.append({"metric": name, "reason": f"summary is null: {reason}"})
+    temporal_names: list[str] = []
+    for cam, terms in temporal.items():
+        for name, entry in terms.items():
+            if name not in temporal_names:
+                temporal_names.append(name)
+            cameras.setdefault(cam, {"n_frames": 0})[name] = entry.get("value")
+            if entry.get("value") is None and entry.get("reason"):
+                warnings.append({"camera": cam, "metric": name, "reason": entry["reason"]})
+    for name in temporal_names:
+        pooled: list[float | None] = []
+        for terms in temporal.values():
+            entry = terms.get(name, {})
+            per_pair = entry.get("per_pair")
+            pooled.extend(per_pair if per_pair else [entry.get("value")])
+        summary[name], counts[name], _ = _mean(pooled)
     frames = [
         {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in r.items()}
         for r in rows
@@ -116,7 +138,7 @@ def build_results(
         "settings": settings,
         "metrics": {
             n: dict(zip(("higher_is_better", "unit"), _direction(n), strict=True))
-            for n in metric_names
+            for n in [*metric_names, *temporal_names]
         },
         "frames": frames,
         "cameras": cameras,

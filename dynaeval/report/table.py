@@ -4,41 +4,64 @@ from __future__ import annotations
 
 from typing import Any
 
-_FORMATS = {"psnr": "{:.3f}"}
+REGIONS = (("", "whole"), ("focused_", "focused"), ("masked_", "masked"))
 
 
-def _fmt(name: str, value: Any) -> str:
+def _fmt(base: str, value: Any) -> str:
     if value is None:
         return "n/a"
-    if isinstance(value, int):
-        return str(value)
-    base = name.split("_", 1)[1] if name.startswith(("focused_", "masked_")) else name
-    return _FORMATS.get(base, "{:.4f}").format(value)
+    return f"{value:.3f}" if base == "psnr" else f"{value:.4f}"
 
 
-def summary_table(results: dict[str, Any]) -> str:
-    """Per-camera means and the overall mean as an aligned text table.
+def _base(name: str) -> str:
+    for prefix, _ in REGIONS:
+        if prefix and name.startswith(prefix):
+            return name[len(prefix):]
+    return name
 
-    Columns are the metrics in ``results["metrics"]`` with their direction (↑ higher is better,
-    ↓ lower is better); the last row is the summary (mean over all frames).
-    """
-    names = list(results["metrics"])
-    header = ["camera", "frames"] + [
-        f"{n} {'↑' if results['metrics'][n]['higher_is_better'] else '↓'}" for n in names
-    ]
-    rows = [
-        [cam, str(v["n_frames"])] + [_fmt(n, v.get(n)) for n in names]
-        for cam, v in results["cameras"].items()
-    ]
-    s = results["summary"]
-    rows.append(["all", str(s["n_frames"])] + [_fmt(n, s.get(n)) for n in names])
+
+def _render(header: list[str], rows: list[list[str]]) -> list[str]:
     widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
 
     def line(cells: list[str]) -> str:
         return "  ".join(
-            c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(cells, widths, strict=True))
+            c.ljust(w) if i == 0 else c.rjust(w)
+            for i, (c, w) in enumerate(zip(cells, widths, strict=True))
         )
 
-    title = f"{results['method']} on {results['scene']}"
-    sep = "-" * len(line(header))
-    return "\n".join([title, line(header), sep, *map(line, rows[:-1]), sep, line(rows[-1])])
+    head = line(header)
+    return [head, "-" * len(head), *map(line, rows)]
+
+
+def summary_table(results: dict[str, Any]) -> str:
+    """The summary (mean over all frames) as a metric x region table, then per-camera means of
+    the whole-frame metrics. Arrows give the direction: ↑ higher is better, ↓ lower is better."""
+    metrics = results["metrics"]
+    summary = results["summary"]
+    bases: list[str] = []
+    for name in metrics:
+        if _base(name) not in bases:
+            bases.append(_base(name))
+    regions = [(p, label) for p, label in REGIONS if any(p + b in metrics for b in bases)]
+    rows = []
+    for b in bases:
+        info = metrics.get(b) or next(metrics[p + b] for p, _ in regions if p + b in metrics)
+        arrow = "↑" if info["higher_is_better"] else "↓"
+        unit = f" ({info['unit']})" if info["unit"] else ""
+        rows.append([f"{b} {arrow}{unit}"] + [
+            _fmt(b, summary.get(p + b)) if p + b in metrics else "" for p, _ in regions
+        ])
+    n_cams = len(results["cameras"])
+    out = [
+        f"{results['method']} on {results['scene']}: {summary['n_frames']} frames, "
+        f"{n_cams} camera{'s' if n_cams != 1 else ''} (means over frames)",
+        *_render(["metric"] + [label for _, label in regions], rows),
+    ]
+    whole = [b for b in bases if b in metrics and b in ("psnr", "ssim", "lpips")]
+    if n_cams > 1 and whole:
+        cam_rows = [
+            [cam, str(v["n_frames"])] + [_fmt(b, v.get(b)) for b in whole]
+            for cam, v in results["cameras"].items()
+        ]
+        out += ["", *_render(["camera", "frames", *whole], cam_rows)]
+    return "\n".join(out)

@@ -1,0 +1,5 @@
+import sys
+
+from dynaeval.cli import main
+
+sys.exit(main())

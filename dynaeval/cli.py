@@ -1,0 +1,169 @@
+"""Command line: a thin layer of argument parsing over the library.
+
+Exit codes: 0 scored; 2 bad input or usage (the message names the file and what is wrong);
+1 a bug (a traceback is printed: please report it).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import traceback
+from pathlib import Path
+
+from dynaeval import __version__
+from dynaeval.errors import InputError
+
+EXIT_OK, EXIT_BUG, EXIT_INPUT = 0, 1, 2
+
+
+def sample_dir() -> Path:
+    """Folder of the sample scene shipped inside the package (``pred/`` and ``gt/``)."""
+    return Path(__file__).resolve().parent / "data" / "sample"
+
+
+def _add_score_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--method", help="method name for the leaderboard (default: PRED's folder name)")
+    p.add_argument("--scene", help="scene name for the leaderboard (default: GT's folder name)")
+    p.add_argument("--no-lpips", action="store_true", help="skip LPIPS (no torch needed)")
+    p.add_argument("--lpips-net", choices=["alex", "vgg"], default="alex",
+                   help="LPIPS backbone (default: alex)")
+    p.add_argument("--quantize", choices=["none", "round", "truncate"], default="none",
+                   help="quantise both images to 8 bit before scoring, as some evaluators do "
+                        "(default: none)")
+    p.add_argument("--background", choices=["white", "black"], default="white",
+                   help="colour RGBA frames are composited over (default: white)")
+    p.add_argument("--allow-missing", action="store_true",
+                   help="score the frames present when a camera misses some predictions, and "
+                        "record what was skipped")
+    p.add_argument("--focus", default="detector", metavar="detector|motion|boxes:FILE|none",
+                   help="boxes for the focused_* metrics, from the ground truth: the ONNX detector "
+                        "(default), connected components of the motion masks, a boxes file "
+                        "(dynaeval detect, or the scene generator's boxes.json), or none")
+    p.add_argument("--detector", metavar="MODEL.onnx",
+                   help="ONNX detector for --focus detector (default: the one shipped with dynaeval)")
+    p.add_argument("--expand", choices=["paper", "margin", "none"], default="paper",
+                   help="box expansion: paper = width x7, height x2.5 as in the seed study "
+                        "(default), margin, or none; boxes are then clipped and merged")
+    p.add_argument("--no-masked", action="store_true",
+                   help="skip motion masks and the masked_* metrics")
+    p.add_argument("--no-temporal", action="store_true",
+                   help="skip the temporal metrics (warp_error, tof, tlp, flicker)")
+    p.add_argument("--flow", choices=["dis", "farneback", "tvl1"], default="dis",
+                   help="optical flow for the temporal metrics (default: dis)")
+    p.add_argument("--workers", type=int, default=1, metavar="N",
+                   help="frames scored concurrently; never changes a number (default: 1)")
+    p.add_argument("--device", choices=["cpu", "cuda", "auto"], default="cpu",
+                   help="torch device for LPIPS (default: cpu)")
+    p.add_argument("-o", "--output", metavar="results.json",
+                   help="write the results JSON here (atomically)")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing -o file")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="dynaeval",
+        description="Score novel views of dynamic scenes: whole-frame, focused, masked and "
+                    "temporal metrics.",
+    )
+    parser.add_argument("--version", action="version", version=f"dynaeval {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p = sub.add_parser("score", help="score predicted frames against ground truth",
+                       description="Score PRED frames against GT frames (folders of images, one "
+                                   "sub-folder per camera, or videos).")
+    p.add_argument("pred", help="folder of predicted frames")
+    p.add_argument("gt", help="folder of ground-truth frames, same layout")
+    _add_score_options(p)
+
+    d = sub.add_parser("demo", help="score the sample scene shipped with dynaeval",
+                       description="Score the bundled sample predictions against the bundled "
+                                   "ground truth, print the table and write results JSON.")
+    d.add_argument("-o", "--output", default="dynaeval-demo-results.json", metavar="results.json",
+                   help="where to write the results (default: %(default)s, replaced if present)")
+    d.add_argument("--no-lpips", action="store_true", help="skip LPIPS")
+    d.set_defaults(focus=f"boxes:{sample_dir() / 'boxes.json'}")
+    d.add_argument("--workers", type=int, default=1, metavar="N")
+    d.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    return parser
+
+
+def _run_score(pred: str, gt: str, args: argparse.Namespace, *, overwrite: bool) -> int:
+    from dynaeval.evaluate import ScoreConfig, score
+    from dynaeval.regions.focus import FocusConfig
+    from dynaeval.report import summary_table, write_json_atomic
+
+    output = getattr(args, "output", None)
+    if output and Path(output).exists() and not overwrite:
+        # checked before scoring so a long run is not lost at the end
+        raise InputError("results file exists; pass --overwrite or choose another -o", path=output)
+    config = ScoreConfig(
+        method=getattr(args, "method", None) or ("sample-degraded" if args.command == "demo" else None),
+        scene=getattr(args, "scene", None) or ("sample" if args.command == "demo" else None),
+        lpips=not args.no_lpips,
+        lpips_net=getattr(args, "lpips_net", "alex"),
+        quantize=getattr(args, "quantize", "none"),
+        background=getattr(args, "background", "white"),
+        allow_missing=getattr(args, "allow_missing", False),
+        workers=args.workers,
+        device=getattr(args, "device", "cpu"),
+        progress=not args.quiet,
+        focus=FocusConfig.parse(
+            args.focus,
+            detector_model=getattr(args, "detector", None),
+            expand=getattr(args, "expand", "paper"),
+            masked=not getattr(args, "no_masked", False),
+            device=getattr(args, "device", "cpu"),
+        ),
+        temporal=not getattr(args, "no_temporal", False),
+        flow=getattr(args, "flow", "dis"),
+    )
+    results = score(pred, gt, config)
+    for w in results["warnings"]:
+        if "camera" not in w:  # run-level warnings; per-frame ones are in the JSON
+            print(f"dynaeval: warning: {w['reason']}", file=sys.stderr)
+    n_frame_warnings = sum("camera" in w for w in results["warnings"])
+    if n_frame_warnings:
+        print(f"dynaeval: {n_frame_warnings} per-frame warning(s), listed in the results JSON",
+              file=sys.stderr)
+    if results["inputs"]["unscored_cameras"]:
+        cams = results["inputs"]["unscored_cameras"]
+        print(f"dynaeval: {len(cams)} ground-truth camera(s) without predictions not scored: "
+              f"{', '.join(cams[:8])}{' …' if len(cams) > 8 else ''}", file=sys.stderr)
+    print(summary_table(results))
+    if output:
+        write_json_atomic(output, results, overwrite=overwrite)
+        print(f"results written to {output}", file=sys.stderr)
+    else:
+        print("(pass -o results.json to save the per-frame results)", file=sys.stderr)
+    return EXIT_OK
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``dynaeval`` command; returns the exit code."""
+    args = build_parser().parse_args(argv)
+    try:
+        if args.command == "score":
+            return _run_score(args.pred, args.gt, args, overwrite=args.overwrite)
+        if args.command == "demo":
+            root = sample_dir()
+            if not (root / "pred").is_dir():
+                raise InputError("the sample scene is missing from this installation", path=root)
+            return _run_score(str(root / "pred"), str(root / "gt"), args, overwrite=True)
+        raise AssertionError(args.command)  # argparse restricts the choices
+    except InputError as err:
+        print(f"dynaeval: error: {err}", file=sys.stderr)
+        return EXIT_INPUT
+    except KeyboardInterrupt:
+        print("dynaeval: interrupted; no results written", file=sys.stderr)
+        return 130
+    except Exception:
+        traceback.print_exc()
+        print("dynaeval: internal error (a bug): please report it with the traceback above",
+              file=sys.stderr)
+        return EXIT_BUG
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,193 @@
+"""Regions of one camera for scoring: boxes (detector, boxes file or motion) and motion masks.
+
+Regions come from the **ground truth only**, so that every method scored on a scene is scored on
+the same pixels. ``camera_regions`` returns one ``FrameRegions`` per frame of a camera; a frame with
+no box (or no moving pixel) carries the reason instead, and its focused (masked) metrics are null.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+from dynaeval.errors import InputError
+from dynaeval.regions.boxes import clip_boxes
+from dynaeval.regions.expand import ExpandConfig, expand_boxes
+
+FOCUS_SOURCES = ("detector", "motion", "boxes", "none")
+MIN_MOTION_FRAMES = 3
+"""Motion masks compare a frame with the temporal median: fewer frames give no stable median."""
+
+
+@dataclass(frozen=True)
+class FocusConfig:
+    """Where focused and masked metrics look (all of it goes into the results' settings)."""
+
+    source: str = "detector"
+    """Boxes for ``focused_*``: ``detector`` (ONNX detector on the ground truth), ``motion``
+    (connected components of the motion masks), ``boxes`` (a boxes file) or ``none``."""
+    boxes_file: str | None = None
+    """With ``source="boxes"``: the boxes file (``dynaeval detect`` or the scene generator)."""
+    detector_model: str | None = None
+    """ONNX detector file; None: the detector shipped with dynaeval."""
+    expand: str = "paper"
+    """Box expansion rule applied to boxes from any source: ``paper`` (width x7, height x2.5,
+    the seed study's rule), ``margin`` or ``none``; expanded boxes are clipped and merged."""
+    masked: bool = True
+    """Compute motion masks of each (static) camera and the ``masked_*`` metrics over them."""
+    motion_kind: str = "isg"
+    """Motion weights: ``isg`` (difference to the temporal median) or ``ist``."""
+    device: str = "cpu"
+    """Device for the detector (onnxruntime execution provider)."""
+
+    @staticmethod
+    def parse(spec: str, **kwargs: Any) -> FocusConfig:
+        """Build from the CLI form: ``detector``, ``motion``, ``none`` or ``boxes:FILE``."""
+        if spec.startswith("boxes:"):
+            path = spec[len("boxes:"):]
+            if not path:
+                raise InputError("--focus boxes:FILE needs a file name after 'boxes:'")
+            return FocusConfig(source="boxes", boxes_file=path, **kwargs)
+        if spec not in ("detector", "motion", "none"):
+            raise InputError(
+                f"--focus must be detector, motion, none or boxes:FILE, got {spec!r}"
+            )
+        return FocusConfig(source=spec, **kwargs)
+
+
+@dataclass
+class FrameRegions:
+    """The regions of one frame: boxes to focus on and the motion mask (or why there is none)."""
+
+    boxes: np.ndarray | None = None
+    """(N, 4) int64 expanded, clipped and merged boxes; None when there is no box."""
+    boxes_reason: str | None = None
+    """Why ``boxes`` is None."""
+    mask: np.ndarray | None = None
+    """(H, W) bool motion mask; None when there is none."""
+    mask_reason: str | None = None
+    """Why ``mask`` is None."""
+    raw_boxes: np.ndarray | None = None
+    """(N, 4) boxes as found, before expansion (for reports)."""
+
+
+@dataclass
+class RegionSources:
+    """Per-run state shared by all cameras: the opened detector or the boxes file."""
+
+    config: FocusConfig
+    detector: Any = None
+    boxes: dict[str, list[dict]] | None = None
+    settings: dict[str, Any] = field(default_factory=dict)
+
+
+def open_sources(config: FocusConfig) -> RegionSources:
+    """Open the detector or read the boxes file once per run; describe them for the results.
+
+    Raises:
+        InputError: the focus source is unknown, the boxes file or detector model is unusable.
+    """
+    if config.source not in FOCUS_SOURCES:
+        raise InputError(f"focus source must be one of {FOCUS_SOURCES}, got {config.source!r}")
+    settings: dict[str, Any] = {"source": config.source, "expand": _expand_settings(config.expand)}
+    src = RegionSources(config=config, settings=settings)
+    if config.source == "boxes":
+        from dynaeval.regions.boxes_file import read_boxes_file
+
+        bf = read_boxes_file(config.boxes_file)
+        src.boxes = bf.boxes
+        from dynaeval.regions.detector import file_sha256
+
+        settings["boxes_file"] = {
+            "path": str(config.boxes_file),
+            "sha256": file_sha256(config.boxes_file),
+            "source": bf.source,
+        }
+    elif config.source == "detector":
+        from dynaeval.regions.detector import Detector, DetectorConfig
+
+        det = Detector(DetectorConfig(model=config.detector_model, device=config.device))
+        src.detector = det
+        settings["detector"] = det.source()
+    if config.masked or config.source == "motion":
+        settings["motion"] = {"kind": config.motion_kind, "min_frames": MIN_MOTION_FRAMES}
+    return src
+
+
+def _expand_settings(rule: str) -> dict[str, Any]:
+    return asdict(ExpandConfig.preset(rule))
+
+
+def camera_regions(
+    camera: str,
+    frames: Sequence[str],
+    load_gt: Callable[[int], np.ndarray],
+    shape: tuple[int, int],
+    sources: RegionSources,
+) -> list[FrameRegions]:
+    """Regions of every frame of one camera, computed from its ground truth.
+
+    Args:
+        camera: camera name (boxes-file keys are ``"<camera>/<frame>"``).
+        frames: frame names in temporal order.
+        load_gt: ``i -> (H, W, C) float32`` ground truth of frame ``i`` in [0, 1].
+        shape: (H, W) of the frames.
+        sources: from ``open_sources``.
+
+    Returns:
+        One ``FrameRegions`` per frame.
+    """
+    from dynaeval.regions.motion import LazyFrames, MotionConfig, iter_motion_masks, mask_boxes
+
+    cfg = sources.config
+    h, w = shape
+    out = [FrameRegions() for _ in frames]
+    if cfg.masked or cfg.source == "motion":
+        if len(frames) < MIN_MOTION_FRAMES:
+            for r in out:
+                r.mask_reason = (
+                    f"motion masks need >= {MIN_MOTION_FRAMES} frames of a static camera, "
+                    f"camera {camera!r} has {len(frames)}"
+                )
+        else:
+            lazy = LazyFrames(list(range(len(frames))), load_gt)
+            for r, m in zip(out, iter_motion_masks(lazy, MotionConfig(kind=cfg.motion_kind)),
+                            strict=True):
+                if m.any():
+                    r.mask = m
+                else:
+                    r.mask_reason = "no moving pixel in the ground truth"
+    for i, (name, r) in enumerate(zip(frames, out, strict=True)):
+        if cfg.source == "none":
+            r.boxes_reason = "no focus regions requested (--focus none)"
+            continue
+        if cfg.source == "boxes":
+            from dynaeval.regions.boxes_file import frame_key, records_to_boxes
+
+            records = sources.boxes.get(frame_key(camera, name))
+            if records is None:
+                r.boxes_reason = f"frame {frame_key(camera, name)!r} is not in the boxes file"
+                continue
+            raw = records_to_boxes(records)
+        elif cfg.source == "detector":
+            raw = sources.detector(load_gt(i)).boxes
+        else:  # motion
+            if r.mask is None:
+                r.boxes_reason = r.mask_reason
+                continue
+            raw = mask_boxes(r.mask, min_area=16)
+        raw = clip_boxes(raw, h, w)
+        r.raw_boxes = raw
+        if len(raw) == 0:
+            r.boxes_reason = {
+                "detector": "the detector found no object in the ground truth",
+                "boxes": "the boxes file lists no box for this frame",
+                "motion": "no moving region in the ground truth",
+            }[cfg.source]
+            continue
+        r.boxes = expand_boxes(raw, cfg.expand, h, w)
+    return out
+

@@ -1,0 +1,135 @@
+"""The command line: exit codes, messages naming the file, nothing half-written."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from dynaeval.cli import main, sample_dir
+
+from ..helpers import moving_square_scene, write_frames
+
+
+@pytest.fixture
+def scene(tmp_path):
+    gt, frames = moving_square_scene(tmp_path / "gt")
+    for cam, seq in frames.items():
+        write_frames(tmp_path / "pred", cam, [np.clip(f.astype(int) + 5, 0, 255).astype(np.uint8)
+                                              for f in seq])
+    return tmp_path / "pred", gt
+
+
+def run(capsys, *args):
+    code = main([str(a) for a in args])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_score_prints_table_and_writes_json(tmp_path, scene, capsys):
+    pred, gt = scene
+    out_file = tmp_path / "r.json"
+    code, out, err = run(capsys, "score", pred, gt, "-o", out_file, "--no-lpips", "-q",
+                         "--focus", "motion")
+    assert code == 0, err
+    assert "psnr ↑ (dB)" in out and "focused" in out and "masked" in out
+    doc = json.loads(out_file.read_text())
+    assert doc["schema"] == "dynaeval/results/v1" and doc["summary"]["n_frames"] == 8
+    assert doc["settings"]["focus"]["source"] == "motion"
+
+
+def test_existing_output_refused_before_scoring(tmp_path, scene, capsys):
+    pred, gt = scene
+    out_file = tmp_path / "r.json"
+    out_file.write_text("keep me")
+    code, _, err = run(capsys, "score", pred, gt, "-o", out_file, "--no-lpips", "-q")
+    assert code == 2 and "r.json: results file exists; pass --overwrite" in err
+    assert out_file.read_text() == "keep me"
+
+
+def test_missing_folder_exit_2(tmp_path, capsys):
+    code, _, err = run(capsys, "score", tmp_path / "nope", tmp_path, "--no-lpips")
+    assert code == 2
+    assert "nope: prediction folder not found" in err and "Traceback" not in err
+
+
+def test_corrupt_frame_exit_2_and_no_results_file(tmp_path, scene, capsys):
+    pred, gt = scene
+    (pred / "cam01" / "0002.png").write_bytes(b"\x89PNG broken")
+    out_file = tmp_path / "r.json"
+    code, _, err = run(capsys, "score", pred, gt, "-o", out_file, "--no-lpips", "-q",
+                       "--focus", "none")
+    assert code == 2 and "0002.png: cannot decode image" in err
+    assert not out_file.exists() and list(tmp_path.glob(".r.json*")) == []
+
+
+def test_missing_frames_and_allow_missing(tmp_path, scene, capsys):
+    pred, gt = scene
+    (pred / "cam00" / "0001.png").unlink()
+    code, _, err = run(capsys, "score", pred, gt, "--no-lpips", "-q", "--focus", "none")
+    assert code == 2 and "ground-truth frames with no prediction: 0001" in err
+    out_file = tmp_path / "r.json"
+    code, _, err = run(capsys, "score", pred, gt, "--no-lpips", "-q", "--focus", "none",
+                       "--allow-missing", "-o", out_file)
+    assert code == 0, err
+    doc = json.loads(out_file.read_text())
+    assert doc["inputs"]["skipped_frames"] == [{"camera": "cam00", "frame": "0001"}]
+    assert doc["cameras"]["cam00"]["warp_error"] is None  # not a sequence any more
+    assert doc["cameras"]["cam01"]["warp_error"] is not None
+
+
+def test_nan_prediction_exit_2(tmp_path, scene, capsys):
+    OpenEXR = pytest.importorskip("OpenEXR")
+    pred, gt = scene
+    img = np.zeros((48, 64, 3), np.float32)
+    img[3, 4, 1] = np.inf
+    (pred / "cam00" / "0003.png").unlink()
+    hdr = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    with OpenEXR.File(hdr, {"RGB": img}) as f:
+        f.write(str(pred / "cam00" / "0003.exr"))
+    code, _, err = run(capsys, "score", pred, gt, "--no-lpips", "-q", "--focus", "none")
+    assert code == 2 and "0003.exr: 1 pixel values are NaN or Inf" in err
+
+
+def test_bad_focus_and_missing_detector(tmp_path, scene, capsys):
+    pred, gt = scene
+    code, _, err = run(capsys, "score", pred, gt, "--no-lpips", "--focus", "boxes")
+    assert code == 2 and "--focus must be detector, motion, none or boxes:FILE" in err
+    code, _, err = run(capsys, "score", pred, gt, "--no-lpips", "--focus", "detector",
+                       "--detector", tmp_path / "none.onnx")
+    assert code == 2 and "none.onnx: detector model not found" in err
+    code, _, err = run(capsys, "score", pred, gt, "--no-lpips", "--focus", f"boxes:{tmp_path}/x.json")
+    assert code == 2 and "x.json" in err
+
+
+def test_usage_error_exit_2(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["score"])
+    assert exc.value.code == 2
+
+
+def test_unscored_cameras_reported(tmp_path, scene, capsys):
+    pred, gt = scene
+    import shutil
+
+    shutil.rmtree(pred / "cam01")
+    code, _, err = run(capsys, "score", pred, gt, "--no-lpips", "-q", "--focus", "none")
+    assert code == 0 and "1 ground-truth camera(s) without predictions not scored: cam01" in err
+
+
+@pytest.mark.skipif(not (sample_dir() / "pred").is_dir(), reason="sample scene not generated")
+def test_demo_runs_on_bundled_sample(tmp_path, capsys):
+    out_file = tmp_path / "demo.json"
+    code, out, err = run(capsys, "demo", "-o", out_file, "-q", "--no-lpips")
+    assert code == 0, err
+    doc = json.loads(out_file.read_text())
+    assert doc["summary"]["n_frames"] > 0 and doc["summary"]["focused_psnr"] is not None
+
+
+def test_console_script_entry_point_runs():
+    proc = subprocess.run([sys.executable, "-m", "dynaeval", "--version"], capture_output=True,
+                          text=True, check=False)
+    assert proc.returncode == 0 and proc.stdout.startswith("dynaeval ")

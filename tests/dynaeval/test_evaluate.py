@@ -1,0 +1,187 @@
+"""The orchestration: numbers equal the pure functions, regions, temporal terms, invariances."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+import dynaeval
+from dynaeval import metrics as M
+from dynaeval.errors import InputError
+from dynaeval.evaluate import ScoreConfig
+from dynaeval.regions import write_boxes_file
+from dynaeval.regions.focus import FocusConfig
+from dynaeval.report import schema_path
+
+from .helpers import moving_square_scene, write_frames
+
+
+@pytest.fixture
+def scene(tmp_path):
+    gt, frames = moving_square_scene(tmp_path / "gt")
+    rng = np.random.default_rng(1)
+    pred = {
+        cam: [np.clip(f.astype(int) + rng.integers(-12, 13, f.shape), 0, 255).astype(np.uint8)
+              for f in seq]
+        for cam, seq in frames.items()
+    }
+    for cam, seq in pred.items():
+        write_frames(tmp_path / "pred", cam, seq)
+    return tmp_path / "pred", gt, frames, pred
+
+
+@pytest.fixture
+def random_lpips(monkeypatch):
+    """LPIPS with the package's real linear layers on a seeded random backbone (no download)."""
+    load, fn = M.load_lpips, M.lpips
+    monkeypatch.setattr(M, "load_lpips", lambda net, **kw: load(net, pretrained_backbone=False, **kw))
+    monkeypatch.setattr(M, "lpips", lambda p, g, **kw: fn(p, g, pretrained_backbone=False, **kw))
+
+
+def _frame_values(results, name):
+    return [f[name] for f in results["frames"]]
+
+
+def test_whole_frame_values_equal_pure_functions(scene):
+    pred_dir, gt_dir, gt, pred = scene
+    res = dynaeval.score(pred_dir, gt_dir, lpips=False, temporal=False, progress=False)
+    f32 = lambda x: x.astype(np.float32) / np.float32(255)  # noqa: E731 - as the reader does
+    expected = [M.psnr(f32(p), f32(g)) for c in gt for p, g in zip(pred[c], gt[c], strict=True)]
+    np.testing.assert_allclose(_frame_values(res, "psnr"), expected, rtol=0, atol=1e-12)
+    assert res["summary"]["psnr"] == pytest.approx(np.mean(expected), abs=1e-9)
+    assert res["summary"]["n_frames"] == 8 and list(res["cameras"]) == ["cam00", "cam01"]
+    jsonschema = pytest.importorskip("jsonschema")
+    jsonschema.validate(json.loads(json.dumps(res)), json.loads(schema_path().read_text()))
+
+
+def test_summary_is_mean_of_frames_not_pooled_error(scene):
+    pred_dir, gt_dir, gt, pred = scene
+    res = dynaeval.score(pred_dir, gt_dir, lpips=False, temporal=False, progress=False)
+    stats = [M.squared_error_stats(p / 255, g / 255) for c in gt
+             for p, g in zip(pred[c], gt[c], strict=True)]
+    pooled = 10 * math.log10(1 / (sum(s.sse for s in stats) / sum(s.count for s in stats)))
+    assert res["summary"]["psnr"] != pytest.approx(pooled, abs=1e-6)
+
+
+def test_workers_do_not_change_numbers(scene, random_lpips):
+    pred_dir, gt_dir, _, _ = scene
+    focus = FocusConfig(source="motion")
+    one = dynaeval.score(pred_dir, gt_dir, workers=1, focus=focus, progress=False)
+    two = dynaeval.score(pred_dir, gt_dir, workers=2, focus=focus, progress=False)
+    assert one["settings"]["lpips"]["enabled"]
+    assert one["frames"] == two["frames"]
+    assert one["summary"] == two["summary"]
+
+
+def test_ground_truth_against_itself_is_ideal(scene, random_lpips):
+    _, gt_dir, _, _ = scene
+    res = dynaeval.score(gt_dir, gt_dir, focus=FocusConfig(source="motion"), progress=False)
+    s = res["summary"]
+    assert s["psnr"] is None  # +inf is written as null with a reason
+    assert any("infinite" in w["reason"] for w in res["warnings"])
+    for name in ("ssim", "focused_ssim", "masked_ssim"):
+        assert s[name] == pytest.approx(1.0, abs=1e-12)
+    for name in ("lpips", "warp_error", "tof", "tlp", "focused_lpips"):
+        assert s[name] == pytest.approx(0.0, abs=1e-7), name
+    json.dumps(res, allow_nan=False)
+
+
+def test_focused_metrics_ignore_changes_outside_boxes(tmp_path, scene):
+    _, gt_dir, gt, _ = scene
+    boxes = {}
+    pred_root = tmp_path / "outside"
+    for cam, seq in gt.items():
+        changed = []
+        for t, f in enumerate(seq):
+            box = [8 + 4 * t, 20, 18 + 4 * t, 30]
+            boxes[f"{cam}/{t:04d}"] = [{"class": "person", "id": 1, "box": box, "visible": 1.0}]
+            g = f.copy()
+            g[:, 40:] = 255 - g[:, 40:]  # change the stadium, far right of the square
+            changed.append(g)
+        write_frames(pred_root, cam, changed)
+    write_boxes_file(tmp_path / "boxes.json", boxes)
+    focus = FocusConfig(source="boxes", boxes_file=str(tmp_path / "boxes.json"), expand="none",
+                        masked=False)
+    res = dynaeval.score(pred_root, gt_dir, lpips=False, temporal=False, focus=focus,
+                         progress=False)
+    assert res["summary"]["focused_ssim"] == pytest.approx(1.0, abs=1e-12)
+    assert res["summary"]["focused_psnr"] is None  # perfect in the boxes: +inf -> null
+    assert res["summary"]["psnr"] < 15
+
+
+def test_frame_missing_from_boxes_file_is_null_with_reason(tmp_path, scene):
+    pred_dir, gt_dir, _, _ = scene
+    write_boxes_file(tmp_path / "b.json", {"cam00/0000": [{"class": "ball", "id": 1,
+                                                          "box": [0, 0, 20, 20], "visible": 1.0}]})
+    focus = FocusConfig(source="boxes", boxes_file=str(tmp_path / "b.json"), masked=False)
+    res = dynaeval.score(pred_dir, gt_dir, lpips=False, temporal=False, focus=focus,
+                         progress=False)
+    vals = _frame_values(res, "focused_psnr")
+    assert vals[0] is not None and vals[1:] == [None] * 7
+    assert res["counts"]["focused_psnr"] == 1
+    assert any("not in the boxes file" in w["reason"] for w in res["warnings"])
+
+
+def test_temporal_terms_grow_with_flicker(tmp_path, scene):
+    _, gt_dir, gt, _ = scene
+    vals = []
+    for amp in (0, 10, 30):
+        root = tmp_path / f"flicker{amp}"
+        for cam, seq in gt.items():
+            write_frames(root, cam, [np.clip(f.astype(int) + (amp if t % 2 else -amp), 0, 255)
+                                     .astype(np.uint8) for t, f in enumerate(seq)])
+        res = dynaeval.score(root, gt_dir, lpips=False, focus=FocusConfig(source="motion"),
+                             progress=False)
+        vals.append((res["summary"]["warp_error"], res["summary"]["flicker"]))
+    assert vals[0][0] < vals[1][0] < vals[2][0]
+    assert vals[0][1] < vals[1][1] < vals[2][1]
+
+
+def test_size_mismatch_names_both_files(tmp_path, scene):
+    _, gt_dir, gt, _ = scene
+    write_frames(tmp_path / "p", "cam00", [f[:40] for f in gt["cam00"]])
+    with pytest.raises(InputError, match=r"0000\.png: prediction is 64x40 px but its ground truth"):
+        dynaeval.score(tmp_path / "p", gt_dir, lpips=False, progress=False)
+
+
+def test_channel_mismatch(tmp_path, scene):
+    _, gt_dir, gt, _ = scene
+    import cv2
+
+    (tmp_path / "p" / "cam00").mkdir(parents=True)
+    for i, f in enumerate(gt["cam00"]):
+        cv2.imwrite(str(tmp_path / "p" / "cam00" / f"{i:04d}.png"), f[..., 0])
+    with pytest.raises(InputError, match="prediction has 1 channel"):
+        dynaeval.score(tmp_path / "p", gt_dir, lpips=False, progress=False)
+
+
+def test_bad_settings():
+    with pytest.raises(InputError, match="quantize must be none, round or truncate"):
+        dynaeval.score(".", ".", quantize="ceil")
+    with pytest.raises(InputError, match="workers must be >= 1"):
+        dynaeval.score(".", ".", workers=0)
+
+
+def test_quantize_recorded_and_applied(scene):
+    pred_dir, gt_dir, _, _ = scene
+    res = dynaeval.score(pred_dir, gt_dir, lpips=False, temporal=False, quantize="truncate",
+                         progress=False)
+    assert res["settings"]["quantize"] == "truncate"
+
+
+def test_dataframe_accessor(scene):
+    pred_dir, gt_dir, _, _ = scene
+    res = dynaeval.score(pred_dir, gt_dir, lpips=False, temporal=False, progress=False)
+    df = res.to_dataframe()
+    assert len(df) == 8 and {"camera", "frame", "psnr", "ssim"} <= set(df.columns)
+    assert list(res.to_dataframe("cameras").index) == ["cam00", "cam01"]
+
+
+def test_default_config_scores_whole_frame_only(scene):
+    pred_dir, gt_dir, _, _ = scene
+    res = dynaeval.score(pred_dir, gt_dir, ScoreConfig(lpips=False, temporal=False,
+                                                       progress=False))
+    assert set(res["metrics"]) == {"psnr", "ssim"}
