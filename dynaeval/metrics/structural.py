@@ -59,57 +59,82 @@ def _check_size(h: int, w: int) -> None:
         )
 
 
-def _valid_map(p: np.ndarray, g: np.ndarray, data_range: float) -> np.ndarray:
-    """Channel-mean SSIM of every valid window: (H - 2r, W - 2r) float32 (fast path)."""
+BAND_ROWS = 64
+"""Output rows per band: the work is done band by band so the temporaries stay cache-sized."""
+
+
+def _blur(a: np.ndarray) -> np.ndarray:
+    """Gaussian window (11 taps, sigma 1.5) applied separably, float32, same size as ``a``.
+
+    OpenCV's kernel for (11, sigma 1.5) is exactly ``gaussian_window()`` (a test holds them
+    together); the reflected border only touches pixels that are cropped afterwards.
+    """
     import cv2
 
-    k = gaussian_window().astype(np.float32)
-    inv = np.float32(1.0 / data_range)
-    c1 = np.float32(K1 * K1)
-    c2 = np.float32(K2 * K2)
-    p3 = p if p.ndim == 3 else p[..., None]
-    g3 = g if g.ndim == 3 else g[..., None]
-    h, w, channels = p3.shape
+    out = cv2.GaussianBlur(a, (WIN_SIZE, WIN_SIZE), SIGMA, borderType=cv2.BORDER_REFLECT)
+    return out.reshape(a.shape)  # OpenCV drops a trailing channel axis of size 1
+
+
+def _band_map(xb: np.ndarray, yb: np.ndarray, inv: float) -> np.ndarray:
+    """Per-channel SSIM of the valid windows of one band of rows: (rows - 2r, W - 2r[, C]) float32.
+
+    Uses 4 filtered images instead of 5: with x, y centred at 0.5 and d = x - y,
+    ``mu_x^2 + mu_y^2 = 2 mu_x mu_y + (mu_x - mu_y)^2`` and
+    ``sigma_x^2 + sigma_y^2 = 2 sigma_xy + var(d)``, ``var(d) = w * d^2 - (w * d)^2``.
+    """
     r = RADIUS
-    out = np.zeros((h - 2 * r, w - 2 * r), dtype=np.float32)
-    # OpenCV filters up to 4 channels at once; more channels go in groups.
-    for c0 in range(0, channels, 4):
-        x = p3[..., c0 : c0 + 4].astype(np.float32) * inv - np.float32(0.5)
-        y = g3[..., c0 : c0 + 4].astype(np.float32) * inv - np.float32(0.5)
+    x = xb.astype(np.float32)
+    y = yb.astype(np.float32)
+    if inv != 1.0:
+        x *= np.float32(inv)
+        y *= np.float32(inv)
+    x -= np.float32(0.5)
+    y -= np.float32(0.5)
+    d = x - y
+    d2 = d * d
+    rows, cols = xb.shape[0] - 2 * r, xb.shape[1] - 2 * r
+    a = _blur(x)[r : r + rows, r : r + cols]  # mu_x - 0.5
+    b = _blur(y)[r : r + rows, r : r + cols]  # mu_y - 0.5
+    x *= y
+    exy = _blur(x)[r : r + rows, r : r + cols]  # w * (x y), centred data
+    ed2 = _blur(d2)[r : r + rows, r : r + cols]  # w * d^2
+    del x, y, d, d2
+    e = a - b  # mu_x - mu_y
+    e *= e
+    ab = a * b
+    exy -= ab  # sigma_xy
+    exy *= np.float32(2)
+    exy += np.float32(K2 * K2)  # num2 = 2 sigma_xy + C2
+    ed2 -= e
+    ed2 += exy  # den2 = sigma_x^2 + sigma_y^2 + C2
+    a += np.float32(0.5)
+    b += np.float32(0.5)
+    np.multiply(a, b, out=ab)
+    ab *= np.float32(2)
+    ab += np.float32(K1 * K1)  # num1 = 2 mu_x mu_y + C1
+    e += ab  # den1 = mu_x^2 + mu_y^2 + C1
+    ab *= exy
+    e *= ed2
+    ab /= e
+    return ab
 
-        def blur(a: np.ndarray) -> np.ndarray:
-            b = cv2.sepFilter2D(a, cv2.CV_32F, k, k, borderType=cv2.BORDER_REFLECT)
-            return b.reshape(a.shape)[r : h - r, r : w - r]
 
-        mx = blur(x)
-        my = blur(y)
-        sxx = blur(x * x)
-        syy = blur(y * y)
-        sxy = blur(x * y)
-        del x, y
-        # variances / covariance (shift invariant, so the centred data give them directly)
-        sxx -= mx * mx
-        syy -= my * my
-        sxy -= mx * my
-        # back to the true means for the luminance term
-        mx += np.float32(0.5)
-        my += np.float32(0.5)
-        num = mx * my
-        num *= 2
-        num += c1
-        sxy *= 2
-        sxy += c2
-        num *= sxy
-        den = mx * mx
-        den += my * my
-        den += c1
-        sxx += syy
-        sxx += c2
-        den *= sxx
-        num /= den
-        out += num.sum(axis=2) if num.ndim == 3 else num
-    out /= np.float32(channels)
+def _channel_maps(p: np.ndarray, g: np.ndarray, data_range: float) -> np.ndarray:
+    """Per-channel SSIM of every valid window: (H - 2r, W - 2r) or (H - 2r, W - 2r, C) float32."""
+    r = RADIUS
+    h, w = p.shape[:2]
+    out = np.empty((h - 2 * r, w - 2 * r) + p.shape[2:], dtype=np.float32)
+    inv = 1.0 / data_range
+    for r0 in range(0, h - 2 * r, BAND_ROWS):
+        r1 = min(h - 2 * r, r0 + BAND_ROWS)
+        out[r0:r1] = _band_map(p[r0 : r1 + 2 * r], g[r0 : r1 + 2 * r], inv)
     return out
+
+
+def _valid_map(p: np.ndarray, g: np.ndarray, data_range: float) -> np.ndarray:
+    """Channel-mean SSIM of every valid window: (H - 2r, W - 2r) float32 (fast path)."""
+    maps = _channel_maps(p, g, data_range)
+    return maps if maps.ndim == 2 else maps.mean(axis=2, dtype=np.float32)
 
 
 def ssim_map(pred: object, gt: object, *, data_range: float = 1.0) -> np.ndarray:
@@ -144,8 +169,8 @@ def _map_mean_over(p: np.ndarray, g: np.ndarray, m: np.ndarray, data_range: floa
             f"the region lies entirely within {r} px of the image border, where no SSIM window "
             "fits: masked SSIM is undefined for this frame"
         )
-    smap = _valid_map(p[y0:y1, x0:x1], g[y0:y1, x0:x1], data_range)
-    return float(smap[sub].mean(dtype=np.float64))
+    maps = _channel_maps(p[y0:y1, x0:x1], g[y0:y1, x0:x1], data_range)
+    return float(maps[sub].mean(dtype=np.float64))
 
 
 def _crop_mean(p: np.ndarray, g: np.ndarray, boxes: object, data_range: float) -> float:
@@ -156,8 +181,8 @@ def _crop_mean(p: np.ndarray, g: np.ndarray, boxes: object, data_range: float) -
     for box in clipped_boxes(boxes, h, w):
         area = int((box[2] - box[0]) * (box[3] - box[1]))
         x0, y0, x1, y1 = grow_box(box, WIN_SIZE, WIN_SIZE, h, w)
-        smap = _valid_map(p[y0:y1, x0:x1], g[y0:y1, x0:x1], data_range)
-        total += area * float(smap.mean(dtype=np.float64))
+        maps = _channel_maps(p[y0:y1, x0:x1], g[y0:y1, x0:x1], data_range)
+        total += area * float(maps.mean(dtype=np.float64))
         weight += area
     return total / weight
 
@@ -206,7 +231,7 @@ def ssim(
         raise InputError("region_mode='crop' needs boxes; a mask is scored with region_mode='map'")
     m = region_mask(mask, boxes, h, w)
     if m is None:
-        return float(_valid_map(p, g, data_range).mean(dtype=np.float64))
+        return float(_channel_maps(p, g, data_range).mean(dtype=np.float64))
     if boxes is not None and region_mode in (None, "crop"):
         return _crop_mean(p, g, boxes, data_range)
     return _map_mean_over(p, g, m, data_range)

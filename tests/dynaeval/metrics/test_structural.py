@@ -237,3 +237,19 @@ def test_empty_regions_raise():
         ssim(z, z, mask=np.zeros((20, 20), bool))
     with pytest.raises(EmptyRegionError, match="no box"):
         ssim(z, z, boxes=[[30, 30, 40, 40]])
+
+
+def test_opencv_gaussian_kernel_is_our_window():
+    """The fast path calls cv2.GaussianBlur((11, 11), 1.5): its kernel must be gaussian_window()."""
+    cv2 = pytest.importorskip("cv2")
+    k = cv2.getGaussianKernel(WIN_SIZE, 1.5, ktype=cv2.CV_64F).ravel()
+    np.testing.assert_allclose(k, gaussian_window(), rtol=0, atol=1e-15)
+
+
+def test_banded_computation_equals_one_band(rng, monkeypatch):
+    from dynaeval.metrics import structural
+
+    a, b = _pair(rng, (150, 40, 3))
+    whole = ssim_map(a, b)
+    monkeypatch.setattr(structural, "BAND_ROWS", 7)  # 140 output rows in 20 bands
+    np.testing.assert_array_equal(ssim_map(a, b), whole)
