@@ -9,7 +9,7 @@ import numpy as np
 from dynaeval.errors import InputError
 from reference_models.scenes.actors import Ball, Body, Player
 from reference_models.scenes.camera import Camera, look_at
-from reference_models.scenes.world import HALF_LENGTH, stand_points, sun_direction
+from reference_models.scenes.world import HALF_LENGTH, HALF_WIDTH, stand_points, sun_direction
 
 PRESETS = ("single-player-closeup", "single-player-broadcast", "players-stadium")
 """Preset names."""
@@ -211,8 +211,11 @@ def _stadium_cameras(rng: np.random.Generator, size: Size, actors: list,
         body = focus[idx].body(t_mid)
         target = body.bound[0].copy()
         target[2] = 1.0
-        ang, dist = rng.uniform(-np.pi, np.pi), rng.uniform(9.0, 15.0)
-        eye = target + np.array([dist * np.cos(ang), dist * np.sin(ang), rng.uniform(1.5, 3.5)])
+        for _ in range(100):  # stand on the pitch, not in the stands
+            ang, dist = rng.uniform(-np.pi, np.pi), rng.uniform(9.0, 15.0)
+            eye = target + np.array([dist * np.cos(ang), dist * np.sin(ang), rng.uniform(1.5, 3.5)])
+            if abs(eye[0]) < HALF_LENGTH - 2 and abs(eye[1]) < HALF_WIDTH - 2:
+                break
         evals.append(Camera.from_fov(f"eval{j:02d}", size.width, size.height, 40.0, look_at(eye, target)))
     return train, evals
 
