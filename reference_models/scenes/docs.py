@@ -46,7 +46,7 @@ def layout_plot(path: Path, seed: int = 0) -> None:
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.6))
-    for ax, preset in zip(axes, PRESETS):
+    for ax, preset in zip(axes, PRESETS, strict=True):
         scene = build_scene(preset, seed=seed, size="small")
         ax.add_patch(plt.Rectangle((-HALF_LENGTH, -HALF_WIDTH), 2 * HALF_LENGTH, 2 * HALF_WIDTH,
                                    color="#3a7d3a", alpha=0.35))
