@@ -449,3 +449,33 @@ def test_bad_images(tmp_path, image, match):
 def test_bad_config(kwargs, match):
     with pytest.raises(InputError, match=match):
         DetectorConfig(**kwargs)
+
+
+# ------------------------------------------------------------------------------------------
+# a real torchvision export (random weights: no network here), against the torch model itself
+
+
+@pytest.mark.slow
+def test_exported_torchvision_retinanet_matches_torch(tmp_path):
+    torch = pytest.importorskip("torch")
+    tvd = pytest.importorskip("torchvision.models.detection")
+    torch.manual_seed(0)
+    model = tvd.retinanet_resnet50_fpn(
+        weights=None, weights_backbone=None, min_size=160, max_size=160, score_thresh=0.0, detections_per_img=50
+    ).eval()
+    x = torch.rand(3, 90, 160)
+    path = tmp_path / "retinanet.onnx"
+    torch.onnx.export(
+        model, ([x],), str(path), opset_version=17, dynamo=False,
+        input_names=["image"], output_names=["boxes", "scores", "labels"],
+        dynamic_axes={"image": {1: "height", 2: "width"}, "boxes": {0: "n"}, "scores": {0: "n"}, "labels": {0: "n"}},
+    )
+    with torch.no_grad():
+        ref = model([x])[0]
+    image = x.permute(1, 2, 0).numpy()
+    det = Detector(DetectorConfig(model=path, classes=tuple(range(91)), score_threshold=0.0, nms_iou=1.0))
+    assert det.convention == "torchvision"
+    boxes, scores, labels = det.raw(image)
+    np.testing.assert_allclose(boxes, ref["boxes"].numpy(), rtol=1e-4, atol=1e-3)
+    np.testing.assert_allclose(scores, ref["scores"].numpy(), rtol=1e-4, atol=1e-5)
+    np.testing.assert_array_equal(labels, ref["labels"].numpy())
