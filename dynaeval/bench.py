@@ -1,0 +1,338 @@
+"""Per-frame time and accuracy of dynaeval's metrics against their peers: ``python -m dynaeval.bench``.
+
+For each frame size it times PSNR, SSIM and LPIPS (AlexNet with a *randomly initialised* backbone:
+the pretrained one cannot be downloaded here, and the cost does not depend on the weights) for
+dynaeval, scikit-image, torchmetrics and the lpips package where installed, and reports each one's
+deviation from a float64 reference:
+
+* PSNR: numpy, difference and mean in float64;
+* SSIM: scikit-image's Gaussian SSIM on float64 input (float64 throughout; the tests hold
+  ``dynaeval.metrics.ssim_reference``, an independent sliding-window float64 SSIM, to it at 1e-12);
+* LPIPS: the lpips package's network converted to float64, on float64 input.
+
+It also times the focused (boxes) and masked variants and measures how far the crop and map
+definitions of focused SSIM / LPIPS are apart. The table is printed and written to
+docs/benchmarks.md (``--out``) with the command and the machine.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import platform
+import statistics
+import sys
+import time
+import warnings
+from collections.abc import Callable
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dynaeval import __version__
+
+DEFAULT_SIZES = ("1920x1080", "960x540")
+
+
+def sample_pair(height: int, width: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A procedural 'pitch with players' frame, a degraded prediction and the player boxes.
+
+    Returns ``(pred, gt, boxes)``: (H, W, 3) float32 in [0, 1] and (N, 4) int64 boxes. The
+    prediction is the ground truth blurred and noised everywhere a little, and much more inside
+    the boxes (a renderer that struggles with the moving players).
+    """
+    import cv2
+
+    rng = np.random.default_rng(seed)
+    y, x = np.mgrid[0:height, 0:width].astype(np.float32)
+    stripes = 0.5 + 0.08 * np.sin(x * (2 * np.pi / (width / 9)))
+    grass = np.stack([0.2 * stripes, 0.9 * stripes, 0.25 * stripes], axis=-1)
+    grass += 0.03 * rng.standard_normal((height, width, 3)).astype(np.float32)
+    gt = grass
+    boxes = []
+    for _ in range(6):
+        bh = int(height * rng.uniform(0.08, 0.2))
+        bw = max(4, bh // 3)
+        x0 = int(rng.integers(0, width - bw))
+        y0 = int(rng.integers(0, height - bh))
+        colour = rng.random(3).astype(np.float32)
+        patch = colour + 0.15 * rng.standard_normal((bh, bw, 3)).astype(np.float32)
+        gt[y0 : y0 + bh, x0 : x0 + bw] = patch
+        boxes.append([x0 - bw, y0 - bh // 4, x0 + 2 * bw, y0 + bh + bh // 4])  # expanded box
+    gt = np.clip(gt, 0, 1).astype(np.float32)
+    pred = cv2.GaussianBlur(gt, (5, 5), 0.7) + 0.01 * rng.standard_normal(gt.shape).astype(np.float32)
+    for x0, y0, x1, y1 in boxes:
+        x0, y0 = max(0, x0), max(0, y0)
+        region = pred[y0:y1, x0:x1]
+        pred[y0:y1, x0:x1] = cv2.GaussianBlur(region, (9, 9), 2.5) + 0.05 * rng.standard_normal(
+            region.shape
+        ).astype(np.float32)
+    return np.clip(pred, 0, 1).astype(np.float32), gt, np.array(boxes, dtype=np.int64)
+
+
+def _time(fn: Callable[[], Any], repeats: int) -> tuple[float, Any]:
+    """Median wall time in seconds of ``fn()`` over ``repeats`` runs after one warm-up run."""
+    value = fn()
+    first = time.perf_counter()
+    fn()
+    times = [time.perf_counter() - first]
+    # slow peers get fewer repeats (at least 2 timed runs in all)
+    n = repeats if times[0] < 2.0 else 2
+    for _ in range(n - 1):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times), value
+
+
+def _peers() -> dict[str, Any]:
+    found: dict[str, Any] = {}
+    try:
+        import skimage.metrics as skm
+
+        found["skimage"] = skm
+    except ImportError:
+        pass
+    try:
+        import torchmetrics.functional.image as tmf
+
+        found["torchmetrics"] = tmf
+    except ImportError:
+        pass
+    return found
+
+
+def _nchw(a: np.ndarray) -> Any:
+    import torch
+
+    return torch.from_numpy(np.ascontiguousarray(a.transpose(2, 0, 1)[None]))
+
+
+def bench_size(height: int, width: int, repeats: int, with_lpips: bool) -> list[dict[str, Any]]:
+    """Rows ``{metric, impl, size, ms, dev}`` for one frame size."""
+    from dynaeval import metrics as M
+    from dynaeval.regions.boxes import boxes_to_mask
+
+    pred, gt, boxes = sample_pair(height, width)
+    p64, g64 = pred.astype(np.float64), gt.astype(np.float64)
+    size = f"{width}x{height}"
+    peers = _peers()
+    rows: list[dict[str, Any]] = []
+
+    def add(metric: str, impl: str, fn: Callable[[], Any], ref: float | None) -> float:
+        seconds, value = _time(fn, repeats)
+        value = float(value)
+        dev = None if ref is None else abs(value - ref)
+        rows.append({"metric": metric, "impl": impl, "size": size, "ms": 1e3 * seconds, "dev": dev, "value": value})
+        return value
+
+    # PSNR
+    ref_psnr = 10 * math.log10(1.0 / float(np.mean((p64 - g64) ** 2)))
+    add("psnr", "dynaeval", lambda: M.psnr(pred, gt), ref_psnr)
+    if "skimage" in peers:
+        add("psnr", "scikit-image", lambda: peers["skimage"].peak_signal_noise_ratio(gt, pred, data_range=1.0), ref_psnr)
+    if "torchmetrics" in peers:
+        tp, tg = _nchw(pred), _nchw(gt)
+        add("psnr", "torchmetrics", lambda: peers["torchmetrics"].peak_signal_noise_ratio(tp, tg, data_range=1.0), ref_psnr)
+
+    # SSIM
+    sk_kw = {"gaussian_weights": True, "sigma": 1.5, "use_sample_covariance": False, "data_range": 1.0, "channel_axis": -1}
+    ref_ssim = None
+    if "skimage" in peers:
+        ref_ssim = float(peers["skimage"].structural_similarity(p64, g64, **sk_kw))
+    add("ssim", "dynaeval", lambda: M.ssim(pred, gt), ref_ssim)
+    if "skimage" in peers:
+        add("ssim", "scikit-image (float32 in)", lambda: peers["skimage"].structural_similarity(pred, gt, **sk_kw), ref_ssim)
+        add("ssim", "scikit-image (float64 in)", lambda: peers["skimage"].structural_similarity(p64, g64, **sk_kw), ref_ssim)
+    if "torchmetrics" in peers:
+        tp, tg = _nchw(pred), _nchw(gt)
+        add(
+            "ssim",
+            "torchmetrics",
+            lambda: peers["torchmetrics"].structural_similarity_index_measure(
+                tp, tg, gaussian_kernel=True, sigma=1.5, kernel_size=11, data_range=1.0
+            ),
+            ref_ssim,
+        )
+
+    # focused / masked PSNR and SSIM
+    mask = boxes_to_mask(boxes, height, width)
+    add("focused_psnr", "dynaeval", lambda: M.focused_psnr(pred, gt, boxes), None)
+    add("masked_psnr", "dynaeval (box union as mask)", lambda: M.masked_psnr(pred, gt, mask), None)
+    add("focused_ssim", "dynaeval crop (default)", lambda: M.focused_ssim(pred, gt, boxes), None)
+    add("focused_ssim", "dynaeval map", lambda: M.focused_ssim(pred, gt, boxes, region_mode="map"), None)
+    add("masked_ssim", "dynaeval (box union as mask)", lambda: M.masked_ssim(pred, gt, mask), None)
+
+    if with_lpips:
+        rows.extend(_bench_lpips(pred, gt, boxes, mask, size, repeats))
+    return rows
+
+
+def _bench_lpips(pred, gt, boxes, mask, size, repeats) -> list[dict[str, Any]]:  # noqa: ANN001
+    import torch
+
+    from dynaeval import metrics as M
+
+    kw = {"pretrained_backbone": False, "seed": 0}
+    model = M.load_lpips("alex", **kw)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        import copy
+
+        model64 = copy.deepcopy(model).double()
+    tp, tg = _nchw(pred) * 2 - 1, _nchw(gt) * 2 - 1
+    with torch.no_grad():
+        ref = float(model64(tp.double(), tg.double()).item())
+    rows: list[dict[str, Any]] = []
+
+    def add(metric: str, impl: str, fn: Callable[[], Any], ref_value: float | None) -> None:
+        seconds, value = _time(fn, repeats)
+        value = float(value)
+        dev = None if ref_value is None else abs(value - ref_value)
+        rows.append({"metric": metric, "impl": impl, "size": size, "ms": 1e3 * seconds, "dev": dev, "value": value})
+
+    def package() -> float:
+        with torch.no_grad():
+            return float(model(tp, tg).item())
+
+    add("lpips", "dynaeval (alex, random backbone)", lambda: M.lpips(pred, gt, **kw), ref)
+    add("lpips", "lpips package, same network", package, ref)
+    add("focused_lpips", "dynaeval crop (default)", lambda: M.focused_lpips(pred, gt, boxes, **kw), None)
+    add("focused_lpips", "dynaeval map", lambda: M.focused_lpips(pred, gt, boxes, region_mode="map", **kw), None)
+    add("masked_lpips", "dynaeval (box union as mask)", lambda: M.masked_lpips(pred, gt, mask, **kw), None)
+    return rows
+
+
+def _machine() -> str:
+    model = platform.processor() or "unknown CPU"
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                model = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    load = ", ".join(f"{x:.1f}" for x in os.getloadavg()) if hasattr(os, "getloadavg") else "n/a"
+    return f"{os.cpu_count()} CPUs (`nproc`), {model}; load average at start {load}"
+
+
+def _versions() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    names = ["numpy", "opencv-contrib-python-headless", "scikit-image", "torch", "torchmetrics", "lpips"]
+    parts = [f"dynaeval {__version__}", f"Python {platform.python_version()}"]
+    for name in names:
+        try:
+            parts.append(f"{name} {version(name)}")
+        except PackageNotFoundError:
+            pass
+    return ", ".join(parts)
+
+
+def format_table(rows: list[dict[str, Any]]) -> str:
+    """Markdown table of the rows, with each implementation's time relative to dynaeval's."""
+    base = {(r["metric"], r["size"]): r["ms"] for r in rows if r["impl"].startswith("dynaeval") and "map" not in r["impl"]}
+    lines = [
+        "| metric | size | implementation | ms / frame | x dynaeval time | abs. deviation from float64 reference | value |",
+        "|---|---|---|---:|---:|---:|---:|",
+    ]
+    for r in rows:
+        ratio = r["ms"] / base[(r["metric"], r["size"])] if (r["metric"], r["size"]) in base else float("nan")
+        dev = "—" if r["dev"] is None else f"{r['dev']:.1e}"
+        lines.append(
+            f"| {r['metric']} | {r['size']} | {r['impl']} | {r['ms']:.1f} | {ratio:.2f} | {dev} | {r['value']:.6f} |"
+        )
+    return "\n".join(lines)
+
+
+def crop_vs_map(rows: list[dict[str, Any]]) -> str:
+    """Markdown lines: value of the crop and map definitions of focused SSIM/LPIPS and their gap."""
+    out = []
+    for metric in ("focused_ssim", "focused_lpips"):
+        for size in dict.fromkeys(r["size"] for r in rows):
+            vals = {r["impl"].split()[1]: r for r in rows if r["metric"] == metric and r["size"] == size}
+            if "crop" in vals and "map" in vals:
+                c, m = vals["crop"], vals["map"]
+                out.append(
+                    f"| {metric} | {size} | {c['value']:.4f} | {m['value']:.4f} | {m['value'] - c['value']:+.4f} "
+                    f"| {c['ms']:.0f} | {m['ms']:.0f} |"
+                )
+    head = [
+        "| metric | size | crop (default) | map | map - crop | crop ms | map ms |",
+        "|---|---|---:|---:|---:|---:|---:|",
+    ]
+    return "\n".join(head + out)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m dynaeval.bench", description=__doc__.split("\n")[0])
+    parser.add_argument("--sizes", default=",".join(DEFAULT_SIZES), help="comma-separated WxH list")
+    parser.add_argument("--repeats", type=int, default=5, help="timed runs per path (median reported)")
+    parser.add_argument("--no-lpips", action="store_true", help="skip the LPIPS paths")
+    parser.add_argument("--out", default="docs/benchmarks.md", help="markdown file to write ('-': none)")
+    parser.add_argument(
+        "--torch-threads",
+        type=int,
+        default=1,
+        help="torch intra-op threads for LPIPS/torchmetrics (default 1: on a shared 2-core machine "
+        "2 threads made LPIPS up to 10x slower through contention; 0 keeps torch's default)",
+    )
+    args = parser.parse_args(argv)
+    if args.torch_threads > 0 and not args.no_lpips:
+        import torch
+
+        torch.set_num_threads(args.torch_threads)
+    sizes = []
+    for item in args.sizes.split(","):
+        w, h = (int(v) for v in item.lower().split("x"))
+        sizes.append((h, w))
+    machine = _machine()
+    started = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    rows: list[dict[str, Any]] = []
+    for h, w in sizes:
+        rows.extend(bench_size(h, w, args.repeats, not args.no_lpips))
+    table = format_table(rows)
+    gap = crop_vs_map(rows)
+    command = "python -m dynaeval.bench" + (" " + " ".join(argv if argv is not None else sys.argv[1:])).rstrip()
+    text = "\n".join(
+        [
+            "# Benchmarks",
+            "",
+            f"Command: `{command}` — run {started}.",
+            f"Machine: {machine}.",
+            f"Versions: {_versions()}; torch threads: {args.torch_threads or 'default'}.",
+            "",
+            "Median wall time per frame of one prediction/ground-truth pair (float32 RGB, the",
+            "procedural pitch-with-players frame of `dynaeval.bench.sample_pair`), after one warm-up",
+            "run. References: PSNR in float64 numpy; SSIM = scikit-image on float64 input; LPIPS =",
+            "the same network in float64. LPIPS uses AlexNet with a random backbone (the pretrained",
+            "one is not downloadable here; the cost does not depend on the weights); torchmetrics'",
+            "LPIPS is absent because it needs the pretrained backbone. torchmetrics' SSIM pads",
+            "the border instead of skipping it, hence its deviation. The machine is shared by",
+            "several jobs: times are noisy (see the load average).",
+            "",
+            table,
+            "",
+            "## Focused metrics: crop vs map",
+            "",
+            "Six expanded player boxes; the prediction is degraded a little everywhere and much",
+            "more inside the boxes (see `sample_pair`). `map - crop` is the measured difference",
+            "between the two definitions (docs/metrics.md).",
+            "",
+            gap,
+            "",
+        ]
+    )
+    print(text)
+    if args.out != "-":
+        Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.out).write_text(text)
+        print(f"written to {args.out}", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
