@@ -123,9 +123,10 @@ def _run_score(pred: str, gt: str, args: argparse.Namespace, *, overwrite: bool)
     for w in results["warnings"]:
         if "camera" not in w:  # run-level warnings; per-frame ones are in the JSON
             print(f"dynaeval: warning: {w['reason']}", file=sys.stderr)
-    n_frame_warnings = sum("camera" in w for w in results["warnings"])
+    n_frame_warnings = sum("camera" in w for w in results["warnings"])  # per frame or camera
     if n_frame_warnings:
-        print(f"dynaeval: {n_frame_warnings} per-frame warning(s), listed in the results JSON",
+        print(f"dynaeval: {n_frame_warnings} warning(s) about single frames or cameras, listed in "
+              "the results JSON",
               file=sys.stderr)
     if results["inputs"]["unscored_cameras"]:
         cams = results["inputs"]["unscored_cameras"]

@@ -9,7 +9,7 @@ import sys
 import numpy as np
 import pytest
 
-from dynaeval.cli import main, sample_dir
+from dynaeval.cli import main
 
 from ..helpers import moving_square_scene, write_frames
 
@@ -120,7 +120,6 @@ def test_unscored_cameras_reported(tmp_path, scene, capsys):
     assert code == 0 and "1 ground-truth camera(s) without predictions not scored: cam01" in err
 
 
-@pytest.mark.skipif(not (sample_dir() / "pred").is_dir(), reason="sample scene not generated")
 def test_demo_runs_on_bundled_sample(tmp_path, capsys):
     out_file = tmp_path / "demo.json"
     code, out, err = run(capsys, "demo", "-o", out_file, "-q", "--no-lpips")
