@@ -88,20 +88,26 @@ def _time(fn: Callable[[], Any], repeats: int) -> tuple[float, Any]:
     return statistics.median(times), value
 
 
-def _peers() -> dict[str, Any]:
+PEERS = ("skimage", "torchmetrics")
+
+
+def _peers(selected: tuple[str, ...] = PEERS) -> dict[str, Any]:
+    """The selected peer libraries that are installed (absent ones are left out of the table)."""
     found: dict[str, Any] = {}
-    try:
-        import skimage.metrics as skm
+    if "skimage" in selected:
+        try:
+            import skimage.metrics as skm
 
-        found["skimage"] = skm
-    except ImportError:
-        pass
-    try:
-        import torchmetrics.functional.image as tmf
+            found["skimage"] = skm
+        except ImportError:
+            pass
+    if "torchmetrics" in selected:
+        try:
+            import torchmetrics.functional.image as tmf
 
-        found["torchmetrics"] = tmf
-    except ImportError:
-        pass
+            found["torchmetrics"] = tmf
+        except ImportError:
+            pass
     return found
 
 
@@ -111,7 +117,9 @@ def _nchw(a: np.ndarray) -> Any:
     return torch.from_numpy(np.ascontiguousarray(a.transpose(2, 0, 1)[None]))
 
 
-def bench_size(height: int, width: int, repeats: int, with_lpips: bool) -> list[dict[str, Any]]:
+def bench_size(
+    height: int, width: int, repeats: int, with_lpips: bool, peers: tuple[str, ...] = PEERS
+) -> list[dict[str, Any]]:
     """Rows ``{metric, impl, size, ms, dev}`` for one frame size."""
     from dynaeval import metrics as M
     from dynaeval.regions.boxes import boxes_to_mask
@@ -119,7 +127,7 @@ def bench_size(height: int, width: int, repeats: int, with_lpips: bool) -> list[
     pred, gt, boxes = sample_pair(height, width)
     p64, g64 = pred.astype(np.float64), gt.astype(np.float64)
     size = f"{width}x{height}"
-    peers = _peers()
+    peers = _peers(peers)
     rows: list[dict[str, Any]] = []
 
     def add(metric: str, impl: str, fn: Callable[[], Any], ref: float | None) -> float:
@@ -280,6 +288,7 @@ def main(argv: list[str] | None = None) -> int:
         help="torch intra-op threads for LPIPS/torchmetrics (default 1: on a shared 2-core machine "
         "2 threads made LPIPS up to 10x slower through contention; 0 keeps torch's default)",
     )
+    parser.add_argument("--peers", default=",".join(PEERS), help="comma-separated peers to compare")
     args = parser.parse_args(argv)
     if args.torch_threads > 0 and not args.no_lpips:
         import torch
@@ -293,7 +302,7 @@ def main(argv: list[str] | None = None) -> int:
     started = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     rows: list[dict[str, Any]] = []
     for h, w in sizes:
-        rows.extend(bench_size(h, w, args.repeats, not args.no_lpips))
+        rows.extend(bench_size(h, w, args.repeats, not args.no_lpips, tuple(args.peers.split(","))))
     table = format_table(rows)
     gap = crop_vs_map(rows)
     command = "python -m dynaeval.bench" + (" " + " ".join(argv if argv is not None else sys.argv[1:])).rstrip()

@@ -17,7 +17,7 @@ def test_sample_pair_is_deterministic_and_in_range():
 
 def test_bench_writes_the_table(tmp_path, capsys):
     out = tmp_path / "bench.md"
-    assert bench.main(["--sizes", "64x48", "--repeats", "1", "--no-lpips", "--out", str(out)]) == 0
+    assert bench.main(["--sizes", "64x48", "--repeats", "1", "--no-lpips", "--peers", "skimage", "--out", str(out)]) == 0
     text = out.read_text()
     assert "| psnr | 64x48 | dynaeval |" in text
     assert "| ssim | 64x48 | dynaeval |" in text
