@@ -77,6 +77,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("gt", help="folder of ground-truth frames, same layout")
     _add_score_options(p)
 
+    t = sub.add_parser("detect", help="find boxes in ground-truth frames once, for --focus boxes:FILE",
+                       description="Write the boxes of every ground-truth frame (raw, unexpanded) "
+                                   "to a boxes file that 'score --focus boxes:FILE' reuses, so "
+                                   "every method is scored on the same pixels.")
+    t.add_argument("gt", help="folder of ground-truth frames")
+    t.add_argument("-o", "--output", required=True, metavar="boxes.json")
+    t.add_argument("--source", choices=["detector", "motion"], default="detector",
+                   help="ONNX detector (default) or connected components of the motion masks")
+    t.add_argument("--detector", metavar="MODEL.onnx",
+                   help="ONNX detector (default: the one shipped with dynaeval)")
+    t.add_argument("--device", choices=["cpu", "cuda"], default="cpu")
+    t.add_argument("--overwrite", action="store_true", help="replace an existing -o file")
+    t.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+
     d = sub.add_parser("demo", help="score the sample scene shipped with dynaeval",
                        description="Score the bundled sample predictions against the bundled "
                                    "ground truth, print the table and write results JSON.")
@@ -132,12 +146,30 @@ def _run_score(pred: str, gt: str, args: argparse.Namespace, *, overwrite: bool)
         cams = results["inputs"]["unscored_cameras"]
         print(f"dynaeval: {len(cams)} ground-truth camera(s) without predictions not scored: "
               f"{', '.join(cams[:8])}{' …' if len(cams) > 8 else ''}", file=sys.stderr)
-    print(summary_table(results))
     if output:
         write_json_atomic(output, results, overwrite=overwrite)
         print(f"results written to {output}", file=sys.stderr)
     else:
         print("(pass -o results.json to save the per-frame results)", file=sys.stderr)
+    print(summary_table(results))
+    return EXIT_OK
+
+
+def _run_detect(args: argparse.Namespace) -> int:
+    from dynaeval.regions import write_boxes_file
+    from dynaeval.regions.focus import detect_ground_truth
+
+    if Path(args.output).exists() and not args.overwrite:
+        raise InputError("boxes file exists; pass --overwrite or choose another -o",
+                         path=args.output)
+    mapping, source = detect_ground_truth(args.gt, source=args.source,
+                                          detector_model=args.detector, device=args.device,
+                                          progress=not args.quiet)
+    write_boxes_file(args.output, mapping, source)
+    n_boxes = sum(len(v) for v in mapping.values())
+    empty = sum(not v for v in mapping.values())
+    print(f"{n_boxes} boxes in {len(mapping)} frames ({empty} without any) written to "
+          f"{args.output}")
     return EXIT_OK
 
 
@@ -147,6 +179,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if args.command == "score":
             return _run_score(args.pred, args.gt, args, overwrite=args.overwrite)
+        if args.command == "detect":
+            return _run_detect(args)
         if args.command == "demo":
             root = sample_dir()
             if not (root / "pred").is_dir():
@@ -156,6 +190,11 @@ def main(argv: list[str] | None = None) -> int:
     except InputError as err:
         print(f"dynaeval: error: {err}", file=sys.stderr)
         return EXIT_INPUT
+    except BrokenPipeError:  # stdout closed early (| head): the work is done, stay quiet
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_OK
     except KeyboardInterrupt:
         print("dynaeval: interrupted; no results written", file=sys.stderr)
         return 130

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -191,3 +192,61 @@ def camera_regions(
         r.boxes = expand_boxes(raw, cfg.expand, h, w)
     return out
 
+
+
+def detect_ground_truth(
+    gt_dir: str | Path,
+    *,
+    source: str = "detector",
+    detector_model: str | None = None,
+    device: str = "cpu",
+    progress: bool = True,
+) -> tuple[dict[str, list[dict]], dict[str, Any]]:
+    """Boxes of every ground-truth frame, for a boxes file that several scoring runs reuse.
+
+    Args:
+        gt_dir: ground-truth folder (the layout ``dynaeval score`` reads).
+        source: ``detector`` (the ONNX detector) or ``motion`` (connected components of the
+            motion masks of each camera).
+        detector_model: ONNX file; None for the detector shipped with dynaeval.
+        device: onnxruntime device (``cpu`` or ``cuda``).
+        progress: show a progress bar on stderr.
+
+    Returns:
+        ``(mapping, source)``: ``"<camera>/<frame>"`` -> records ``{class, id, box, ...}`` of the
+        raw (unexpanded) boxes, and what made them, ready for ``write_boxes_file``.
+    """
+    from tqdm.auto import tqdm
+
+    from dynaeval.io import find_frames
+    from dynaeval.regions.boxes_file import frame_key
+
+    if source not in ("detector", "motion"):
+        raise InputError(f"boxes source must be detector or motion, got {source!r}")
+    cameras = find_frames(gt_dir, role="ground truth")
+    total = sum(len(c.frames) for c in cameras.values())
+    mapping: dict[str, list[dict]] = {}
+    config = FocusConfig(source=source, detector_model=detector_model, expand="none",
+                         masked=source == "motion", device=device)
+    sources = open_sources(config)
+    with tqdm(total=total, desc="detecting", unit="frame", disable=not progress,
+              leave=False) as bar:
+        for cam in cameras.values():
+            refs = [ref for _, ref in cam.frames]
+            names = [name for name, _ in cam.frames]
+            first = refs[0].read()
+            if source == "detector":
+                for name, ref in zip(names, refs, strict=True):
+                    mapping[frame_key(cam.name, name)] = sources.detector(ref.read()).records()
+                    bar.update(1)
+                continue
+            regions = camera_regions(cam.name, names, lambda i, r=refs: r[i].read(),
+                                     first.shape[:2], sources)
+            for name, reg in zip(names, regions, strict=True):
+                boxes = reg.raw_boxes if reg.raw_boxes is not None else np.zeros((0, 4), int)
+                mapping[frame_key(cam.name, name)] = [
+                    {"class": "motion", "id": i, "box": [int(v) for v in b]}
+                    for i, b in enumerate(boxes)
+                ]
+                bar.update(1)
+    return mapping, {"kind": source, **sources.settings}

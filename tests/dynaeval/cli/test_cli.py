@@ -132,3 +132,24 @@ def test_console_script_entry_point_runs():
     proc = subprocess.run([sys.executable, "-m", "dynaeval", "--version"], capture_output=True,
                           text=True, check=False)
     assert proc.returncode == 0 and proc.stdout.startswith("dynaeval ")
+
+
+def test_detect_motion_boxes_then_score_with_them(tmp_path, scene, capsys):
+    pred, gt = scene
+    boxes = tmp_path / "boxes.json"
+    code, out, err = run(capsys, "detect", gt, "-o", boxes, "--source", "motion", "-q")
+    assert code == 0, err
+    doc = json.loads(boxes.read_text())
+    assert doc["source"]["kind"] == "motion" and len(doc["boxes"]) == 8
+    # the moving square (rows 20..30) is inside a motion box on every frame
+    for key, records in doc["boxes"].items():
+        assert any(r["box"][1] <= 20 and r["box"][3] >= 30 for r in records), key
+    code, _, err = run(capsys, "detect", gt, "-o", boxes, "--source", "motion", "-q")
+    assert code == 2 and "boxes file exists" in err
+    out_file = tmp_path / "r.json"
+    code, _, err = run(capsys, "score", pred, gt, "--no-lpips", "-q", "--focus",
+                       f"boxes:{boxes}", "-o", out_file)
+    assert code == 0, err
+    res = json.loads(out_file.read_text())
+    assert res["settings"]["focus"]["boxes_file"]["sha256"]
+    assert res["counts"]["focused_psnr"] == 8
