@@ -260,6 +260,42 @@ def test_torchvision_fixed_input_size_scales_back(tmp_path):
     assert d.boxes.tolist() == [[20, 10, 40, 30]]
 
 
+def test_torchvision_input_size_resizes_longer_side(tmp_path):
+    # 100x200 image, input_size 50: fed at 25x50, boxes in fed pixels scaled back by 4
+    path = tv_model(tmp_path / "t.onnx", np.array([[5, 2, 10, 6]], np.float32), np.array([0.9]), np.array([1]))
+    d = detect(IMG, DetectorConfig(model=path, input_size=50))
+    assert d.boxes.tolist() == [[20, 8, 40, 24]]
+
+
+def test_uint8_input_graph_is_fed_uint8(tmp_path):
+    nodes = [
+        helper.make_node("Cast", ["images"], ["f"], to=TensorProto.FLOAT),
+        helper.make_node("ReduceMax", ["f"], ["m"], keepdims=0),
+        helper.make_node("Mul", ["m", "unit"], ["score"]),  # score = max pixel value / 255
+        helper.make_node("Reshape", ["score", "one"], ["score11"]),
+        helper.make_node("Concat", ["geom", "score11"], ["col"], axis=1),
+        helper.make_node("Reshape", ["col", "shape"], ["output0"]),
+    ]
+    graph = helper.make_graph(
+        nodes,
+        "yolo_u8",
+        [helper.make_tensor_value_info("images", TensorProto.UINT8, [1, 3, 64, 64])],
+        [helper.make_tensor_value_info("output0", TensorProto.FLOAT, [1, 5, 1])],
+        initializer=[
+            numpy_helper.from_array(np.array(1 / 255, np.float32), "unit"),
+            numpy_helper.from_array(np.array([1, 1], np.int64), "one"),
+            numpy_helper.from_array(np.array([[32, 32, 10, 10]], np.float32), "geom"),
+            numpy_helper.from_array(np.array([1, 5, 1], np.int64), "shape"),
+        ],
+    )
+    path = save_model(tmp_path / "u8.onnx", graph, names="['person']")
+    img = np.zeros((64, 64, 3), np.float32)
+    img[0, 0, 0] = 0.6  # fed as round(0.6 * 255) = 153 -> score 0.6
+    d = detect(img, DetectorConfig(model=path, classes=("person",)))
+    np.testing.assert_allclose(d.scores, [153 / 255], rtol=1e-6)
+    assert d.boxes.tolist() == [[27, 27, 37, 37]]
+
+
 @pytest.mark.parametrize("batch", [False, True])
 def test_torchvision_outputs_matched_by_type_when_names_say_nothing(tmp_path, batch):
     boxes = np.array([[1, 2, 11, 12], [3, 3, 9, 9]], np.float32)

@@ -102,6 +102,15 @@ def test_uint8_frames_score_like_float():
     )
 
 
+def test_grayscale_frames_are_one_channel():
+    frames, _ = scene(noise=0.01)
+    gray = frames.mean(axis=-1)
+    np.testing.assert_allclose(
+        importance_weights(gray, "isg"), importance_weights(gray[..., None], "isg"), rtol=0, atol=0
+    )
+    np.testing.assert_allclose(importance_weights(gray, "isg"), isg_reference(gray[..., None], 0.02), rtol=1e-5, atol=1e-6)
+
+
 # ------------------------------------------------------------------------------------------
 # bounded memory
 
