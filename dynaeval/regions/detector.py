@@ -375,7 +375,12 @@ class Detector:
         names = _parse_names(meta.get("names"))
         if names is not None:
             return names
-        return dict(enumerate(COCO80_NAMES if self.convention == "yolo" else COCO91_NAMES))
+        if self.convention == "yolo":
+            rows = self.outputs[0].shape[1]
+            if isinstance(rows, int) and rows - 4 != len(COCO80_NAMES):
+                return {}  # not a COCO model and no names: only integer class ids can select
+            return dict(enumerate(COCO80_NAMES))
+        return dict(enumerate(COCO91_NAMES))
 
     def _canonical(self, name: str) -> str:
         return dict(self.config.aliases).get(name, name)
@@ -390,9 +395,14 @@ class Detector:
             found = [i for i, n in self.class_names.items() if self._canonical(n) == target]
             if not found:
                 known = sorted({n for n in self.class_names.values() if n not in ("N/A", "__background__")})
+                listed = (
+                    f"{', '.join(known[:20])}{', ...' if len(known) > 20 else ''}"
+                    if known
+                    else "unknown: the model has no 'names' metadata and is not a COCO model"
+                )
                 raise InputError(
-                    f"class {want!r} is not among the detector's classes ({', '.join(known[:20])}"
-                    f"{', ...' if len(known) > 20 else ''}); give a known name or an integer class id",
+                    f"class {want!r} is not among the detector's classes ({listed}); give a known "
+                    "name, an integer class id, or DetectorConfig.class_names",
                     path=self.path,
                 )
             ids.extend(found)
@@ -447,10 +457,12 @@ class Detector:
         if out.ndim != 3 or out.shape[0] != 1 or out.shape[1] <= 4:
             raise InputError(f"YOLO-style output must be (1, 4+C, N), got {out.shape}", path=self.path)
         n_cls = out.shape[1] - 4
-        if self.config.class_names is None and len(self.class_names) != n_cls and max(self.selected_ids) >= n_cls:
+        if max(self.selected_ids) >= n_cls:
             raise InputError(
-                f"the model predicts {n_cls} classes but its class names list has {len(self.class_names)}; "
-                "set DetectorConfig.class_names or select classes by integer id",
+                f"the model predicts {n_cls} classes (ids 0..{n_cls - 1}) but class ids "
+                f"{[i for i in self.selected_ids if i >= n_cls]} were selected (names list has "
+                f"{len(self.class_names)} entries); set DetectorConfig.class_names or select "
+                "classes by integer id",
                 path=self.path,
             )
         pred = out[0].T.astype(np.float64)  # (N, 4 + C)

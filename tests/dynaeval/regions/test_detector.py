@@ -406,9 +406,21 @@ def test_yolo_output_too_few_rows(tmp_path):
 
 
 def test_yolo_class_count_mismatch(tmp_path):
-    p = yolo_model(tmp_path / "y.onnx", yolo_pred([(3, 3, 2, 2, 0, 0.9)], n_cls=2))
-    with pytest.raises(InputError, match="predicts 2 classes"):
+    # Names metadata lists 80 classes, the output has 2: COCO ids 32 can never be predicted.
+    names = repr(dict(enumerate(COCO80_NAMES)))
+    p = yolo_model(tmp_path / "y.onnx", yolo_pred([(3, 3, 2, 2, 0, 0.9)], n_cls=2), names=names)
+    with pytest.raises(InputError, match=r"predicts 2 classes .* class ids \[32\] were selected"):
         detect(np.zeros((64, 64, 3), np.float32), DetectorConfig(model=p))
+
+
+def test_yolo_without_names_and_not_coco_selects_by_id_only(tmp_path):
+    p = yolo_model(tmp_path / "y.onnx", yolo_pred([(32, 32, 10, 10, 1, 0.9)], n_cls=2))
+    with pytest.raises(InputError, match="has no 'names' metadata and is not a COCO model"):
+        Detector(DetectorConfig(model=p))
+    d = detect(np.zeros((64, 64, 3), np.float32), DetectorConfig(model=p, classes=(1,)))
+    assert d.classes == ("1",) and d.boxes.tolist() == [[27, 27, 37, 37]]
+    named = detect(np.zeros((64, 64, 3), np.float32), DetectorConfig(model=p, class_names=("person", "ball")))
+    assert named.classes == ("ball",)
 
 
 def test_unknown_class_name(tmp_path):
