@@ -89,6 +89,8 @@ class MotionConfig:
         for name in ("open_radius", "close_radius", "min_area", "dilate_radius"):
             if getattr(self, name) < 0:
                 raise InputError(f"{name} must be >= 0, got {getattr(self, name)!r}")
+        if self.threshold is not None and not 0.0 <= self.threshold < 1.0:
+            raise InputError(f"threshold must be in [0, 1) (weights never reach 1), got {self.threshold!r}")
         if self.kind == "ist" and self.effective_threshold <= self.alpha:
             raise InputError(
                 f"IST threshold {self.effective_threshold} must be above alpha {self.alpha} "

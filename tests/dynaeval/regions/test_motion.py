@@ -212,6 +212,7 @@ def test_mask_boxes_components_and_min_area():
         ({"median_frames": 0}, "median_frames must be >= 1"),
         ({"min_area": -1}, "min_area must be >= 0"),
         ({"kind": "ist", "threshold": 0.05}, "must be above alpha"),
+        ({"threshold": 1.0}, r"threshold must be in \[0, 1\)"),
     ],
 )
 def test_bad_config(kwargs, match):
