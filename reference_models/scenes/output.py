@@ -114,12 +114,13 @@ def render_scene(preset: str, out_dir: str | Path, size: str = "small", seed: in
     start = time.perf_counter()
     boxes: dict[str, list] = {}
     total, done = len(scene.cameras) * scene.n_frames, 0
+    bodies = [scene.bodies(f, hide) for f in range(scene.n_frames)]  # shared by all cameras
     for cam in scene.cameras:
         for sub in ("images", "depth", "masks", "flow"):
             (out / sub / cam.name).mkdir(parents=True, exist_ok=True)
         renderer = CameraRenderer(cam, scene.sun, scene.seed, scene.spp)
         for f in range(scene.n_frames):
-            view = _render(scene, renderer, f, hide)
+            view = renderer.render(bodies[f], bodies[f + 1] if f + 1 < scene.n_frames else None)
             stem = f"{cam.name}/{f:04d}"
             rgb8 = np.round(view.rgb * 255).astype(np.uint8)
             cv2.imwrite(str(out / "images" / f"{stem}.png"), rgb8[..., ::-1])

@@ -151,7 +151,6 @@ def _stadium(rng: np.random.Generator, t_end: float) -> tuple[list, dict]:
     keeper_x = HALF_LENGTH - 1.5
     target_y, target_z = rng.uniform(-2.5, 2.5), rng.uniform(0.5, 2.0)
     t_kick = 0.35
-    striker = Player(3, "home", "kick", start=(0.0, 0.0), heading=0.0, speed=4.0, t_event=t_kick)
     sx, sy = HALF_LENGTH - rng.uniform(18.0, 26.0), rng.uniform(-12.0, 12.0)
     heading = float(np.arctan2(target_y - sy, HALF_LENGTH - sx))
     back = 4.0 * t_kick
@@ -255,6 +254,8 @@ def build_scene(preset: str, seed: int = 0, size: str = "small", width: int | No
     if k < 1 or k * k != chosen.spp or k > 8:
         raise InputError(f"spp must be a square number of samples per pixel (1, 4, 9, .., 64), "
                          f"got {chosen.spp!r}")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise InputError(f"seed must be a non-negative integer, got {seed!r}")
     rng = np.random.default_rng(seed)
     t_end = (chosen.frames + 1) / chosen.fps + 1.0
     if preset == "players-stadium":

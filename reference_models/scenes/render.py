@@ -74,9 +74,12 @@ class CameraRenderer:
     def _static(self, k: int) -> tuple[np.ndarray, np.ndarray, StaticHit]:
         dirs, zscale = self.camera.ray_grid(k)
         shape = dirs.shape[:2]
-        hit = intersect_static(self.camera.centre, dirs.reshape(-1, 3), self.sun, self.seed)
-        hit = StaticHit(*(f.reshape(shape + f.shape[1:]) for f in
-                          (hit.t, hit.material, hit.point, hit.albedo, hit.sunlit)))
+        flat = dirs.reshape(-1, 3)
+        parts = [intersect_static(self.camera.centre, flat[s:s + _CHUNK], self.sun, self.seed)
+                 for s in range(0, len(flat), _CHUNK)]  # chunks bound the memory of hd views
+        fields = ("t", "material", "point", "albedo", "sunlit")
+        hit = StaticHit(*(np.concatenate([getattr(p, f) for p in parts]).reshape(
+            shape + getattr(parts[0], f).shape[1:]) for f in fields))
         return dirs, zscale, hit
 
     def _cast(self, k: int, bodies: list[Body], nxt: dict[int, Body] | None):

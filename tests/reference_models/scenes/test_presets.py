@@ -70,6 +70,7 @@ def test_stadium_shot_is_20_to_30_metres_per_second():
     ({"width": 4}, "image size must be between 8x8"),
     ({"frames": -2}, "frames must be a positive integer"),
     ({"fps": -1.0}, "fps must be a positive number"),
+    ({"seed": -1}, "seed must be a non-negative integer"),
 ])
 def test_bad_options_raise_input_error(kwargs, match):
     args = {"preset": PRESETS[0], **kwargs}

@@ -145,3 +145,15 @@ def test_supersampling_changes_edges_not_the_ground_truth():
     np.testing.assert_array_equal(one.ids, four.ids)
     np.testing.assert_array_equal(one.depth, four.depth)
     assert np.abs(one.rgb - four.rgb).max() > 0.05
+
+
+def test_chunked_casting_gives_the_same_view(monkeypatch):
+    import reference_models.scenes.render as render
+
+    scene = build_scene("players-stadium", seed=0, size="tiny")
+    whole = render_view(scene, "eval00", 4)
+    monkeypatch.setattr(render, "_CHUNK", 999)
+    chunked = render_view(scene, "eval00", 4)
+    for name in ("rgb", "depth", "ids", "flow"):
+        np.testing.assert_array_equal(getattr(whole, name), getattr(chunked, name))
+    assert whole.boxes == chunked.boxes
