@@ -218,33 +218,41 @@ def letterbox(image: np.ndarray, size_hw: tuple[int, int], pad_value: float = 11
     return canvas, (nw / w, nh / h), (left, top)
 
 
-def box_iou(box: np.ndarray, others: np.ndarray) -> np.ndarray:
-    """IoU of one float box ``(4,)`` with ``(N, 4)`` float boxes (xyxy); 0 where the union is 0."""
-    iw = np.clip(np.minimum(box[2], others[:, 2]) - np.maximum(box[0], others[:, 0]), 0, None)
-    ih = np.clip(np.minimum(box[3], others[:, 3]) - np.maximum(box[1], others[:, 1]), 0, None)
-    inter = iw * ih
-    area = (box[2] - box[0]) * (box[3] - box[1])
-    areas = (others[:, 2] - others[:, 0]) * (others[:, 3] - others[:, 1])
-    union = area + areas - inter
+def box_iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """IoU of float boxes ``a (M, 4)`` with ``b (N, 4)`` (xyxy) as ``(M, N)``; 0 where the union is 0."""
+    iw = np.minimum(a[:, None, 2], b[None, :, 2]) - np.maximum(a[:, None, 0], b[None, :, 0])
+    ih = np.minimum(a[:, None, 3], b[None, :, 3]) - np.maximum(a[:, None, 1], b[None, :, 1])
+    inter = np.clip(iw, 0, None) * np.clip(ih, 0, None)
+    area_a = (a[:, 2] - a[:, 0]) * (a[:, 3] - a[:, 1])
+    area_b = (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])
+    union = area_a[:, None] + area_b[None, :] - inter
     return np.divide(inter, union, out=np.zeros_like(inter), where=union > 0)
 
 
-def nms(boxes: np.ndarray, scores: np.ndarray, iou_threshold: float) -> np.ndarray:
+def nms(boxes: np.ndarray, scores: np.ndarray, iou_threshold: float, block: int = 256) -> np.ndarray:
     """Greedy non-maximum suppression (same rule as ``torchvision.ops.nms``).
 
     ``boxes``: ``(N, 4)`` float xyxy; ``scores``: ``(N,)``. Returns int64 indices of the kept boxes
     by decreasing score; a box is dropped when its IoU with a kept, higher-scored box is
-    ``> iou_threshold``. Each step is vectorised over the remaining boxes.
+    ``> iou_threshold``. IoUs are computed for ``block`` boxes at a time against all lower-scored
+    ones (memory ``block x N``), then the greedy pass only ORs boolean rows. The cost is quadratic
+    in ``N`` (about N^2 / 2 IoUs): keep the score threshold above the detector's noise floor.
     """
     boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
     order = np.argsort(-np.asarray(scores, dtype=np.float64), kind="stable")
+    b = boxes[order]
+    n = b.shape[0]
+    removed = np.zeros(n, dtype=bool)
     keep: list[int] = []
-    while order.size:
-        i = order[0]
-        keep.append(int(i))
-        rest = order[1:]
-        order = rest[box_iou(boxes[i], boxes[rest]) <= iou_threshold]
-    return np.asarray(keep, dtype=np.int64)
+    for lo in range(0, n, block):
+        hi = min(n, lo + block)
+        suppress = box_iou_matrix(b[lo:hi], b[lo:]) > iou_threshold  # (hi - lo, n - lo)
+        for r in range(hi - lo):
+            if removed[lo + r]:
+                continue
+            keep.append(lo + r)
+            removed[lo:] |= suppress[r]  # rows before lo + r are already decided
+    return order[np.asarray(keep, dtype=np.int64)]
 
 
 def batched_nms(boxes: np.ndarray, scores: np.ndarray, class_ids: np.ndarray, iou_threshold: float) -> np.ndarray:
