@@ -342,6 +342,7 @@ def test_nms_matches_torchvision(rows, iou):
     ours = nms(b, scores, iou)
     ref = ops.nms(torch.from_numpy(b), torch.from_numpy(scores), iou).numpy()
     np.testing.assert_array_equal(ours, ref)
+    np.testing.assert_array_equal(nms(b, scores, iou, block=3), ref)  # many blocks
     ours_b = batched_nms(b, scores, cls, iou)
     ref_b = ops.batched_nms(torch.from_numpy(b), torch.from_numpy(scores), torch.from_numpy(cls), iou).numpy()
     np.testing.assert_array_equal(ours_b, ref_b)
