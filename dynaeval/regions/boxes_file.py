@@ -186,7 +186,9 @@ def read_boxes_file(path: str | Path) -> BoxesFile:
 
 
 def _plain(value: Any) -> Any:
-    """numpy scalars/arrays -> Python types for JSON."""
+    """numpy scalars/arrays and paths -> Python types for JSON."""
+    if isinstance(value, Path):
+        return str(value)
     if isinstance(value, np.ndarray):
         return value.tolist()
     if isinstance(value, np.generic):

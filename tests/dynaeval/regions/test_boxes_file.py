@@ -41,14 +41,16 @@ def test_bare_mapping_from_generator(tmp_path):
 
 
 def test_write_then_read_wrapper(tmp_path):
-    src = {"kind": "detector", "model_sha256": "ab" * 32, "settings": {"score_threshold": np.float32(0.25)}}
+    src = {"kind": "detector", "model_sha256": "ab" * 32, "model": tmp_path / "m.onnx",
+           "settings": {"score_threshold": np.float32(0.25), "classes": ("person", 37)}}
     recs = {"cam01/000007": [{"class": "person", "id": np.int64(0), "box": np.array([1, 2, 3, 4]), "score": 0.5}]}
     p = write_boxes_file(tmp_path / "sub" / "boxes.json", recs, src)
     raw = json.loads(p.read_text())
     assert raw["schema"] == BOXES_SCHEMA and set(raw) == {"schema", "source", "boxes"}
     bf = read_boxes_file(p)
     assert bf.boxes == {"cam01/000007": [{"class": "person", "id": 0, "box": [1, 2, 3, 4], "score": 0.5}]}
-    assert bf.source["settings"]["score_threshold"] == 0.25
+    assert bf.source["settings"] == {"score_threshold": 0.25, "classes": ["person", 37]}
+    assert bf.source["model"] == str(tmp_path / "m.onnx")
     assert [f for f in os.listdir(p.parent) if f.endswith(".tmp")] == []
 
 
