@@ -29,12 +29,13 @@ def to_numpy(x: object, name: str) -> np.ndarray:
     return arr
 
 
-def check_pair(pred: object, gt: object) -> tuple[np.ndarray, np.ndarray]:
+def check_pair(pred: object, gt: object, *, finite: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """Validate an image pair and return it as numpy arrays of a float type.
 
     Accepts (H, W) or (H, W, C) arrays/tensors of equal shape; float16 and integer input is upcast
     to float32 (float64 stays float64). Raises InputError on a shape mismatch, a wrong rank, an
-    empty image, or NaN/Inf pixels (a silent NaN score is never returned).
+    empty image, or (unless ``finite=False``: the caller checks later) NaN/Inf pixels — a silent
+    NaN score is never returned.
     """
     p = to_numpy(pred, "pred")
     g = to_numpy(gt, "gt")
@@ -47,18 +48,24 @@ def check_pair(pred: object, gt: object) -> tuple[np.ndarray, np.ndarray]:
         raise InputError(f"images must be (H, W) or (H, W, C), got shape {p.shape}")
     if p.size == 0:
         raise InputError(f"images are empty (shape {p.shape})")
-    out = []
+    if p.dtype != np.float64 and p.dtype != np.float32:
+        p = p.astype(np.float32)
+    if g.dtype != np.float64 and g.dtype != np.float32:
+        g = g.astype(np.float32)
+    if finite:
+        check_finite(p, g)
+    return p, g
+
+
+def check_finite(p: np.ndarray, g: np.ndarray) -> None:
+    """Raise InputError naming the image and the count when ``p`` or ``g`` holds NaN or Inf."""
     for name, a in (("pred", p), ("gt", g)):
-        if a.dtype != np.float64 and a.dtype != np.float32:
-            a = a.astype(np.float32)
         if not np.isfinite(a).all():
             bad = int(np.count_nonzero(~np.isfinite(a)))
             raise InputError(
                 f"{name} contains {bad} NaN or Inf values; a metric of such pixels is undefined "
                 "(fix the renderer output or replace them, e.g. np.nan_to_num, before scoring)"
             )
-        out.append(a)
-    return out[0], out[1]
 
 
 def check_data_range(data_range: float) -> float:

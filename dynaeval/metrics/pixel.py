@@ -13,7 +13,7 @@ from typing import NamedTuple
 import numpy as np
 
 from dynaeval.errors import InputError
-from dynaeval.metrics._common import check_data_range, check_pair, region_mask
+from dynaeval.metrics._common import check_data_range, check_finite, check_pair, region_mask
 
 # float64 differences are formed in chunks of this many values (32 KB): the buffer stays in L1/L2
 # cache, so the exact float64 accumulation costs little more than reading both images once.
@@ -38,13 +38,30 @@ class SquaredErrorStats(NamedTuple):
 
 
 def _sse(a: np.ndarray, b: np.ndarray) -> float:
-    """Sum of (a - b)**2, the difference taken exactly in float64 and summed in float64."""
+    """Sum of (a - b)**2, the difference taken in float64 and summed in float64.
+
+    Fast path: OpenCV's ``norm(NORM_L2SQR)`` converts float32 to float64 *before* subtracting and
+    accumulates in float64 (one pass, ~3 ms for a 1080p RGB pair; a test with values where a
+    float32 subtraction would round holds it to the float64 reference). Fallback (other dtypes
+    or layouts): numpy, float64 differences in cache-sized chunks.
+    """
+    if a.dtype != b.dtype:
+        a, b = a.astype(np.float64), b.astype(np.float64)
+    if a.ndim <= 3 and (a.ndim < 3 or a.shape[2] <= 4):
+        import cv2
+
+        try:
+            return float(cv2.norm(np.ascontiguousarray(a), np.ascontiguousarray(b), cv2.NORM_L2SQR))
+        except cv2.error:  # pragma: no cover - layouts OpenCV refuses go to numpy
+            pass
+    return _sse_numpy(a, b)
+
+
+def _sse_numpy(a: np.ndarray, b: np.ndarray) -> float:
+    """Readable reference of ``_sse``: float64 differences in chunks of ``_CHUNK`` values."""
     a1 = a.reshape(-1)
     b1 = b.reshape(-1)
-    if a1.size <= _CHUNK:
-        d = np.subtract(a1, b1, dtype=np.float64)
-        return float(np.dot(d, d))
-    buf = np.empty(_CHUNK, dtype=np.float64)
+    buf = np.empty(min(_CHUNK, a1.size), dtype=np.float64)
     total = 0.0
     for i in range(0, a1.size, _CHUNK):
         d = buf[: min(_CHUNK, a1.size - i)]
@@ -70,12 +87,20 @@ def squared_error_stats(
     Raises:
         InputError (shapes, NaN/Inf), EmptyRegionError (region with no pixel).
     """
-    p, g = check_pair(pred, gt)
+    p, g = check_pair(pred, gt, finite=False)
     h, w = p.shape[:2]
     channels = 1 if p.ndim == 2 else p.shape[2]
     m = region_mask(mask, boxes, h, w)
     if m is None:
-        return SquaredErrorStats(_sse(p, g), p.size)
+        # a NaN/Inf anywhere makes the sum non-finite: check the pixels only then (saves a pass)
+        sse = _sse(p, g)
+        if not math.isfinite(sse):
+            check_finite(p, g)
+            raise InputError(
+                "the squared error overflows float64: values far outside [0, data_range]?"
+            )
+        return SquaredErrorStats(sse, p.size)
+    check_finite(p, g)  # also outside the region: bad pixels are an error wherever they are
     return SquaredErrorStats(_sse(p[m], g[m]), int(np.count_nonzero(m)) * channels)
 
 

@@ -20,7 +20,7 @@ from dynaeval.metrics import (  # noqa: E402
     load_lpips,
     lpips,
     lpips_map,
-    perceptual,  # noqa: E402
+    perceptual,
 )
 
 ATOL = 1e-6

@@ -27,11 +27,6 @@ def _sk(a: np.ndarray, b: np.ndarray, data_range: float = 1.0) -> float:
     return float(skm.structural_similarity(a.astype(np.float64), b.astype(np.float64), **kw))
 
 
-def _structured(h: int, w: int) -> np.ndarray:
-    y, x = np.mgrid[0:h, 0:w].astype(np.float64)
-    return np.stack([x / (w - 1), 0.5 + 0.5 * np.sin(x / 3.0 + y / 5.0), (x > w / 2).astype(float)], -1)
-
-
 @pytest.mark.parametrize("shape", [(11, 11, 3), (13, 29, 3), (37, 53, 3), (64, 41), (30, 30, 1), (25, 40, 5)])
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
 def test_ssim_matches_skimage_random(rng, shape, dtype):
@@ -41,8 +36,8 @@ def test_ssim_matches_skimage_random(rng, shape, dtype):
 
 
 @pytest.mark.parametrize("shape", [(31, 45), (64, 77)])
-def test_ssim_matches_skimage_structured(rng, shape):
-    a = _structured(*shape)
+def test_ssim_matches_skimage_structured(rng, structured, shape):
+    a = structured(*shape)
     b = np.clip(a + rng.normal(0, 0.03, a.shape), 0, 1)
     blurred = (a + np.roll(a, 1, axis=1)) / 2  # structural change, no noise
     assert abs(ssim(a, b) - _sk(a, b)) < TOL
