@@ -91,6 +91,23 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--overwrite", action="store_true", help="replace an existing -o file")
     t.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
 
+    lb = sub.add_parser("leaderboard", help="combine results files into one table",
+                        description="Combine results files (methods x scenes) into one table: "
+                                    "means per scene and overall (mean of scene means) with "
+                                    "bootstrap intervals over frames. Files whose number-changing "
+                                    "settings differ are refused unless --force.")
+    lb.add_argument("results", nargs="+", metavar="RESULTS.json")
+    lb.add_argument("--format", choices=["md", "csv", "json", "html"], default="md",
+                    help="output format (default: md)")
+    lb.add_argument("--by", choices=["method", "scene"], default="method",
+                    help="group rows by method (default) or by scene")
+    lb.add_argument("--metrics", nargs="+", metavar="NAME",
+                    help="metrics to show (default: every metric of the files)")
+    lb.add_argument("--force", action="store_true",
+                    help="combine files even when settings differ (the differences are recorded)")
+    lb.add_argument("-o", "--output", metavar="FILE", help="write here (atomically) instead of stdout")
+    lb.add_argument("--overwrite", action="store_true", help="replace an existing -o file")
+
     d = sub.add_parser("demo", help="score the sample scene shipped with dynaeval",
                        description="Score the bundled sample predictions against the bundled "
                                    "ground truth, print the table and write results JSON.")
@@ -173,6 +190,25 @@ def _run_detect(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _run_leaderboard(args: argparse.Namespace) -> int:
+    from dynaeval.report.leaderboard import build_leaderboard, render, write_text_atomic
+
+    if args.output and Path(args.output).exists() and not args.overwrite:
+        raise InputError("output file exists; pass --overwrite or choose another -o",
+                         path=args.output)
+    board = build_leaderboard(args.results, force=args.force, metrics=args.metrics)
+    text = render(board, args.format, args.by)
+    for f in sorted({f["field"] for f in board["forced"]}):
+        print(f"dynaeval: warning: combined despite differing setting {f!r} (--force)",
+              file=sys.stderr)
+    if args.output:
+        write_text_atomic(args.output, text, overwrite=args.overwrite)
+        print(f"leaderboard written to {args.output}", file=sys.stderr)
+    else:
+        sys.stdout.write(text)
+    return EXIT_OK
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``dynaeval`` command; returns the exit code."""
     args = build_parser().parse_args(argv)
@@ -181,6 +217,8 @@ def main(argv: list[str] | None = None) -> int:
             return _run_score(args.pred, args.gt, args, overwrite=args.overwrite)
         if args.command == "detect":
             return _run_detect(args)
+        if args.command == "leaderboard":
+            return _run_leaderboard(args)
         if args.command == "demo":
             root = sample_dir()
             if not (root / "pred").is_dir():

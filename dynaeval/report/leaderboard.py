@@ -1,0 +1,428 @@
+"""Leaderboards: many results files (methods x scenes) -> one table with bootstrap intervals.
+
+``build_leaderboard(paths)`` reads results files (``dynaeval/results/v1``), refuses to mix files
+whose number-changing settings differ (unless ``force``), and returns a leaderboard document
+(``dynaeval/leaderboard/v1``, fields in docs/results-format.md):
+
+* per (method, scene): the file's summary value of each metric (mean of per-frame values) and a
+  95 % bootstrap interval over its frames;
+* per method, scene ``"(all)"``: the mean of its per-scene means (every scene weighs the same,
+  as NeRF papers average their per-scene tables), with an interval from the same bootstrap
+  replicates (frames resampled within each scene, the replicate scene means averaged).
+
+Bootstrap: percentile method, ``n_boot = 1000`` replicates, frames drawn with replacement; the
+generator is seeded from ``seed`` and the (method, scene, metric) names, so an interval does not
+depend on which other files are combined or in what order. Frames of a video are correlated, so the
+interval is the spread of a per-frame average, not of a new recording: read it as a lower bound.
+
+Temporal metrics have one value per camera (or per frame pair), not per frame: they get means and
+no interval (``null``).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import os
+import tempfile
+import zlib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dynaeval.errors import InputError
+
+SCHEMA = "dynaeval/leaderboard/v1"
+ALL_SCENES = "(all)"
+FORMATS = ("md", "csv", "json", "html")
+
+IGNORED_SETTINGS = (
+    "allow_missing",
+    "lpips.enabled",
+    "lpips.device",
+    "lpips.unavailable",
+    "focus.boxes_file.path",
+    "focus.detector.model",
+    "focus.detector.settings.model",
+    "focus.detector.settings.device",
+    "focus.detector.onnxruntime",
+)
+"""Settings that never change a number (paths, devices, whether a metric ran): not compared."""
+
+
+@dataclass(frozen=True)
+class BootstrapConfig:
+    """How confidence intervals are drawn."""
+
+    n_boot: int = 1000
+    """Bootstrap replicates."""
+    confidence: float = 0.95
+    """Two-sided level; the interval is the (1-c)/2 and (1+c)/2 percentiles of replicate means."""
+    seed: int = 0
+    """Base seed; each (method, scene, metric) gets its own generator derived from it."""
+
+    def describe(self) -> dict[str, Any]:
+        """Settings for the leaderboard JSON."""
+        return {
+            "method": "percentile",
+            "n_boot": self.n_boot,
+            "confidence": self.confidence,
+            "seed": self.seed,
+            "unit": "frames, resampled with replacement within each scene",
+        }
+
+
+def flatten_settings(settings: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    """Nested settings -> ``{"ssim.win_size": 11, ...}`` (lists kept as values)."""
+    out: dict[str, Any] = {}
+    for key, value in settings.items():
+        name = f"{prefix}{key}"
+        if isinstance(value, dict):
+            out.update(flatten_settings(value, name + "."))
+        else:
+            out[name] = value
+    return out
+
+
+def settings_differences(a: dict[str, Any], b: dict[str, Any]) -> list[tuple[str, Any, Any]]:
+    """Number-changing settings that differ between two results' ``settings``:
+    ``[(field, value in a, value in b)]`` (``None`` where a field is absent), in field order."""
+    fa, fb = flatten_settings(a), flatten_settings(b)
+    out = []
+    for key in [*fa, *(k for k in fb if k not in fa)]:
+        if key in IGNORED_SETTINGS:
+            continue
+        if fa.get(key) != fb.get(key):
+            out.append((key, fa.get(key), fb.get(key)))
+    return out
+
+
+def _rng(seed: int, *names: str) -> np.random.Generator:
+    return np.random.default_rng([seed, *(zlib.crc32(n.encode("utf-8")) for n in names)])
+
+
+def _percentiles(means: np.ndarray, confidence: float) -> tuple[float, float]:
+    lo, hi = np.percentile(means, [50 * (1 - confidence), 50 * (1 + confidence)])
+    return float(lo), float(hi)
+
+
+def bootstrap_means(
+    values: np.ndarray, config: BootstrapConfig, rng: np.random.Generator
+) -> np.ndarray:
+    """Means of ``config.n_boot`` resamples (with replacement) of ``values``.
+
+    Args:
+        values: (N,) float64 per-frame values, all finite, N >= 1.
+
+    Returns:
+        (n_boot,) float64 replicate means.
+    """
+    n = len(values)
+    idx = rng.integers(0, n, size=(config.n_boot, n))
+    return values[idx].mean(axis=1)
+
+
+def _frame_values(doc: dict[str, Any], metric: str) -> np.ndarray:
+    vals = [f.get(metric) for f in doc["frames"]]
+    return np.array([v for v in vals if v is not None], dtype=np.float64)
+
+
+def _metric_names(docs: list[dict[str, Any]]) -> list[str]:
+    names: list[str] = []
+    for d in docs:
+        for n in d["metrics"]:
+            if n not in names:
+                names.append(n)
+    return names
+
+
+def _check(docs: list[dict[str, Any]], paths: list[str], force: bool) -> list[dict[str, Any]]:
+    seen: dict[tuple[str, str], str] = {}
+    for d, p in zip(docs, paths, strict=True):
+        key = (d["method"], d["scene"])
+        if key in seen:
+            raise InputError(
+                f"method {key[0]!r} on scene {key[1]!r} appears twice: in {seen[key]} and {p}; "
+                "pass each (method, scene) once (rename one with score --method/--scene)",
+                path=p,
+            )
+        seen[key] = p
+    forced = []
+    ref, ref_path = docs[0], paths[0]
+    for d, p in zip(docs[1:], paths[1:], strict=True):
+        diffs = settings_differences(ref["settings"], d["settings"])
+        if not diffs:
+            continue
+        if not force:
+            key, va, vb = diffs[0]
+            more = f" (and {len(diffs) - 1} more)" if len(diffs) > 1 else ""
+            raise InputError(
+                f"incompatible settings: {key!r} is {va!r} in {ref_path} but {vb!r} in {p}{more}; "
+                "their numbers are not comparable. Score again with the same settings, or pass "
+                "--force to combine them anyway (the differences are recorded)",
+                path=p,
+            )
+        forced.extend({"field": k, "file_a": ref_path, "value_a": va, "file_b": p, "value_b": vb}
+                      for k, va, vb in diffs)
+    return forced
+
+
+def build_leaderboard(
+    paths: list[str | Path],
+    *,
+    force: bool = False,
+    bootstrap: BootstrapConfig | None = None,
+    metrics: list[str] | None = None,
+) -> dict[str, Any]:
+    """Combine results files into a leaderboard document (layout: module docstring).
+
+    Args:
+        paths: results JSON files, one per (method, scene).
+        force: combine even when number-changing settings differ (listed under ``forced``).
+        bootstrap: interval settings (default: percentile, 1000 replicates, 95 %, seed 0).
+        metrics: metric names to keep (default: every metric of any file, in file order).
+
+    Raises:
+        InputError: no file, unreadable or old-schema file, a (method, scene) pair twice,
+            incompatible settings without ``force``, or an unknown metric asked for.
+    """
+    from dynaeval import __version__
+    from dynaeval.report.results import load_results
+
+    if not paths:
+        raise InputError("leaderboard needs at least one results file")
+    bootstrap = bootstrap or BootstrapConfig()
+    if bootstrap.n_boot < 1 or not 0 < bootstrap.confidence < 1:
+        raise InputError(
+            f"bootstrap needs n_boot >= 1 and 0 < confidence < 1, got {bootstrap.n_boot} and "
+            f"{bootstrap.confidence}"
+        )
+    str_paths = [str(p) for p in paths]
+    docs = [load_results(p) for p in str_paths]
+    forced = _check(docs, str_paths, force)
+    names = _metric_names(docs)
+    if metrics is not None:
+        unknown = [m for m in metrics if m not in names]
+        if unknown:
+            raise InputError(f"metrics not in any results file: {', '.join(unknown)}; "
+                             f"available: {', '.join(names)}")
+        names = list(metrics)
+    info: dict[str, Any] = {}
+    for d in docs:
+        for n in names:
+            if n in d["metrics"]:
+                info.setdefault(n, d["metrics"][n])
+
+    rows: list[dict[str, Any]] = []
+    # replicate means per (method, metric): list over scenes of (n_boot,) arrays or None
+    replicates: dict[tuple[str, str], list[np.ndarray | None]] = {}
+    scene_means: dict[tuple[str, str], list[float | None]] = {}
+    methods: list[str] = []
+    scenes: list[str] = []
+    for d, p in zip(docs, str_paths, strict=True):
+        method, scene = d["method"], d["scene"]
+        methods += [method] if method not in methods else []
+        scenes += [scene] if scene not in scenes else []
+        row: dict[str, Any] = {"method": method, "scene": scene, "n_frames": d["summary"]["n_frames"],
+                               "file": p, "values": {}}
+        for n in names:
+            mean = d["summary"].get(n)
+            entry: dict[str, Any] = {"mean": mean, "ci_low": None, "ci_high": None,
+                                     "n": d["counts"].get(n, 0)}
+            reps = None
+            per_frame = n in d["metrics"] and any(n in f for f in d["frames"])
+            if mean is not None and per_frame:
+                vals = _frame_values(d, n)
+                if len(vals) and np.isfinite(vals).all():
+                    reps = bootstrap_means(vals, bootstrap, _rng(bootstrap.seed, method, scene, n))
+                    entry["ci_low"], entry["ci_high"] = _percentiles(reps, bootstrap.confidence)
+            row["values"][n] = entry
+            replicates.setdefault((method, n), []).append(reps)
+            scene_means.setdefault((method, n), []).append(mean)
+        rows.append(row)
+
+    for method in methods:
+        own = [r for r in rows if r["method"] == method]
+        overall: dict[str, Any] = {"method": method, "scene": ALL_SCENES,
+                                   "n_frames": sum(r["n_frames"] for r in own),
+                                   "n_scenes": len(own), "values": {}}
+        for n in names:
+            means = scene_means[(method, n)]
+            reps = replicates[(method, n)]
+            entry = {"mean": None, "ci_low": None, "ci_high": None, "n": len(means)}
+            if means and all(m is not None for m in means):
+                entry["mean"] = math.fsum(means) / len(means)
+                if all(r is not None for r in reps):
+                    stacked = np.mean(np.stack(reps), axis=0)  # type: ignore[arg-type]
+                    entry["ci_low"], entry["ci_high"] = _percentiles(stacked, bootstrap.confidence)
+            overall["values"][n] = entry
+        rows.append(overall)
+
+    covered = {m: sorted(r["scene"] for r in rows if r["method"] == m and r["scene"] != ALL_SCENES)
+               for m in methods}
+    notes = []
+    if len({tuple(v) for v in covered.values()}) > 1:
+        notes.append("methods cover different scenes: their (all) rows average different scene "
+                     "sets and are not comparable")
+    from dynaeval.report.results import strict
+
+    return strict({
+        "schema": SCHEMA,
+        "dynaeval_version": __version__,
+        "methods": methods,
+        "scenes": scenes,
+        "metrics": info,
+        "settings": docs[0]["settings"],
+        "forced": forced,
+        "bootstrap": bootstrap.describe(),
+        "overall": "mean of per-scene means (every scene weighs the same)",
+        "sources": [{"file": p, "method": d["method"], "scene": d["scene"],
+                     "dynaeval_version": d["dynaeval_version"], "created": d["created"]}
+                    for d, p in zip(docs, str_paths, strict=True)],
+        "rows": rows,
+        "notes": notes,
+    })
+
+
+# -- rendering --------------------------------------------------------------------------------
+
+
+def _ordered_rows(board: dict[str, Any], by: str) -> list[dict[str, Any]]:
+    if by not in ("method", "scene"):
+        raise InputError(f"--by must be 'method' or 'scene', got {by!r}")
+    scene_order = {s: i for i, s in enumerate([*board["scenes"], ALL_SCENES])}
+    method_order = {m: i for i, m in enumerate(board["methods"])}
+    if by == "method":
+        key = lambda r: (method_order[r["method"]], scene_order[r["scene"]])  # noqa: E731
+    else:
+        key = lambda r: (scene_order[r["scene"]], method_order[r["method"]])  # noqa: E731
+    return sorted(board["rows"], key=key)
+
+
+def _fmt(name: str, v: float | None, digits: int | None = None) -> str:
+    if v is None:
+        return "n/a"
+    base = name.split("_", 1)[-1] if name.startswith(("focused_", "masked_")) else name
+    d = digits if digits is not None else (2 if base == "psnr" else 4)
+    return f"{v:.{d}f}"
+
+
+def _cell(name: str, entry: dict[str, Any]) -> str:
+    text = _fmt(name, entry["mean"])
+    if entry["ci_low"] is not None:
+        text += f" [{_fmt(name, entry['ci_low'])}, {_fmt(name, entry['ci_high'])}]"
+    return text
+
+
+def _header(board: dict[str, Any]) -> list[str]:
+    cols = []
+    for n, inf in board["metrics"].items():
+        arrow = "↑" if inf["higher_is_better"] else "↓"
+        cols.append(f"{n} {arrow}")
+    return cols
+
+
+def to_markdown(board: dict[str, Any], by: str = "method") -> str:
+    """The leaderboard as a Markdown table: mean [95 % interval] per metric."""
+    head = ["method", "scene", "frames", *_header(board)]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for r in _ordered_rows(board, by):
+        cells = [r["method"], r["scene"], str(r["n_frames"])]
+        cells += [_cell(n, r["values"][n]) for n in board["metrics"]]
+        lines.append("| " + " | ".join(cells) + " |")
+    b = board["bootstrap"]
+    lines += ["", f"Means of per-frame values; [{b['confidence']:.0%} bootstrap interval over frames "
+              f"({b['method']}, {b['n_boot']} replicates, seed {b['seed']})]. `{ALL_SCENES}`: "
+              "mean of the per-scene means."]
+    lines += [f"Note: {n}" for n in board["notes"]]
+    if board["forced"]:
+        fields = sorted({f["field"] for f in board["forced"]})
+        lines.append(f"Warning: combined with --force although these settings differ: "
+                     f"{', '.join(fields)}")
+    return "\n".join(lines) + "\n"
+
+
+def to_csv(board: dict[str, Any], by: str = "method") -> str:
+    """Long-format CSV: one line per (method, scene, metric) with mean, ci_low, ci_high, n."""
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(["method", "scene", "n_frames", "metric", "mean", "ci_low", "ci_high", "n",
+                "higher_is_better"])
+    for r in _ordered_rows(board, by):
+        for n, inf in board["metrics"].items():
+            e = r["values"][n]
+            w.writerow([r["method"], r["scene"], r["n_frames"], n,
+                        *("" if e[k] is None else repr(e[k]) for k in ("mean", "ci_low", "ci_high")),
+                        e["n"], inf["higher_is_better"]])
+    return buf.getvalue()
+
+
+def to_html(board: dict[str, Any], by: str = "method") -> str:
+    """A self-contained HTML page with the leaderboard table (no script, no network)."""
+    from html import escape
+
+    head = ["method", "scene", "frames", *_header(board)]
+    out = ["<!DOCTYPE html>", "<html><head><meta charset='utf-8'><title>dynaeval leaderboard</title>",
+           f"<style>{TABLE_CSS}</style></head><body>", "<h1>dynaeval leaderboard</h1>",
+           "<table><thead><tr>" + "".join(f"<th>{escape(h)}</th>" for h in head)
+           + "</tr></thead><tbody>"]
+    for r in _ordered_rows(board, by):
+        cls = " class='overall'" if r["scene"] == ALL_SCENES else ""
+        cells = [r["method"], r["scene"], str(r["n_frames"])]
+        cells += [_cell(n, r["values"][n]) for n in board["metrics"]]
+        out.append(f"<tr{cls}>" + "".join(f"<td>{escape(c)}</td>" for c in cells) + "</tr>")
+    out.append("</tbody></table>")
+    md_notes = to_markdown(board, by).split("\n\n", 1)[1].strip().splitlines()
+    out += [f"<p>{escape(line.replace('`', ''))}</p>" for line in md_notes]
+    out.append("</body></html>")
+    return "\n".join(out) + "\n"
+
+
+TABLE_CSS = (
+    "body{font-family:sans-serif;margin:2em;color:#222}"
+    "table{border-collapse:collapse;font-size:14px}"
+    "th,td{border:1px solid #ccc;padding:4px 8px;text-align:right}"
+    "th:first-child,td:first-child,th:nth-child(2),td:nth-child(2){text-align:left}"
+    "th{background:#f0f0f0}tr.overall td{font-weight:bold;background:#fafafa}"
+)
+
+
+def render(board: dict[str, Any], fmt: str = "md", by: str = "method") -> str:
+    """The leaderboard as text in ``fmt`` (md, csv, json or html)."""
+    if fmt == "md":
+        return to_markdown(board, by)
+    if fmt == "csv":
+        return to_csv(board, by)
+    if fmt == "html":
+        return to_html(board, by)
+    if fmt == "json":
+        import json
+
+        _ordered_rows(board, by)  # validates ``by``
+        return json.dumps(board, indent=1, allow_nan=False, ensure_ascii=False) + "\n"
+    raise InputError(f"format must be one of {', '.join(FORMATS)}, got {fmt!r}")
+
+
+def write_text_atomic(path: str | Path, text: str, *, overwrite: bool = False) -> Path:
+    """Write ``text`` (UTF-8) to ``path`` through a temporary file renamed into place.
+
+    Raises:
+        InputError: ``path`` exists and not ``overwrite``, or its folder is missing.
+    """
+    path = Path(path)
+    if path.exists() and not overwrite:
+        raise InputError("output file exists; pass --overwrite or choose another -o", path=path)
+    if not path.parent.is_dir():
+        raise InputError("folder for the output file does not exist", path=path.parent)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path

@@ -1,0 +1,196 @@
+"""Leaderboards: combining results across methods and scenes, refusals, intervals, output."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+
+import numpy as np
+import pytest
+
+from dynaeval.cli import main
+from dynaeval.errors import InputError
+from dynaeval.report import build_results, write_json_atomic
+from dynaeval.report.leaderboard import (
+    ALL_SCENES,
+    BootstrapConfig,
+    build_leaderboard,
+    render,
+    settings_differences,
+)
+
+SETTINGS = {"data_range": 1.0, "quantize": "none", "ssim": {"win_size": 11},
+            "lpips": {"enabled": True, "net": "alex", "device": "cpu"},
+            "focus": {"source": "boxes", "boxes_file": {"path": "a/boxes.json", "sha256": "ab"}}}
+
+
+def _write(path, method, scene, psnr, ssim=None, settings=None):
+    rows = [{"camera": "c", "frame": str(i), "index": i, "pred": "p", "gt": "g", "psnr": v,
+             **({"ssim": ssim[i]} if ssim is not None else {})} for i, v in enumerate(psnr)]
+    doc = build_results(rows=rows, metric_names=["psnr"] + (["ssim"] if ssim is not None else []),
+                        method=method, scene=scene, pred_dir="p", gt_dir="g",
+                        settings=json.loads(json.dumps(settings or SETTINGS)), unscored_cameras=[],
+                        skipped=[], warnings=[], timing={"total_s": 1.0}, version="0")
+    write_json_atomic(path, doc)
+    return str(path)
+
+
+@pytest.fixture
+def files(tmp_path):
+    rng = np.random.default_rng(1)
+    out = {}
+    for m, offset in (("A", 0.0), ("B", 2.0)):
+        for s, base in (("s1", 20.0), ("s2", 30.0)):
+            vals = list(base + offset + rng.normal(0, 1, 12))
+            out[(m, s)] = _write(tmp_path / f"{m}_{s}.json", m, s, vals, ssim=list(rng.uniform(0.5, 0.9, 12)))
+    return out
+
+
+def _row(board, method, scene):
+    return next(r for r in board["rows"] if r["method"] == method and r["scene"] == scene)
+
+
+def test_means_per_scene_and_overall_across_methods_and_scenes(files):
+    board = build_leaderboard(list(files.values()))
+    assert board["methods"] == ["A", "B"] and board["scenes"] == ["s1", "s2"]
+    for (m, s), path in files.items():
+        frames = json.load(open(path))["frames"]
+        assert _row(board, m, s)["values"]["psnr"]["mean"] == pytest.approx(
+            np.mean([f["psnr"] for f in frames]), rel=1e-12)
+    for m in ("A", "B"):
+        overall = _row(board, m, ALL_SCENES)["values"]["psnr"]
+        per_scene = [_row(board, m, s)["values"]["psnr"]["mean"] for s in ("s1", "s2")]
+        assert overall["mean"] == pytest.approx(np.mean(per_scene), rel=1e-12)  # scenes weigh equally
+        assert overall["ci_low"] < overall["mean"] < overall["ci_high"]
+    assert board["notes"] == []
+
+
+def test_interval_matches_an_independent_bootstrap_and_normal_approximation(tmp_path):
+    vals = list(np.random.default_rng(3).normal(25.0, 2.0, 400))
+    path = _write(tmp_path / "r.json", "m", "s", vals)
+    cfg = BootstrapConfig(n_boot=1000, seed=0)
+    e = _row(build_leaderboard([path], bootstrap=cfg), "m", "s")["values"]["psnr"]
+    # independent loop-based bootstrap with another generator: same interval within MC noise
+    rng = np.random.default_rng(12345)
+    means = [np.mean(rng.choice(vals, size=len(vals), replace=True)) for _ in range(2000)]
+    lo, hi = np.percentile(means, [2.5, 97.5])
+    half = 1.96 * np.std(vals) / np.sqrt(len(vals))
+    assert e["ci_low"] == pytest.approx(lo, abs=0.25 * half)
+    assert e["ci_high"] == pytest.approx(hi, abs=0.25 * half)
+    assert e["ci_high"] - e["ci_low"] == pytest.approx(2 * half, rel=0.15)
+
+
+def test_constant_values_give_a_zero_width_interval(tmp_path):
+    e = _row(build_leaderboard([_write(tmp_path / "r.json", "m", "s", [21.5] * 5)]),
+             "m", "s")["values"]["psnr"]
+    assert e["ci_low"] == e["mean"] == e["ci_high"] == 21.5
+
+
+def test_intervals_are_seeded_and_independent_of_file_order(files):
+    paths = list(files.values())
+    a = build_leaderboard(paths)
+    b = build_leaderboard(paths[::-1])
+    assert _row(a, "B", "s2") == _row(b, "B", "s2")
+    assert _row(a, "A", ALL_SCENES) == _row(b, "A", ALL_SCENES)
+    c = build_leaderboard(paths, bootstrap=BootstrapConfig(seed=1))
+    assert _row(c, "A", "s1")["values"]["psnr"] != _row(a, "A", "s1")["values"]["psnr"]
+
+
+def test_refuses_incompatible_settings_naming_field_and_files(tmp_path, files):
+    other = json.loads(json.dumps(SETTINGS))
+    other["ssim"]["win_size"] = 7
+    bad = _write(tmp_path / "bad.json", "C", "s1", [20.0, 21.0], settings=other)
+    first = files[("A", "s1")]
+    with pytest.raises(InputError, match=r"'ssim.win_size' is 11 in .*A_s1.json but 7 in .*bad.json"):
+        build_leaderboard([first, bad])
+    board = build_leaderboard([first, bad], force=True)
+    assert board["forced"] == [{"field": "ssim.win_size", "file_a": first, "value_a": 11,
+                                "file_b": bad, "value_b": 7}]
+    assert "ssim.win_size" in render(board, "md")
+
+
+@pytest.mark.parametrize("field,value", [("quantize", "round"), ("lpips.net", "vgg"),
+                                         ("focus.boxes_file.sha256", "cd"), ("data_range", 255.0)])
+def test_each_number_changing_setting_is_compared(tmp_path, field, value):
+    other = json.loads(json.dumps(SETTINGS))
+    d = other
+    *parents, leaf = field.split(".")
+    for p in parents:
+        d = d[p]
+    d[leaf] = value
+    a = _write(tmp_path / "a.json", "A", "s", [20.0])
+    b = _write(tmp_path / "b.json", "B", "s", [21.0], settings=other)
+    with pytest.raises(InputError, match=f"'{field}'"):
+        build_leaderboard([a, b])
+
+
+def test_paths_devices_and_missing_lpips_are_not_incompatibilities():
+    other = json.loads(json.dumps(SETTINGS))
+    other["lpips"].update(enabled=False, device="cuda", unavailable="no weights")
+    other["focus"]["boxes_file"]["path"] = "elsewhere/boxes.json"
+    other["allow_missing"] = True
+    assert settings_differences(SETTINGS, other) == []
+
+
+def test_duplicate_method_scene_pair_is_an_error(tmp_path, files):
+    dup = _write(tmp_path / "dup.json", "A", "s1", [1.0])
+    with pytest.raises(InputError, match=r"method 'A' on scene 's1' appears twice: in .*A_s1.json and .*dup.json"):
+        build_leaderboard([files[("A", "s1")], dup])
+
+
+def test_other_errors(tmp_path, files):
+    with pytest.raises(InputError, match="at least one results file"):
+        build_leaderboard([])
+    with pytest.raises(InputError, match="metrics not in any results file: lpips"):
+        build_leaderboard(list(files.values()), metrics=["lpips"])
+    old = tmp_path / "old.json"
+    old.write_text(json.dumps({"schema": "dynaeval/results/v0"}))
+    with pytest.raises(InputError, match="results schema 'dynaeval/results/v0' is not the one"):
+        build_leaderboard([str(old)])
+    with pytest.raises(InputError, match="format must be one of"):
+        render(build_leaderboard([files[("A", "s1")]]), "xls")
+    with pytest.raises(InputError, match="n_boot >= 1"):
+        build_leaderboard([files[("A", "s1")]], bootstrap=BootstrapConfig(n_boot=0))
+
+
+def test_methods_with_different_scene_sets_are_flagged(files):
+    board = build_leaderboard([files[("A", "s1")], files[("A", "s2")], files[("B", "s1")]])
+    assert "different scenes" in board["notes"][0]
+
+
+def test_null_summary_gives_null_mean_without_interval(tmp_path):
+    e = _row(build_leaderboard([_write(tmp_path / "r.json", "m", "s", [None, None])]),
+             "m", "s")["values"]["psnr"]
+    assert e == {"mean": None, "ci_low": None, "ci_high": None, "n": 0}
+
+
+def test_cli_formats_grouping_and_atomic_output(tmp_path, files, capsys):
+    paths = list(files.values())
+    assert main(["leaderboard", *paths, "--by", "scene"]) == 0
+    md = capsys.readouterr().out
+    lines = [ln for ln in md.splitlines() if ln.startswith("| ")]
+    assert [ln.split(" | ")[1] for ln in lines[1:]] == ["s1", "s1", "s2", "s2", ALL_SCENES, ALL_SCENES]
+    out = tmp_path / "board.csv"
+    assert main(["leaderboard", *paths, "--format", "csv", "-o", str(out)]) == 0
+    rows = list(csv.DictReader(io.StringIO(out.read_text())))
+    assert len(rows) == 6 * 2 and {r["metric"] for r in rows} == {"psnr", "ssim"}
+    assert main(["leaderboard", *paths, "--format", "json", "-o", str(out)]) == 2
+    assert "exists" in capsys.readouterr().err
+    assert main(["leaderboard", *paths, "--format", "json", "-o", str(out), "--overwrite"]) == 0
+    assert json.loads(out.read_text())["schema"] == "dynaeval/leaderboard/v1"
+    html = tmp_path / "board.html"
+    assert main(["leaderboard", *paths, "--format", "html", "-o", str(html)]) == 0
+    text = html.read_text()
+    assert text.count("<tr") == 7 and "http" not in text
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []  # no temp left
+
+
+def test_cli_refusal_exit_2_and_force(tmp_path, files, capsys):
+    other = json.loads(json.dumps(SETTINGS))
+    other["quantize"] = "truncate"
+    bad = _write(tmp_path / "bad.json", "C", "s1", [20.0], settings=other)
+    assert main(["leaderboard", files[("A", "s1")], bad]) == 2
+    assert "'quantize'" in capsys.readouterr().err
+    assert main(["leaderboard", files[("A", "s1")], bad, "--force"]) == 0
+    assert "differing setting 'quantize'" in capsys.readouterr().err
