@@ -272,8 +272,16 @@ def _temporal_for_camera(
     )
 
 
+RegionsCallback = Callable[[str, list[FramePair], list[FrameRegions]], None]
+
+
 def score(
-    pred_dir: str | Path, gt_dir: str | Path, config: ScoreConfig | None = None, **overrides
+    pred_dir: str | Path,
+    gt_dir: str | Path,
+    config: ScoreConfig | None = None,
+    *,
+    on_regions: RegionsCallback | None = None,
+    **overrides,
 ) -> Results:
     """Score a folder of predicted frames against a folder of ground-truth frames.
 
@@ -282,6 +290,9 @@ def score(
         gt_dir: ground truth in the same layout; frames are paired by relative path with the
             extension ignored (``dynaeval.io.frames`` gives the rules).
         config: settings; keyword ``overrides`` replace its fields (``score(p, g, workers=2)``).
+        on_regions: called once per camera, before its frames are scored, with the camera name,
+            its pairs and their regions (``FrameRegions``, same order): how a report keeps the
+            boxes and masks it draws without ``score`` holding every camera's masks.
 
     Returns:
         Results: per-frame values, per-camera and overall means, settings and timing (the layout
@@ -335,6 +346,8 @@ def score(
                 first_gt.shape[:2], sources,
             )
             timing["regions"] += time.perf_counter() - t0
+            if on_regions is not None:
+                on_regions(cam, pairs, regions)
 
             def work(item: tuple[FramePair, FrameRegions]):
                 out = _score_frame(item[0], item[1], config, metric_fns, timing, lock)
