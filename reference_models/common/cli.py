@@ -1,0 +1,59 @@
+"""The command line every reference model shares (exit 0 done, 2 bad input)::
+
+    python -m reference_models.<model> train DATA --out RUN [--size tiny|small] [--iters N]
+        [--sampling uniform|isg|ist] [--resume] [--threads 2]
+    python -m reference_models.<model> render RUN [--data DATA]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from dynaeval.errors import InputError
+from reference_models.common.importance import SAMPLING
+from reference_models.common.train import ModelSpec, render_run, train
+
+
+def _parser(spec: ModelSpec) -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog=f"python -m reference_models.{spec.name}",
+                                description=f"Train the reference {spec.name} model and render "
+                                            "its evaluation cameras for `dynaeval score`.")
+    sub = p.add_subparsers(dest="command", required=True)
+    t = sub.add_parser("train", help="train on a dataset folder (transforms.json)")
+    t.add_argument("data", help="dataset folder (scene generator, nerfstudio or D-NeRF files)")
+    t.add_argument("--out", required=True, help="run folder (config, checkpoint, log)")
+    t.add_argument("--size", default="small", help=f"preset: {', '.join(spec.presets)} (default small)")
+    t.add_argument("--iters", type=int, help="optimisation steps (default: the preset's)")
+    t.add_argument("--sampling", choices=SAMPLING, help="ray sampling (default: the preset's, uniform)")
+    t.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
+    t.add_argument("--threads", type=int, default=1, help="torch CPU threads (default 1: faster than 2 on a shared machine)")
+    t.add_argument("--quiet", action="store_true", help="no progress bar")
+    r = sub.add_parser("render", help="render the eval cameras to RUN/pred/<camera>/<frame>.png")
+    r.add_argument("run", help="run folder written by train")
+    r.add_argument("--data", help="dataset folder (default: the one the run was trained on)")
+    r.add_argument("--threads", type=int, default=1, help="torch CPU threads (default 1: faster than 2 on a shared machine)")
+    r.add_argument("--quiet", action="store_true", help="no progress bar")
+    return p
+
+
+def main(spec: ModelSpec, argv: list[str] | None = None) -> int:
+    """Run the CLI for ``spec``; returns the exit code."""
+    args = _parser(spec).parse_args(argv)
+    import torch
+
+    torch.set_num_threads(max(1, args.threads))
+    try:
+        if args.command == "train":
+            rec = train(spec, args.data, args.out, size=args.size, iters=args.iters,
+                        sampling=args.sampling, resume=args.resume, progress=not args.quiet)
+            msg = ", ".join(f"{k} {rec[k]:.4g}" for k in ("step", "psnr", "eval_psnr", "train_seconds")
+                            if k in rec)
+            print(f"trained {spec.name}: {msg}; checkpoint in {args.out}", file=sys.stderr)
+        else:
+            files = render_run(spec, args.run, args.data, progress=not args.quiet)
+            print(f"rendered {len(files)} views to {args.run}/pred", file=sys.stderr)
+    except InputError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    return 0

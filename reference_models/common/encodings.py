@@ -1,0 +1,97 @@
+"""Feature encodings shared by the models: K-Planes' multiscale planes and view-direction harmonics.
+
+An *encoding* maps space-time grid coordinates ``(N, 4)`` float32 in ``[-1, 1]`` (x, y, z after
+``rays.contract``, then ``t`` mapped from [0, 1]) to ``(N, out_dim)`` features, and reports its
+own regularisers. Both the K-Planes field and the density-only proposal fields are built from
+``PlaneEncoding``.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import torch
+from torch import nn
+from torch.nn import functional as F
+
+
+class PlaneEncoding(nn.Module):
+    """K-Planes (Fridovich-Keil et al. 2023): the six coordinate planes of 4D space-time.
+
+    Within a scale, the features of the planes ``xy, xz, yz, xt, yt, zt`` (bilinear lookups) are
+    multiplied; across scales they are concatenated, so ``out_dim = features * len(scales)``.
+    Space-only planes start uniform in [0.1, 0.5], planes with a time axis start at 1 (so a
+    static scene needs no change in them). ``static=True`` keeps only the three space planes.
+    """
+
+    def __init__(self, resolution: int, time_resolution: int, scales: tuple[int, ...],
+                 features: int, max_resolution: int = 256, static: bool = False) -> None:
+        super().__init__()
+        axes = [0, 1, 2] if static else [0, 1, 2, 3]
+        self.pairs = list(itertools.combinations(axes, 2))
+        self.features, self.scales = features, tuple(scales)
+        self.out_dim = features * len(self.scales)
+        self.planes = nn.ParameterList()
+        self.plane_pairs: list[tuple[int, int]] = []
+        """Axes ``(a, b)`` of each plane in ``planes`` (columns along ``a``, rows along ``b``)."""
+        for s in self.scales:
+            res = min(resolution * s, max_resolution)
+            for a, b in self.pairs:
+                self.plane_pairs.append((a, b))
+                size = [time_resolution if ax == 3 else res for ax in (b, a)]
+                if 3 in (a, b):
+                    self.planes.append(nn.Parameter(torch.ones(1, features, *size)))
+                else:
+                    self.planes.append(nn.Parameter(torch.empty(1, features, *size).uniform_(0.1, 0.5)))
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        """(N, 4) coordinates in [-1, 1] -> (N, out_dim) features."""
+        out, k = [], 0
+        for _ in self.scales:
+            prod = None
+            for a, b in self.pairs:
+                grid = x[:, [a, b]].view(1, 1, -1, 2)  # grid_sample: (x, y) = (width, height) axes
+                f = F.grid_sample(self.planes[k], grid, mode="bilinear", padding_mode="border",
+                                  align_corners=True)[0, :, 0].t()
+                prod = f if prod is None else prod * f
+                k += 1
+            out.append(prod)
+        return torch.cat(out, dim=-1)
+
+    def _time_planes(self) -> list[torch.Tensor]:
+        return [p for p, (_, b) in zip(self.planes, self.plane_pairs, strict=True) if b == 3]
+
+    def regularizers(self) -> dict[str, torch.Tensor]:
+        """Unweighted K-Planes regularisers (scalars): ``tv`` (squared first differences along
+        every space axis of every plane), ``time_smooth`` (squared second differences along time)
+        and ``time_l1`` (``|1 - plane|`` of the planes with a time axis: stay static unless the
+        images say otherwise)."""
+        tv = torch.zeros(())
+        for p, (_, b) in zip(self.planes, self.plane_pairs, strict=True):
+            if b != 3:  # rows run along axis b
+                tv = tv + (p[..., 1:, :] - p[..., :-1, :]).square().mean()
+            tv = tv + (p[..., :, 1:] - p[..., :, :-1]).square().mean()
+        times = self._time_planes()
+        if not times:
+            return {"tv": tv}
+        smooth = sum((p[..., 2:, :] - 2 * p[..., 1:-1, :] + p[..., :-2, :]).square().mean()
+                     for p in times if p.shape[-2] > 2)
+        l1 = sum((1.0 - p).abs().mean() for p in times)
+        return {"tv": tv, "time_smooth": torch.as_tensor(smooth, dtype=torch.float32), "time_l1": l1}
+
+
+def spherical_harmonics(d: torch.Tensor) -> torch.Tensor:
+    """Real spherical harmonics of degree 0..3 of unit directions (N, 3) -> (N, 16) float32."""
+    x, y, z = d.unbind(-1)
+    xx, yy, zz = x * x, y * y, z * z
+    return torch.stack([
+        torch.full_like(x, 0.28209479177387814),
+        -0.48860251190291987 * y, 0.48860251190291987 * z, -0.48860251190291987 * x,
+        1.0925484305920792 * x * y, -1.0925484305920792 * y * z,
+        0.94617469575755997 * zz - 0.31539156525251999, -1.0925484305920792 * x * z,
+        0.54627421529603959 * (xx - yy),
+        0.59004358992664352 * y * (-3 * xx + yy), 2.8906114426405538 * x * y * z,
+        0.45704579946446572 * y * (1 - 5 * zz), 0.3731763325901154 * z * (5 * zz - 3),
+        0.45704579946446572 * x * (1 - 5 * zz), 1.4453057213202769 * z * (xx - yy),
+        0.59004358992664352 * x * (-xx + 3 * yy),
+    ], dim=-1)

@@ -1,0 +1,197 @@
+"""One dynamic radiance model around any space-time encoding: proposal sampling, a small
+nerfacto-style decoder to density and view-dependent colour, a sky term, volume rendering.
+
+K-Planes and NeRFPlayer differ only in the encoding (``PlaneEncoding`` vs a temporal hash grid);
+everything else here — samples, proposals, decoder, background, losses — is shared, so a
+comparison between them compares the encodings.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import torch
+from torch import nn
+
+from reference_models.common.encodings import PlaneEncoding, spherical_harmonics
+from reference_models.common.rays import contract, spacing_to_distance
+from reference_models.common.sampling import (
+    distortion_loss,
+    interlevel_loss,
+    render_weights,
+    resample_edges,
+    stratified_edges,
+)
+
+
+class _TruncExp(torch.autograd.Function):
+    """``exp`` whose gradient is clamped at ``exp(15)`` (instant-NGP's density activation)."""
+
+    @staticmethod
+    def forward(ctx, x):  # noqa: ANN001
+        ctx.save_for_backward(x)
+        return torch.exp(x)
+
+    @staticmethod
+    def backward(ctx, g):  # noqa: ANN001
+        (x,) = ctx.saved_tensors
+        return g * torch.exp(x.clamp(max=15.0))
+
+
+def trunc_exp(x: torch.Tensor) -> torch.Tensor:
+    """Density activation: ``exp(x)`` with a bounded gradient."""
+    return _TruncExp.apply(x)
+
+
+@dataclass
+class RenderConfig:
+    """Ray sampling and the shared decoder (sizes for 2 CPU cores)."""
+
+    proposal_samples: tuple[int, ...] = (64,)
+    """Samples per ray of each proposal level (K-Planes DyNeRF: 256, 128)."""
+    final_samples: int = 32
+    """Samples per ray of the radiance field (K-Planes DyNeRF: 48)."""
+    proposal_resolution: tuple[int, ...] = (64,)
+    """Space resolution of each proposal's planes (K-Planes: 128, 256)."""
+    proposal_features: int = 8
+    """Features per proposal plane (K-Planes: 8)."""
+    hidden: int = 64
+    """Width of the decoder MLPs."""
+    geo_features: int = 15
+    """Features passed from the density MLP to the colour MLP."""
+    near: float = 0.1
+    """Nearest ray distance (m)."""
+    far: float = 1000.0
+    """Farthest ray distance (m); light reaching it shows the sky term."""
+
+
+def _mlp(n_in: int, hidden: int, n_out: int, layers: int) -> nn.Sequential:
+    mods: list[nn.Module] = []
+    for i in range(layers):
+        mods += [nn.Linear(n_in if i == 0 else hidden, hidden), nn.ReLU()]
+    mods.append(nn.Linear(hidden if layers else n_in, n_out))
+    return nn.Sequential(*mods)
+
+
+@dataclass
+class RayBatch:
+    """Rays to render."""
+
+    origins: torch.Tensor
+    """(R, 3) float32 world metres."""
+    directions: torch.Tensor
+    """(R, 3) float32 unit vectors."""
+    times: torch.Tensor
+    """(R,) float32 in [0, 1]."""
+
+
+@dataclass
+class RenderOutput:
+    """What ``DynamicRadianceModel.render`` returns."""
+
+    rgb: torch.Tensor
+    """(R, 3) float32 colour in [0, 1] (sRGB-encoded, like the images)."""
+    depth: torch.Tensor
+    """(R,) float32 expected ray distance (m) of the volume part."""
+    losses: dict[str, torch.Tensor] = field(default_factory=dict)
+    """Unweighted per-batch losses besides the photometric one (training only)."""
+
+
+class DynamicRadianceModel(nn.Module):
+    """Proposal sampling + ``encoding`` + decoder + sky, rendered by alpha compositing.
+
+    ``encoding``: a module mapping ``(N, 4)`` space-time grid coordinates in [-1, 1] to
+    ``(N, encoding.out_dim)`` features, with ``regularizers() -> dict`` of unweighted scalars.
+    ``box``: (2, 3) inner scene box (metres); ``n_frames``: time resolution of the proposals.
+    """
+
+    def __init__(self, encoding: nn.Module, box: torch.Tensor, n_frames: int,
+                 config: RenderConfig | None = None) -> None:
+        super().__init__()
+        self.config = cfg = config or RenderConfig()
+        if len(cfg.proposal_samples) != len(cfg.proposal_resolution):
+            raise ValueError("one proposal resolution per proposal level is needed")
+        self.register_buffer("box", torch.as_tensor(box, dtype=torch.float32))
+        self.encoding = encoding
+        self.proposals = nn.ModuleList(
+            PlaneEncoding(r, n_frames, (1,), cfg.proposal_features) for r in cfg.proposal_resolution)
+        self.proposal_heads = nn.ModuleList(
+            nn.Linear(cfg.proposal_features, 1) for _ in cfg.proposal_resolution)
+        self.density_net = _mlp(encoding.out_dim, cfg.hidden, 1 + cfg.geo_features, 1)
+        self.color_net = _mlp(cfg.geo_features + 16, cfg.hidden, 3, 2)
+        self.sky_net = _mlp(16, 32, 3, 1)
+        half = 0.5 * (self.box[1] - self.box[0])
+        self.t_lin = float(2.0 * half.max())
+
+    def _points(self, rays: RayBatch, edges: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Grid coordinates (R*S, 4) of the bin midpoints and bin lengths (R, S) in metres."""
+        cfg = self.config
+        dist = spacing_to_distance(edges, cfg.near, self.t_lin, cfg.far)
+        mid = 0.5 * (dist[:, 1:] + dist[:, :-1])
+        xyz = rays.origins[:, None, :] + rays.directions[:, None, :] * mid[..., None]
+        t = (2.0 * rays.times - 1.0)[:, None, None].expand(-1, mid.shape[1], 1)
+        coords = torch.cat([contract(xyz, self.box), t], dim=-1).reshape(-1, 4)
+        return coords, dist[:, 1:] - dist[:, :-1]
+
+    def density_and_color(self, coords: torch.Tensor, dirs: torch.Tensor
+                          ) -> tuple[torch.Tensor, torch.Tensor]:
+        """The radiance field at (N, 4) grid coordinates seen along (N, 3) unit directions:
+        density (N,) in 1/m and colour (N, 3) in [0, 1]."""
+        h = self.density_net(self.encoding(coords))
+        density = trunc_exp(h[:, 0] - 1.0)
+        color = torch.sigmoid(self.color_net(torch.cat([h[:, 1:], spherical_harmonics(dirs)], -1)))
+        return density, color
+
+    def render(self, rays: RayBatch, training: bool = False,
+               generator: torch.Generator | None = None) -> RenderOutput:
+        """Render ``rays``; with ``training`` the samples are jittered and the proposal losses
+        (``interlevel``, ``distortion``) are returned in ``losses``."""
+        cfg, r = self.config, rays.origins.shape[0]
+        edges = stratified_edges(r, cfg.proposal_samples[0], training, generator)
+        history = []
+        for level, (enc, head) in enumerate(zip(self.proposals, self.proposal_heads, strict=True)):
+            coords, deltas = self._points(rays, edges)
+            with torch.set_grad_enabled(training and torch.is_grad_enabled()):
+                dens = trunc_exp(head(enc(coords))[:, 0] - 1.0).view(r, -1)
+                w = render_weights(dens, deltas)
+            history.append((edges, w))
+            n_next = (cfg.proposal_samples[level + 1] if level + 1 < len(cfg.proposal_samples)
+                      else cfg.final_samples)
+            edges = resample_edges(edges, w.detach(), n_next, training, generator=generator)
+        coords, deltas = self._points(rays, edges)
+        dirs = rays.directions[:, None, :].expand(-1, edges.shape[1] - 1, -1).reshape(-1, 3)
+        density, color = self.density_and_color(coords, dirs)
+        weights = render_weights(density.view(r, -1), deltas)
+        sky = torch.sigmoid(self.sky_net(spherical_harmonics(rays.directions)))
+        acc = weights.sum(-1, keepdim=True)
+        rgb = (weights[..., None] * color.view(r, -1, 3)).sum(1) + (1.0 - acc) * sky
+        dist = spacing_to_distance(edges, cfg.near, self.t_lin, cfg.far)
+        depth = (weights * 0.5 * (dist[:, 1:] + dist[:, :-1])).sum(-1)
+        losses = {}
+        if training:
+            losses["interlevel"] = sum(interlevel_loss(edges, weights, e, w) for e, w in history)
+            losses["distortion"] = distortion_loss(edges, weights)
+        return RenderOutput(rgb, depth, losses)
+
+    def regularizers(self) -> dict[str, torch.Tensor]:
+        """Unweighted regularisers of the field and the proposals, summed by name."""
+        out: dict[str, torch.Tensor] = {}
+        for mod in [self.encoding, *self.proposals]:
+            for k, v in mod.regularizers().items():
+                out[k] = out[k] + v if k in out else v
+        return out
+
+    @torch.no_grad()
+    def render_image(self, c2w: torch.Tensor, intrinsics: torch.Tensor, time: float, height: int,
+                     width: int, chunk: int = 4096) -> torch.Tensor:
+        """Render one view: ``c2w`` (4, 4), ``intrinsics`` (4,) -> (H, W, 3) float32 in [0, 1]."""
+        from reference_models.common.rays import pixel_rays
+
+        rows, cols = torch.meshgrid(torch.arange(height), torch.arange(width), indexing="ij")
+        rows, cols = rows.reshape(-1), cols.reshape(-1)
+        out = []
+        for i in range(0, rows.numel(), chunk):
+            n = min(chunk, rows.numel() - i)
+            o, d = pixel_rays(c2w.expand(n, 4, 4), intrinsics.expand(n, 4), rows[i:i + n], cols[i:i + n])
+            out.append(self.render(RayBatch(o, d, torch.full((n,), float(time)))).rgb)
+        return torch.cat(out).view(height, width, 3).clamp(0.0, 1.0)

@@ -1,0 +1,312 @@
+"""The one training loop of the reference models, its checkpoints, and rendering a run's
+evaluation cameras to ``RUN/pred/<camera>/<frame>.png``.
+
+A run folder holds ``config.json`` (model name and every setting), ``checkpoint.pt`` (model,
+optimiser, step, training seconds, sampler state: training resumes where it stopped),
+``log.jsonl`` (one JSON object per logged step: loss, batch PSNR, iterations/s, training
+seconds, and the eval-camera PSNR at evaluation steps) and, after rendering, ``pred/``.
+
+Time is *training* wall time: evaluation and checkpointing are excluded, so PSNR-vs-time curves
+measure the model, not how often it was looked at.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+from dynaeval.errors import InputError
+from reference_models.common.data import Dataset, Views, load_dataset
+from reference_models.common.importance import SAMPLING, RaySampler
+from reference_models.common.model import DynamicRadianceModel, RayBatch, RenderConfig
+from reference_models.common.rays import pixel_rays
+
+
+@dataclass
+class TrainConfig:
+    """Optimisation, losses and logging (K-Planes' DyNeRF values where they exist)."""
+
+    iters: int = 2000
+    """Optimisation steps (K-Planes DyNeRF: 90,000 on a GPU)."""
+    batch_rays: int = 1024
+    """Rays per step (K-Planes: 4,096)."""
+    lr: float = 1e-2
+    """Adam learning rate, cosine-decayed to 0 after a linear warm-up (K-Planes: 1e-2)."""
+    warmup: int = 50
+    """Linear warm-up steps (K-Planes: 512 of 90k)."""
+    sampling: str = "uniform"
+    """``uniform``, ``isg`` or ``ist`` (ISG, then IST from ``ist_from``)."""
+    importance_fraction: float = 0.25
+    """Share of each batch drawn by importance weights when sampling is ``isg``/``ist``."""
+    ist_from: float = 5 / 9
+    """``ist``: fraction of the run after which IST replaces ISG (K-Planes: 50k of 90k)."""
+    tv: float = 2e-4
+    """Plane total variation weight (K-Planes: 2e-4, field and proposals)."""
+    time_smooth: float = 1e-3
+    """Second-difference smoothness along time (K-Planes: 1e-3)."""
+    time_l1: float = 1e-4
+    """L1 of time planes away from 1 (K-Planes: 1e-4)."""
+    window_l1: float = 1.0
+    """NeRFPlayer: L1 between the two blended time channels of each lookup (published: 1.0)."""
+    interlevel: float = 1.0
+    """Proposal loss weight (mip-NeRF 360 / K-Planes: 1)."""
+    distortion: float = 1e-3
+    """Distortion loss weight (K-Planes: 1e-3)."""
+    log_every: int = 25
+    """Steps between log lines."""
+    eval_every: int = 250
+    """Steps between eval-camera PSNR measurements (0: only at the end)."""
+    eval_views: int = 4
+    """Eval views (evenly spread over the eval frames) rendered for the logged PSNR."""
+    checkpoint_every: int = 500
+    """Steps between checkpoints (and one at the end)."""
+    seed: int = 0
+    """Seed of the initialisation and the ray sampler."""
+
+
+@dataclass
+class ModelSpec:
+    """What a model package gives the shared CLI: its name, config class, presets and builder."""
+
+    name: str
+    """Model name written into ``config.json`` (``kplanes``, ``nerfplayer``)."""
+    config_class: type
+    """Dataclass of the model's encoding settings."""
+    presets: dict[str, tuple[Any, RenderConfig, TrainConfig]]
+    """Size name (``tiny``, ``small``) -> (model config, render config, train config)."""
+    build_encoding: Callable[[Any, Dataset | dict], torch.nn.Module]
+    """(model config, dataset or its ``scene`` dict from config.json) -> encoding module."""
+
+
+def standard_presets(tiny: Any, small: Any) -> dict[str, tuple[Any, RenderConfig, TrainConfig]]:
+    """The sizes every model offers, given its model configs for each: ``tiny`` for tests
+    (seconds: 256 rays x (32 + 16) samples, 80 steps) and ``small`` for the documented runs
+    (1,024 rays x (64 + 32) samples, 2,000 steps)."""
+    return {
+        "tiny": (tiny, RenderConfig(proposal_samples=(32,), final_samples=16,
+                                    proposal_resolution=(16,), hidden=32),
+                 TrainConfig(iters=80, batch_rays=256, warmup=10, log_every=10, eval_every=0,
+                             eval_views=2, checkpoint_every=1000)),
+        "small": (small, RenderConfig(), TrainConfig()),
+    }
+
+
+def scene_info(data: Dataset) -> dict:
+    """What a model needs to know of the scene, stored in ``config.json`` for rendering."""
+    return {"box": data.box.tolist(), "n_frames": int(data.n_frames)}
+
+
+def build_model(spec: ModelSpec, model_cfg: Any, render_cfg: RenderConfig, scene: dict
+                ) -> DynamicRadianceModel:
+    """The model of a run from its configs and ``scene`` (``scene_info``)."""
+    enc = spec.build_encoding(model_cfg, scene)
+    return DynamicRadianceModel(enc, torch.tensor(scene["box"]), scene["n_frames"], render_cfg)
+
+
+def _lr_factor(step: int, cfg: TrainConfig) -> float:
+    if step < cfg.warmup:
+        return (step + 1) / cfg.warmup
+    frac = (step - cfg.warmup) / max(cfg.iters - cfg.warmup, 1)
+    return 0.5 * (1.0 + math.cos(math.pi * min(frac, 1.0)))
+
+
+def _to_uint8(img: torch.Tensor) -> np.ndarray:
+    return np.round(img.numpy() * 255.0).astype(np.uint8)
+
+
+def eval_psnr(model: DynamicRadianceModel, views: Views, n_views: int) -> float:
+    """Mean whole-frame PSNR (dB, 8-bit predictions vs 8-bit ground truth) over ``n_views`` views
+    evenly spread over ``views``."""
+    from dynaeval.metrics import psnr
+
+    idx = np.unique(np.round(np.linspace(0, len(views) - 1, min(n_views, len(views)))).astype(int))
+    vals = []
+    for i in idx:
+        img = model.render_image(torch.from_numpy(views.c2w[i]), torch.from_numpy(views.intrinsics[i]),
+                                 float(views.times[i]), views.height, views.width)
+        vals.append(psnr(_to_uint8(img), views.images[i], data_range=255.0))
+    return float(np.mean(vals))
+
+
+def _atomic_save(obj: object, path: Path) -> None:
+    tmp = path.with_suffix(".tmp")
+    torch.save(obj, tmp)
+    os.replace(tmp, path)
+
+
+def _config_dict(spec: ModelSpec, data: Dataset, model_cfg: Any, render_cfg: RenderConfig,
+                 train_cfg: TrainConfig, size: str) -> dict:
+    return {"model": spec.name, "data": str(Path(data.root).resolve()), "size": size,
+            "scene": scene_info(data), "model_config": asdict(model_cfg),
+            "render_config": asdict(render_cfg), "train_config": asdict(train_cfg)}
+
+
+def _from_dict(cls: type, d: dict) -> Any:
+    names = {f.name for f in fields(cls)}
+    return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in d.items() if k in names})
+
+
+def load_run(run: str | Path, spec: ModelSpec) -> tuple[dict, DynamicRadianceModel, dict]:
+    """``config.json`` dict, the model with its checkpointed weights, and the checkpoint."""
+    run = Path(run)
+    cfg_file, ckpt_file = run / "config.json", run / "checkpoint.pt"
+    if not cfg_file.is_file() or not ckpt_file.is_file():
+        raise InputError("not a training run: config.json or checkpoint.pt is missing; train first "
+                         f"with `python -m reference_models.{spec.name} train DATA --out RUN`", path=run)
+    cfg = json.loads(cfg_file.read_text())
+    if cfg.get("model") != spec.name:
+        raise InputError(f"run was trained with model {cfg.get('model')!r}, not {spec.name!r}; use "
+                         f"`python -m reference_models.{cfg.get('model')} render`", path=run)
+    model = build_model(spec, _from_dict(spec.config_class, cfg["model_config"]),
+                        _from_dict(RenderConfig, cfg["render_config"]), cfg["scene"])
+    ckpt = torch.load(ckpt_file, weights_only=False)
+    model.load_state_dict(ckpt["model"])
+    return cfg, model, ckpt
+
+
+def train(spec: ModelSpec, data_path: str | Path, out: str | Path, size: str = "small",
+          iters: int | None = None, sampling: str | None = None, resume: bool = False,
+          progress: bool = True, overrides: dict | None = None) -> dict:
+    """Train ``spec``'s model on the dataset at ``data_path`` into the run folder ``out``.
+
+    ``size`` picks the preset; ``iters``, ``sampling`` and ``overrides`` (TrainConfig field ->
+    value) change it. ``resume`` continues a run from its checkpoint (its saved configs win,
+    except ``iters``, which may extend it). Returns the last log record. Raises InputError for a
+    bad preset or sampling, a missing dataset, or an existing run without ``resume``.
+    """
+    out = Path(out)
+    if resume:
+        cfg, model, ckpt = load_run(out, spec)
+        train_cfg = _from_dict(TrainConfig, cfg["train_config"])
+        size = cfg["size"]
+        data_path = cfg["data"] if data_path is None else data_path
+    else:
+        if size not in spec.presets:
+            raise InputError(f"unknown size {size!r}; expected one of {', '.join(spec.presets)}")
+        if (out / "checkpoint.pt").exists():
+            raise InputError("run folder already holds a checkpoint; pass --resume to continue it "
+                             "or choose a new --out", path=out)
+        model_cfg, render_cfg, train_cfg = spec.presets[size]
+        train_cfg = _from_dict(TrainConfig, {**asdict(train_cfg), **(overrides or {})})
+        ckpt = None
+    if iters is not None:
+        train_cfg.iters = int(iters)
+    if sampling is not None:
+        train_cfg.sampling = sampling
+    if train_cfg.sampling not in SAMPLING:
+        raise InputError(f"sampling must be one of {', '.join(SAMPLING)}, got {train_cfg.sampling!r}")
+    if train_cfg.iters < 1:
+        raise InputError(f"iters must be >= 1, got {train_cfg.iters}")
+    data = load_dataset(data_path)
+    if resume:
+        cfg["train_config"] = asdict(train_cfg)
+    else:
+        torch.manual_seed(train_cfg.seed)
+        model = build_model(spec, model_cfg, render_cfg, scene_info(data))
+        cfg = _config_dict(spec, data, model_cfg, render_cfg, train_cfg, size)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "config.json").write_text(json.dumps(cfg, indent=1) + "\n")
+    return _loop(model, data, train_cfg, out, ckpt, progress)
+
+
+def _loop(model: DynamicRadianceModel, data: Dataset, cfg: TrainConfig, out: Path,
+          ckpt: dict | None, progress: bool) -> dict:
+    from tqdm import tqdm
+
+    views = data.train
+    sampler = RaySampler(views, cfg.sampling, cfg.importance_fraction, cfg.ist_from, cfg.seed)
+    optim = torch.optim.Adam(model.parameters(), lr=cfg.lr, eps=1e-15)
+    step, seconds = 0, 0.0
+    if ckpt is not None:
+        optim.load_state_dict(ckpt["optimizer"])
+        step, seconds = int(ckpt["step"]), float(ckpt["train_seconds"])
+        sampler.generator.set_state(ckpt["sampler_rng"])
+        torch.set_rng_state(ckpt["torch_rng"])
+    images = torch.from_numpy(views.images)
+    c2w, intr = torch.from_numpy(views.c2w), torch.from_numpy(views.intrinsics)
+    times = torch.from_numpy(views.times)
+    weights = {"tv": cfg.tv, "time_smooth": cfg.time_smooth, "time_l1": cfg.time_l1,
+               "window_l1": cfg.window_l1, "interlevel": cfg.interlevel, "distortion": cfg.distortion}
+    log_file = (out / "log.jsonl").open("a")
+    bar = tqdm(total=cfg.iters, initial=step, disable=not progress, unit="it", dynamic_ncols=True)
+    record: dict = {}
+    window_t, window_n, acc_loss, acc_psnr = 0.0, 0, 0.0, 0.0
+
+    def save() -> None:
+        _atomic_save({"model": model.state_dict(), "optimizer": optim.state_dict(), "step": step,
+                      "train_seconds": seconds, "sampler_rng": sampler.generator.get_state(),
+                      "torch_rng": torch.get_rng_state()}, out / "checkpoint.pt")
+
+    while step < cfg.iters:
+        t0 = time.perf_counter()
+        for g in optim.param_groups:
+            g["lr"] = cfg.lr * _lr_factor(step, cfg)
+        v, r, c = sampler.sample(cfg.batch_rays, step / cfg.iters)
+        o, d = pixel_rays(c2w[v], intr[v], r, c)
+        target = images[v, r, c].to(torch.float32) / 255.0
+        res = model.render(RayBatch(o, d, times[v]), training=True)
+        mse = torch.mean((res.rgb - target) ** 2)
+        terms = {**res.losses, **model.regularizers()}
+        loss = mse + sum(weights.get(k, 0.0) * val for k, val in terms.items())
+        optim.zero_grad(set_to_none=True)
+        loss.backward()
+        optim.step()
+        step += 1
+        dt = time.perf_counter() - t0
+        seconds += dt
+        window_t, window_n = window_t + dt, window_n + 1
+        acc_loss += float(loss)
+        acc_psnr += -10.0 * math.log10(max(float(mse), 1e-10))
+        bar.update(1)
+        is_eval = data.eval is not None and (step == cfg.iters or (cfg.eval_every and step % cfg.eval_every == 0))
+        if step % cfg.log_every == 0 or step == cfg.iters or is_eval:
+            record = {"step": step, "loss": acc_loss / window_n, "psnr": acc_psnr / window_n,
+                      "it_per_s": window_n / window_t, "train_seconds": round(seconds, 3),
+                      "lr": optim.param_groups[0]["lr"],
+                      "sampling": sampler.kind_at((step - 1) / cfg.iters) or "uniform"}
+            if is_eval:
+                record["eval_psnr"] = eval_psnr(model, data.eval, cfg.eval_views)
+            log_file.write(json.dumps(record) + "\n")
+            log_file.flush()
+            bar.set_postfix({k: f"{record[k]:.3g}" for k in ("loss", "psnr", "it_per_s", "eval_psnr")
+                             if k in record})
+            window_t, window_n, acc_loss, acc_psnr = 0.0, 0, 0.0, 0.0
+        if step % cfg.checkpoint_every == 0 or step == cfg.iters:
+            save()
+    bar.close()
+    log_file.close()
+    return record
+
+
+def render_run(spec: ModelSpec, run: str | Path, data_path: str | Path | None = None,
+               progress: bool = True) -> list[Path]:
+    """Render every eval view of the run's dataset to ``RUN/pred/<camera>/<frame>.png`` (8-bit
+    sRGB); returns the written files. ``data_path`` overrides the dataset recorded in the run."""
+    import cv2
+    from tqdm import tqdm
+
+    run = Path(run)
+    cfg, model, _ = load_run(run, spec)
+    data = load_dataset(data_path or cfg["data"])
+    if data.eval is None:
+        raise InputError("the dataset names no evaluation views (eval_cameras / val_filenames / "
+                         "transforms_test.json); nothing to render", path=data.root)
+    model.eval()
+    views, written = data.eval, []
+    for i in tqdm(range(len(views)), disable=not progress, unit="view"):
+        img = model.render_image(torch.from_numpy(views.c2w[i]), torch.from_numpy(views.intrinsics[i]),
+                                 float(views.times[i]), views.height, views.width)
+        path = run / "pred" / views.cameras[i] / f"{views.frames[i]}.png"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        cv2.imwrite(str(path), _to_uint8(img)[..., ::-1])
+        written.append(path)
+    return written
