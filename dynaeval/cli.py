@@ -58,6 +58,9 @@ def _add_score_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("-o", "--output", metavar="results.json",
                    help="write the results JSON here (atomically)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing -o file")
+    p.add_argument("--report", metavar="DIR",
+                   help="also write an HTML report (DIR/index.html + DIR/img/): summary, per-frame "
+                        "curves, worst frames with the scored regions drawn")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
 
 
@@ -114,6 +117,7 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("-o", "--output", default="dynaeval-demo-results.json", metavar="results.json",
                    help="where to write the results (default: %(default)s, replaced if present)")
     d.add_argument("--no-lpips", action="store_true", help="skip LPIPS")
+    d.add_argument("--report", metavar="DIR", help="also write an HTML report into DIR")
     d.set_defaults(focus=f"boxes:{sample_dir() / 'boxes.json'}")
     d.add_argument("--workers", type=int, default=1, metavar="N")
     d.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
@@ -129,6 +133,10 @@ def _run_score(pred: str, gt: str, args: argparse.Namespace, *, overwrite: bool)
     if output and Path(output).exists() and not overwrite:
         # checked before scoring so a long run is not lost at the end
         raise InputError("results file exists; pass --overwrite or choose another -o", path=output)
+    report = getattr(args, "report", None)
+    if report and (Path(report) / "index.html").exists() and not overwrite:
+        raise InputError("report exists; pass --overwrite or choose another --report folder",
+                         path=Path(report) / "index.html")
     config = ScoreConfig(
         method=getattr(args, "method", None) or ("sample-degraded" if args.command == "demo" else None),
         scene=getattr(args, "scene", None) or ("sample" if args.command == "demo" else None),
@@ -150,7 +158,12 @@ def _run_score(pred: str, gt: str, args: argparse.Namespace, *, overwrite: bool)
         temporal=not getattr(args, "no_temporal", False),
         flow=getattr(args, "flow", "dis"),
     )
-    results = score(pred, gt, config)
+    recorder = None
+    if report:
+        from dynaeval.report.html import RegionRecorder
+
+        recorder = RegionRecorder()
+    results = score(pred, gt, config, on_regions=recorder)
     for w in results["warnings"]:
         if "camera" not in w:  # run-level warnings; per-frame ones are in the JSON
             print(f"dynaeval: warning: {w['reason']}", file=sys.stderr)
@@ -168,6 +181,11 @@ def _run_score(pred: str, gt: str, args: argparse.Namespace, *, overwrite: bool)
         print(f"results written to {output}", file=sys.stderr)
     else:
         print("(pass -o results.json to save the per-frame results)", file=sys.stderr)
+    if report:
+        from dynaeval.report.html import write_report
+
+        index = write_report(results, report, recorder=recorder, overwrite=overwrite)
+        print(f"report written to {index}", file=sys.stderr)
     print(summary_table(results))
     return EXIT_OK
 

@@ -1,0 +1,273 @@
+"""A self-contained HTML report of one scoring run: ``dynaeval score ... --report DIR``.
+
+``DIR/index.html`` references PNG files in ``DIR/img/`` by relative path: the folder opens in a
+browser from disk (no server, no network, no script) and can be zipped or copied as a whole.
+
+Contents: the summary table (metric x region), per-camera means, per-frame curves of each metric
+(one plot per metric, one line per camera; matplotlib with the Agg backend, imported here only),
+and the worst frames (lowest ``focused_psnr``, else ``psnr``) as prediction / ground truth /
+error heat-map with the scored regions drawn on each: expanded boxes (the ``focused_*`` pixels)
+in yellow and the motion-mask outline (the ``masked_*`` pixels) in cyan.
+
+The regions come from ``score(..., on_regions=recorder)`` with a ``RegionRecorder``: it keeps the
+boxes of every frame and the outline (contours) of every motion mask, not the masks themselves.
+"""
+
+from __future__ import annotations
+
+import json
+from html import escape
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dynaeval.errors import InputError
+from dynaeval.report.table import REGIONS
+
+BOX_COLOUR = "#ffd400"
+MASK_COLOUR = "#00e5ff"
+
+
+class RegionRecorder:
+    """Collects the regions ``score`` used, per (camera, frame): boxes and mask outlines.
+
+    Pass ``recorder`` as ``score(..., on_regions=recorder)``; memory is a few boxes and contour
+    points per frame.
+    """
+
+    def __init__(self) -> None:
+        self.boxes: dict[tuple[str, str], np.ndarray] = {}
+        """(N, 4) int64 expanded, clipped, merged boxes of each frame that has any."""
+        self.outlines: dict[tuple[str, str], list[np.ndarray]] = {}
+        """Contours of the motion mask, each (K, 2) int32 (x, y) pixel coordinates."""
+
+    def __call__(self, camera: str, pairs: list[Any], regions: list[Any]) -> None:
+        import cv2
+
+        for pair, reg in zip(pairs, regions, strict=True):
+            key = (camera, pair.frame)
+            if reg.boxes is not None:
+                self.boxes[key] = np.asarray(reg.boxes, dtype=np.int64).reshape(-1, 4)
+            if reg.mask is not None:
+                contours, _ = cv2.findContours(np.ascontiguousarray(reg.mask, dtype=np.uint8),
+                                               cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+                self.outlines[key] = [c.reshape(-1, 2) for c in contours]
+
+
+def _read_frame(ref: str, background: str) -> np.ndarray:
+    """A frame given as the results' ``pred``/``gt`` string (``path`` or ``path#N`` for video)."""
+    from dynaeval.io.frames import FrameRef
+
+    path = Path(ref)
+    if not path.exists() and "#" in ref:
+        file, _, index = ref.rpartition("#")
+        if index.isdigit():
+            return FrameRef(Path(file), int(index)).read(background)
+    if not path.exists():
+        raise InputError("frame listed in the results is gone; the report needs it", path=ref)
+    return FrameRef(path).read(background)
+
+
+def worst_frames(results: dict[str, Any], n: int = 4) -> tuple[str, list[dict[str, Any]]]:
+    """The ``n`` frames with the lowest ``focused_psnr`` (when scored) else ``psnr``.
+
+    Returns:
+        (metric used, frame rows of the results, worst first). Frames whose value is null are
+        left out.
+    """
+    metric = "focused_psnr" if "focused_psnr" in results["metrics"] else "psnr"
+    rows = [f for f in results["frames"] if f.get(metric) is not None]
+    return metric, sorted(rows, key=lambda f: f[metric])[:n]
+
+
+def _summary_html(results: dict[str, Any]) -> str:
+    from dynaeval.report.table import _base, _fmt
+
+    metrics = results["metrics"]
+    bases: list[str] = []
+    for name in metrics:
+        if _base(name) not in bases:
+            bases.append(_base(name))
+    regions = [(p, label) for p, label in REGIONS if any(p + b in metrics for b in bases)]
+    head = "".join(f"<th>{label}</th>" for _, label in regions)
+    rows = []
+    for b in bases:
+        info = next(metrics[p + b] for p, _ in regions if p + b in metrics)
+        arrow = "↑" if info["higher_is_better"] else "↓"
+        unit = f" ({info['unit']})" if info["unit"] else ""
+        cells = "".join(
+            f"<td>{_fmt(b, results['summary'].get(p + b)) if p + b in metrics else ''}</td>"
+            for p, _ in regions)
+        rows.append(f"<tr><td>{escape(b)} {arrow}{escape(unit)}</td>{cells}</tr>")
+    table = f"<table><tr><th>metric</th>{head}</tr>{''.join(rows)}</table>"
+    per_frame = [m for m in metrics if m in results["frames"][0]] if results["frames"] else []
+    cam_head = "".join(f"<th>{escape(m)}</th>" for m in per_frame)
+    cam_rows = "".join(
+        f"<tr><td>{escape(cam)}</td><td>{v['n_frames']}</td>"
+        + "".join(f"<td>{_fmt(_base(m), v.get(m))}</td>" for m in per_frame) + "</tr>"
+        for cam, v in results["cameras"].items())
+    cams = f"<table><tr><th>camera</th><th>frames</th>{cam_head}</tr>{cam_rows}</table>"
+    return table + "<h3>Per camera (means over frames)</h3>" + cams
+
+
+def _curves(results: dict[str, Any], img_dir: Path) -> list[tuple[str, str]]:
+    """One PNG per per-frame metric: value against frame index, one line per camera."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    frames = results["frames"]
+    names = [m for m in results["metrics"] if any(m in f for f in frames)]
+    out = []
+    for name in names:
+        fig, ax = plt.subplots(figsize=(7, 2.6), dpi=100)
+        for cam in results["inputs"]["cameras"]:
+            pts = [(f["index"], f[name]) for f in frames if f["camera"] == cam and f.get(name) is not None]
+            if pts:
+                x, y = zip(*pts, strict=True)
+                ax.plot(x, y, marker=".", lw=1, label=cam)
+        info = results["metrics"][name]
+        ax.set_xlabel("frame index")
+        ax.set_ylabel(f"{name}{' (' + info['unit'] + ')' if info['unit'] else ''}")
+        ax.set_title(f"{name} per frame ({'higher' if info['higher_is_better'] else 'lower'} is better)",
+                     fontsize=10)
+        ax.grid(alpha=0.3)
+        if len(results["inputs"]["cameras"]) <= 12:
+            ax.legend(fontsize=7, loc="best")
+        fig.tight_layout()
+        file = img_dir / f"curve_{name}.png"
+        fig.savefig(file)
+        plt.close(fig)
+        out.append((name, f"img/{file.name}"))
+    return out
+
+
+def _draw_regions(ax: Any, boxes: np.ndarray | None, outlines: list[np.ndarray] | None) -> None:
+    from matplotlib.patches import Rectangle
+
+    for x0, y0, x1, y1 in boxes if boxes is not None else []:
+        ax.add_patch(Rectangle((x0 - 0.5, y0 - 0.5), x1 - x0, y1 - y0, fill=False,
+                               edgecolor=BOX_COLOUR, lw=1.2))
+    for c in outlines or []:
+        closed = np.vstack([c, c[:1]])
+        ax.plot(closed[:, 0], closed[:, 1], color=MASK_COLOUR, lw=0.8)
+
+
+def _frame_figure(row: dict[str, Any], metric: str, results: dict[str, Any],
+                  recorder: RegionRecorder | None, file: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    background = results["settings"].get("background", "white")
+    pred = _read_frame(row["pred"], background)
+    gt = _read_frame(row["gt"], background)
+    if pred.shape != gt.shape:
+        raise InputError(f"prediction {pred.shape} and ground truth {gt.shape} differ in shape",
+                         path=row["pred"])
+    err = np.abs(pred.astype(np.float64) - gt.astype(np.float64)).mean(axis=2)
+    key = (row["camera"], row["frame"])
+    boxes = recorder.boxes.get(key) if recorder else None
+    outlines = recorder.outlines.get(key) if recorder else None
+    h, w = gt.shape[:2]
+    fig, axes = plt.subplots(1, 3, figsize=(15, 15 * h / w / 3 + 0.6), dpi=100)
+    show = (lambda a: a[..., 0]) if gt.shape[2] == 1 else (lambda a: a)
+    panels = [(show(np.clip(pred, 0, 1)), "prediction"), (show(np.clip(gt, 0, 1)), "ground truth"),
+              (err, "|prediction - ground truth| (mean over channels)")]
+    for ax, (img, title) in zip(axes, panels, strict=True):
+        kw = {"cmap": "inferno", "vmin": 0.0, "vmax": max(float(err.max()), 1e-6)} \
+            if img is err else ({"cmap": "gray", "vmin": 0, "vmax": 1} if img.ndim == 2 else {})
+        im = ax.imshow(img, interpolation="nearest", **kw)
+        _draw_regions(ax, boxes, outlines)
+        ax.set_title(title, fontsize=9)
+        ax.set_axis_off()
+        if img is err:
+            fig.colorbar(im, ax=ax, fraction=0.03, pad=0.01)
+    value = row.get(metric)
+    fig.suptitle(f"camera {row['camera']}, frame {row['frame']}: {metric} = {value:.2f} dB",
+                 fontsize=10)
+    fig.tight_layout()
+    fig.savefig(file)
+    plt.close(fig)
+
+
+def write_report(
+    results: dict[str, Any],
+    out_dir: str | Path,
+    *,
+    recorder: RegionRecorder | None = None,
+    n_worst: int = 4,
+    overwrite: bool = False,
+) -> Path:
+    """Write ``out_dir/index.html`` and its images (``out_dir/img/*.png``) for one results doc.
+
+    Args:
+        results: the results of ``dynaeval.score`` (or ``load_results``); the frames it lists
+            must still be on disk for the worst-frame panels.
+        out_dir: folder, created if missing.
+        recorder: regions recorded during ``score`` (boxes and mask outlines are drawn when given).
+        n_worst: how many worst frames to show.
+        overwrite: replace an existing ``index.html``.
+
+    Returns:
+        Path of ``index.html`` (written last, atomically: a failed run leaves none).
+
+    Raises:
+        InputError: ``index.html`` exists and not ``overwrite``, ``out_dir`` is a file, or a frame
+            listed in the results is gone.
+    """
+    from dynaeval.report.leaderboard import TABLE_CSS, write_text_atomic
+
+    out_dir = Path(out_dir)
+    index = out_dir / "index.html"
+    if out_dir.exists() and not out_dir.is_dir():
+        raise InputError("report folder is a file; choose a folder", path=out_dir)
+    if index.exists() and not overwrite:
+        raise InputError("report exists; pass --overwrite or choose another --report folder",
+                         path=index)
+    img_dir = out_dir / "img"
+    img_dir.mkdir(parents=True, exist_ok=True)
+    curves = _curves(results, img_dir)
+    metric, worst = worst_frames(results, n_worst)
+    worst_imgs = []
+    for i, row in enumerate(worst):
+        file = img_dir / f"worst_{i:02d}.png"
+        _frame_figure(row, metric, results, recorder, file)
+        worst_imgs.append((row, f"img/{file.name}"))
+
+    title = f"dynaeval: {results['method']} on {results['scene']}"
+    parts = [
+        "<!DOCTYPE html>", "<html><head><meta charset='utf-8'>", f"<title>{escape(title)}</title>",
+        f"<style>{TABLE_CSS}img{{max-width:100%;display:block;margin:0.5em 0}}"
+        "details pre{font-size:12px;background:#f7f7f7;padding:1em}</style></head><body>",
+        f"<h1>{escape(title)}</h1>",
+        f"<p>{results['summary']['n_frames']} frames, {len(results['cameras'])} camera(s); "
+        f"dynaeval {escape(results['dynaeval_version'])}, {escape(results['created'])}. "
+        "Values are means of per-frame values.</p>",
+        "<h2>Summary</h2>", _summary_html(results),
+        "<h2>Per-frame curves</h2>",
+    ]
+    parts += [f"<img src='{escape(src)}' alt='{escape(name)} per frame'>" for name, src in curves]
+    parts.append(f"<h2>Worst frames by {escape(metric)}</h2>")
+    if recorder is not None:
+        parts.append(f"<p>Drawn on each panel: <span style='color:#b09000'>boxes</span> "
+                     f"(pixels of the focused_* metrics) and the <span style='color:#0097a7'>"
+                     "motion-mask outline</span> (pixels of the masked_* metrics).</p>")
+    if not worst_imgs:
+        parts.append(f"<p>No frame has a defined {escape(metric)}.</p>")
+    for row, src in worst_imgs:
+        cap = ", ".join(f"{m} {row[m]:.4g}" for m in results["metrics"] if row.get(m) is not None)
+        parts.append(f"<img src='{escape(src)}' alt='camera {escape(row['camera'])} frame "
+                     f"{escape(row['frame'])}'><p>{escape(cap)}</p>")
+    if results["warnings"]:
+        items = "".join(f"<li>{escape(json.dumps(w, ensure_ascii=False))}</li>"
+                        for w in results["warnings"][:200])
+        parts.append(f"<details><summary>{len(results['warnings'])} warning(s)</summary>"
+                     f"<ul>{items}</ul></details>")
+    parts.append("<details><summary>Settings</summary><pre>"
+                 f"{escape(json.dumps(results['settings'], indent=1, ensure_ascii=False))}"
+                 "</pre></details></body></html>")
+    return write_text_atomic(index, "\n".join(parts) + "\n", overwrite=overwrite)
