@@ -253,8 +253,8 @@ def write_report(
     parts += [f"<img src='{escape(src)}' alt='{escape(name)} per frame'>" for name, src in curves]
     parts.append(f"<h2>Worst frames by {escape(metric)}</h2>")
     if recorder is not None:
-        parts.append(f"<p>Drawn on each panel: <span style='color:#b09000'>boxes</span> "
-                     f"(pixels of the focused_* metrics) and the <span style='color:#0097a7'>"
+        parts.append("<p>Drawn on each panel: <span style='color:#b09000'>boxes</span> "
+                     "(pixels of the focused_* metrics) and the <span style='color:#0097a7'>"
                      "motion-mask outline</span> (pixels of the masked_* metrics).</p>")
     if not worst_imgs:
         parts.append(f"<p>No frame has a defined {escape(metric)}.</p>")
