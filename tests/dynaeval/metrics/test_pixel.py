@@ -82,11 +82,15 @@ def test_torch_tensors_score_like_numpy(rng):
     assert psnr(torch.from_numpy(a), torch.from_numpy(b)) == psnr(a, b)
 
 
-def test_masked_psnr_is_psnr_of_the_masked_pixels_alone(rng):
-    a = rng.random((40, 50, 3))
-    b = np.clip(a + 0.1 * rng.standard_normal(a.shape), 0, 1)
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_masked_psnr_is_psnr_of_the_masked_pixels_alone(rng, dtype):
+    a = rng.random((40, 50, 3)).astype(dtype) ** 3
+    b = np.clip(a + 0.1 * rng.standard_normal(a.shape), 0, 1).astype(dtype)
     mask = np.zeros((40, 50), bool)
-    mask[5:15, 10:40] = True
+    mask[5:15, 10:40] = True  # a rectangle: its bounding box is all True
+    assert abs(psnr(a, b, mask=mask) - _psnr64(a[mask], b[mask])) < ATOL_DB
+    mask[7, 12] = False  # not a rectangle any more
+    mask[30:33, 0:4] = True
     assert abs(psnr(a, b, mask=mask) - _psnr64(a[mask], b[mask])) < ATOL_DB
 
 
@@ -108,7 +112,7 @@ def test_boxes_are_their_union_each_pixel_once(rng):
     b = rng.random((30, 30, 3))
     boxes = np.array([[0, 0, 20, 20], [10, 10, 30, 30]])
     mask = boxes_to_mask(boxes, 30, 30)
-    assert psnr(a, b, boxes=boxes) == psnr(a, b, mask=mask)
+    assert psnr(a, b, boxes=boxes) == pytest.approx(psnr(a, b, mask=mask), abs=ATOL_DB)
     assert abs(psnr(a, b, boxes=boxes) - _psnr64(a[mask], b[mask])) < ATOL_DB
     stacked = np.concatenate([a[0:20, 0:20].reshape(-1, 3), a[10:30, 10:30].reshape(-1, 3)])
     stacked_b = np.concatenate([b[0:20, 0:20].reshape(-1, 3), b[10:30, 10:30].reshape(-1, 3)])
@@ -226,6 +230,8 @@ def test_fast_sse_equals_numpy_reference(rng, shape):
     assert _sse(a, b.astype(np.float64)) == pytest.approx(_sse_numpy(a, b), rel=1e-13)
     nc = np.asfortranarray(a)  # non-contiguous layouts are handled too
     assert _sse(nc, b) == pytest.approx(_sse_numpy(a, b), rel=1e-13)
+    mask = rng.random(shape[:2]) > 0.3  # the masked path indexes first: (n, C) arrays
+    assert _sse(a[mask], b[mask]) == pytest.approx(_sse_numpy(a[mask], b[mask]), rel=1e-13)
 
 
 def test_bad_pixels_are_errors_inside_and_outside_the_region():
@@ -242,3 +248,18 @@ def test_bad_pixels_are_errors_inside_and_outside_the_region():
 def test_overflowing_squared_error_is_an_error():
     with pytest.raises(InputError, match="overflows float64"):
         psnr(np.full((2, 2), 1e200), np.zeros((2, 2)))
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.tuples(st.integers(-5, 30), st.integers(-5, 30), st.integers(1, 20), st.integers(1, 20)), min_size=1, max_size=6))
+def test_disjoint_rectangles_cover_the_union_once(raw):
+    from dynaeval.metrics._common import clipped_boxes
+    from dynaeval.metrics.pixel import disjoint_rectangles
+
+    boxes = np.array([[x, y, x + w, y + h] for x, y, w, h in raw])
+    if len(clipped_boxes(boxes, 25, 30)) == 0:
+        return  # nothing inside the image: psnr raises EmptyRegionError before this is used
+    cover = np.zeros((25, 30), int)
+    for x0, y0, x1, y1 in disjoint_rectangles(clipped_boxes(boxes, 25, 30)):
+        cover[y0:y1, x0:x1] += 1
+    assert np.array_equal(cover, boxes_to_mask(boxes, 25, 30).astype(int))
