@@ -30,7 +30,11 @@ def _add_score_options(p: argparse.ArgumentParser) -> None:
                    help="LPIPS backbone (default: alex)")
     p.add_argument("--quantize", choices=["none", "round", "truncate"], default="none",
                    help="quantise both images to 8 bit before scoring, as some evaluators do "
-                        "(default: none)")
+                        "(default: none, or the protocol's)")
+    p.add_argument("--protocol", choices=["dynaeval", "nerfbaselines", "nerfstudio"],
+                   default="dynaeval",
+                   help="reproduce another evaluator's whole-frame PSNR/SSIM and 8-bit step "
+                        "(docs/protocols.md; default: dynaeval)")
     p.add_argument("--background", choices=["white", "black"], default="white",
                    help="colour RGBA frames are composited over (default: white)")
     p.add_argument("--allow-missing", action="store_true",
@@ -157,6 +161,7 @@ def _run_score(pred: str, gt: str, args: argparse.Namespace, *, overwrite: bool)
         ),
         temporal=not getattr(args, "no_temporal", False),
         flow=getattr(args, "flow", "dis"),
+        protocol=getattr(args, "protocol", "dynaeval"),
     )
     recorder = None
     if report:

@@ -68,6 +68,10 @@ class ScoreConfig:
     """Torch device for LPIPS: ``cpu``, ``cuda`` or ``auto``."""
     progress: bool = True
     """Show a progress bar on stderr."""
+    protocol: str = "dynaeval"
+    """Whose whole-frame PSNR/SSIM and 8-bit step to reproduce: ``dynaeval``, ``nerfbaselines``
+    or ``nerfstudio`` (``dynaeval.metrics.protocols``; ``quantize`` then defaults to the
+    protocol's)."""
 
 
 class Results(dict):
@@ -128,11 +132,15 @@ def _build_metric_fns(
     the settings that describe them. Region kind is ``""`` (whole frame), ``"boxes"`` or ``"mask"``."""
     from dynaeval import metrics as M
     from dynaeval.metrics import structural
+    from dynaeval.metrics.protocols import get_protocol
 
     dr = config.data_range
-    base: dict[str, MetricFn] = {
-        "psnr": lambda p, g, kw: M.psnr(p, g, data_range=dr, **kw),
-        "ssim": lambda p, g, kw: M.ssim(p, g, data_range=dr, **kw),
+    proto = get_protocol(config.protocol)
+    base: dict[str, MetricFn] = {  # whole frame (kw empty): the protocol's; regions: dynaeval's
+        "psnr": lambda p, g, kw: M.psnr(p, g, data_range=dr, **kw) if kw
+        else proto.whole_psnr(p, g, data_range=dr),
+        "ssim": lambda p, g, kw: M.ssim(p, g, data_range=dr, **kw) if kw
+        else proto.whole_ssim(p, g, data_range=dr),
     }
     lpips_setting: dict[str, Any] = {"enabled": False, "net": config.lpips_net}
     if config.lpips:
@@ -174,6 +182,7 @@ def _build_metric_fns(
             "masked": "PSNR: over the mask's pixels; SSIM/LPIPS: mean of the full-frame map over them",
         },
         "summary": "mean of per-frame values (frames weighted equally, not pooled error)",
+        "protocol": proto.describe(),
     }
     return fns, settings
 
@@ -304,10 +313,14 @@ def score(
     from tqdm.auto import tqdm
 
     from dynaeval import __version__
+    from dynaeval.metrics.protocols import check_lpips_net, get_protocol, resolve_quantize
     from dynaeval.regions.focus import camera_regions, open_sources
     from dynaeval.report.results import build_results
 
     config = replace(config or ScoreConfig(), **overrides)
+    protocol = get_protocol(config.protocol)
+    check_lpips_net(protocol, config.lpips_net)
+    config = replace(config, quantize=resolve_quantize(protocol, config.quantize))
     if config.quantize not in ("none", "round", "truncate"):
         raise InputError(f"quantize must be none, round or truncate, got {config.quantize!r}")
     if config.workers < 1:

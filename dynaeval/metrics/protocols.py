@@ -1,0 +1,252 @@
+"""Evaluation protocols: reproduce the whole-frame numbers other evaluators publish.
+
+``--protocol dynaeval|nerfbaselines|nerfstudio`` (``ScoreConfig.protocol``) changes how the
+whole-frame PSNR and SSIM are computed and how images are prepared, so that dynaeval's figures can
+sit next to tables produced by those tools. docs/protocols.md lists every difference and where it
+comes from; in short:
+
+* ``dynaeval``: images as read (no 8-bit step), PSNR from a float64 squared error, SSIM of
+  scikit-image's Gaussian variant (11 taps, sigma 1.5, valid windows only, float64 reductions),
+  LPIPS AlexNet.
+* ``nerfbaselines``: both images go through 8 bit by truncation (``clip(x * 255).astype(uint8)``)
+  before the metrics, values are clipped to [0, 1]; PSNR from a float32 mean squared error; SSIM of
+  the dm_pix variant (Gaussian 11 taps, sigma 1.5, valid windows, float64 statistics of the float32
+  images, variances clamped to at least ``eps_float32 ** 2`` and the covariance to
+  ``+-sqrt(var_x var_y)``); LPIPS AlexNet.
+* ``nerfstudio``: float images as rendered (no 8-bit step); PSNR as torchmetrics'
+  ``PeakSignalNoiseRatio(data_range=1)`` (float32); SSIM as torchmetrics' (1.9)
+  ``structural_similarity_index_measure`` (Gaussian 11 taps, sigma 1.5, image reflect-padded by
+  5 px and *every* window averaged, border included; variances clamped at 0; float32); LPIPS
+  AlexNet as torchmetrics' ``LearnedPerceptualImagePatchSimilarity(normalize=True)`` (inputs in
+  [0, 1] mapped to [-1, 1]).
+
+The ``focused_*``/``masked_*``/temporal metrics are dynaeval's own under every protocol (the other
+tools have none); the protocol's 8-bit step applies to them too, since it changes the images.
+All protocols report the mean of per-image values.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from dynaeval.errors import InputError
+from dynaeval.metrics._common import check_data_range, check_pair
+
+PROTOCOL_NAMES = ("dynaeval", "nerfbaselines", "nerfstudio")
+
+
+def _as_hwc(p: np.ndarray) -> np.ndarray:
+    return p[..., None] if p.ndim == 2 else p
+
+
+def psnr_float32(pred: object, gt: object, *, data_range: float = 1.0, clip: bool = False) -> float:
+    """PSNR in dB from a float32 mean squared error (as NeRFBaselines and torchmetrics compute it).
+
+    Args:
+        pred, gt: (H, W) or (H, W, C) arrays/tensors in [0, data_range].
+        data_range: peak value L.
+        clip: clip both images to [0, 1] first (NeRFBaselines' input normalisation).
+
+    Returns:
+        ``10 log10(L^2 / MSE)`` as a Python float; ``math.inf`` for identical images.
+    """
+    data_range = check_data_range(data_range)
+    p, g = check_pair(pred, gt)
+    p32, g32 = p.astype(np.float32), g.astype(np.float32)
+    if clip:
+        p32, g32 = np.clip(p32, 0, 1), np.clip(g32, 0, 1)
+    d = p32 - g32
+    mse = float(np.mean(d * d, dtype=np.float32))
+    if mse == 0.0:
+        return math.inf
+    return 10.0 * math.log10(data_range * data_range / mse)
+
+
+SSIM_BORDERS = ("valid", "reflect")
+SSIM_CLAMPS = ("none", "zero", "dm_pix")
+
+
+def ssim_variant(
+    pred: object,
+    gt: object,
+    *,
+    data_range: float = 1.0,
+    border: str = "valid",
+    clamp: str = "none",
+    clip: bool = False,
+    precision: str = "float32",
+) -> float:
+    """SSIM with a Gaussian window (11 taps, sigma 1.5) in the variants other evaluators use.
+
+    Args:
+        pred, gt: (H, W) or (H, W, C) arrays/tensors in [0, data_range], H, W >= 11.
+        data_range: L in ``C1 = (0.01 L)^2``, ``C2 = (0.03 L)^2``.
+        border: ``"valid"``: only windows entirely inside the image (scikit-image, dm_pix,
+            NeRFBaselines); ``"reflect"``: the image is padded by 5 px by reflection without
+            repeating the edge (torch's ``reflect``) and all H x W windows are averaged
+            (torchmetrics 1.9, which nerfstudio calls).
+        clamp: ``"none"``; ``"zero"``: variances ``max(0, var)`` (torchmetrics); ``"dm_pix"``:
+            variances ``max(eps_f32^2, var)`` and covariance ``sign(cov) min(sqrt(var_x var_y),
+            |cov|)`` (dm_pix / NeRFBaselines).
+        clip: clip both images to [0, 1] first (NeRFBaselines).
+        precision: ``"float32"`` (torchmetrics: float32 tensors throughout) or ``"float64"``
+            (NeRFBaselines' numpy port of dm_pix: float32 images convolved with a float64
+            window, so the statistics are float64).
+
+    Returns:
+        Mean SSIM over the windows and channels, a Python float in [-1, 1].
+
+    Raises:
+        InputError: bad shapes, values, size below 11 px, or unknown border/clamp/precision.
+    """
+    import cv2
+
+    from dynaeval.metrics.structural import K1, K2, RADIUS, _check_size, gaussian_window
+
+    for arg, value, allowed in (("border", border, SSIM_BORDERS), ("clamp", clamp, SSIM_CLAMPS),
+                                ("precision", precision, ("float32", "float64"))):
+        if value not in allowed:
+            raise InputError(f"{arg} must be one of {', '.join(allowed)}, got {value!r}")
+    data_range = check_data_range(data_range)
+    p, g = check_pair(pred, gt)
+    dtype = np.dtype(precision)
+    p, g = _as_hwc(p).astype(np.float32), _as_hwc(g).astype(np.float32)
+    if clip:
+        p, g = np.clip(p, 0, 1), np.clip(g, 0, 1)
+    p, g = p.astype(dtype), g.astype(dtype)
+    _check_size(*p.shape[:2])
+    k = gaussian_window().astype(dtype)
+    r = RADIUS
+    depth = cv2.CV_32F if dtype == np.float32 else cv2.CV_64F
+
+    def blur(a: np.ndarray) -> np.ndarray:
+        a = np.ascontiguousarray(a)
+        if border == "reflect":
+            return cv2.sepFilter2D(a, depth, k, k, borderType=cv2.BORDER_REFLECT_101)
+        return cv2.sepFilter2D(a, depth, k, k, borderType=cv2.BORDER_REFLECT)[r:-r, r:-r]
+
+    c1 = dtype.type((K1 * data_range) ** 2)
+    c2 = dtype.type((K2 * data_range) ** 2)
+    maps = []
+    for c in range(p.shape[2]):
+        x, y = p[..., c], g[..., c]
+        mx, my = blur(x), blur(y)
+        sxx = blur(x * x) - mx * mx
+        syy = blur(y * y) - my * my
+        sxy = blur(x * y) - mx * my
+        if clamp == "zero":
+            sxx, syy = np.maximum(sxx, 0), np.maximum(syy, 0)
+        elif clamp == "dm_pix":
+            eps = dtype.type(np.finfo(np.float32).eps) ** 2
+            sxx = np.maximum(eps, sxx)
+            syy = np.maximum(eps, syy)
+            sxy = np.sign(sxy) * np.minimum(np.sqrt(sxx * syy), np.abs(sxy))
+        num = (2 * mx * my + c1) * (2 * sxy + c2)
+        den = (mx * mx + my * my + c1) * (sxx + syy + c2)
+        maps.append(num / den)
+    return float(np.mean(np.stack(maps), dtype=np.float64))
+
+
+@dataclass(frozen=True)
+class Protocol:
+    """How one evaluator prepares images and computes whole-frame PSNR/SSIM."""
+
+    name: str
+    """``dynaeval``, ``nerfbaselines`` or ``nerfstudio``."""
+    quantize: str
+    """8-bit step applied to both images before every metric: ``none`` or ``truncate``."""
+    psnr: str
+    """``float64`` (dynaeval) or ``float32`` (mean squared error in float32)."""
+    ssim: str
+    """``skimage-gaussian`` (dynaeval), ``dm_pix`` (valid windows, clamped) or ``torchmetrics``
+    (reflect-padded, every window, float32)."""
+    clip: bool
+    """Clip images to [0, 1] before PSNR/SSIM."""
+    lpips_net: str
+    """The LPIPS backbone the evaluator reports as ``lpips``."""
+    reference: str
+    """Where the definitions come from."""
+
+    def describe(self) -> dict[str, Any]:
+        """Settings for the results JSON."""
+        return {"name": self.name, "quantize": self.quantize, "psnr": self.psnr,
+                "ssim": self.ssim, "clip": self.clip, "lpips_net": self.lpips_net,
+                "reference": self.reference}
+
+    def whole_psnr(self, pred: object, gt: object, *, data_range: float = 1.0) -> float:
+        """Whole-frame PSNR in dB under this protocol."""
+        if self.psnr == "float32":
+            return psnr_float32(pred, gt, data_range=data_range, clip=self.clip)
+        from dynaeval.metrics.pixel import psnr
+
+        return psnr(pred, gt, data_range=data_range)
+
+    def whole_ssim(self, pred: object, gt: object, *, data_range: float = 1.0) -> float:
+        """Whole-frame SSIM under this protocol."""
+        if self.ssim == "skimage-gaussian":
+            from dynaeval.metrics.structural import ssim
+
+            return ssim(pred, gt, data_range=data_range)
+        if self.ssim == "dm_pix":
+            return ssim_variant(pred, gt, data_range=data_range, border="valid", clamp="dm_pix",
+                                clip=self.clip, precision="float64")
+        return ssim_variant(pred, gt, data_range=data_range, border="reflect", clamp="zero",
+                            clip=self.clip, precision="float32")
+
+
+PROTOCOLS: dict[str, Protocol] = {
+    "dynaeval": Protocol("dynaeval", "none", "float64", "skimage-gaussian", False, "alex",
+                         "docs/metrics.md"),
+    "nerfbaselines": Protocol(
+        "nerfbaselines", "truncate", "float32", "dm_pix", True, "alex",
+        "NeRFBaselines evaluation.py (DefaultEvaluationProtocol, compute_metrics) and metrics.py",
+    ),
+    "nerfstudio": Protocol(
+        "nerfstudio", "none", "float32", "torchmetrics", False, "alex",
+        "nerfstudio models' get_image_metrics_and_images (torchmetrics PSNR, SSIM, LPIPS "
+        "normalize=True) averaged per image by ns-eval",
+    ),
+}
+
+
+def get_protocol(name: str) -> Protocol:
+    """The protocol called ``name``.
+
+    Raises:
+        InputError: unknown name.
+    """
+    if name not in PROTOCOLS:
+        raise InputError(f"protocol must be one of {', '.join(PROTOCOL_NAMES)}, got {name!r}")
+    return PROTOCOLS[name]
+
+
+def resolve_quantize(protocol: Protocol, quantize: str | None) -> str:
+    """The 8-bit step to use: the protocol's, unless the user asked for a compatible one.
+
+    Args:
+        quantize: what the user asked for; None or ``"none"`` means "not asked".
+
+    Raises:
+        InputError: the user asked for a step the protocol does not use.
+    """
+    if quantize in (None, "none"):
+        return protocol.quantize
+    if protocol.name != "dynaeval" and quantize != protocol.quantize:
+        raise InputError(
+            f"protocol {protocol.name} uses quantize={protocol.quantize}, not {quantize}: drop "
+            "--quantize, or use --protocol dynaeval to choose the 8-bit step yourself"
+        )
+    return quantize
+
+
+def check_lpips_net(protocol: Protocol, net: str) -> None:
+    """Raise InputError when ``net`` is not the LPIPS backbone the protocol reports."""
+    if protocol.name != "dynaeval" and net != protocol.lpips_net:
+        raise InputError(
+            f"protocol {protocol.name} reports LPIPS with the {protocol.lpips_net} backbone, not "
+            f"{net}; drop --lpips-net or use --protocol dynaeval"
+        )
