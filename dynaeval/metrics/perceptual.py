@@ -35,6 +35,13 @@ def _check_net(net: str) -> None:
         raise InputError(f"LPIPS net must be one of {', '.join(LPIPS_NETS)}, got {net!r}")
 
 
+def _backbone_url(net: str) -> str:
+    """Download URL of ``net``'s ImageNet weights, from torchvision's weights enum."""
+    from torchvision.models import AlexNet_Weights, VGG16_Weights
+
+    return (AlexNet_Weights if net == "alex" else VGG16_Weights).IMAGENET1K_V1.url
+
+
 def backbone_weights_file(net: str = "alex") -> Path:
     """Path where torchvision keeps the pretrained backbone of ``net`` (may not exist).
 
@@ -44,16 +51,8 @@ def backbone_weights_file(net: str = "alex") -> Path:
     """
     _check_net(net)
     import torch
-    from torchvision.models import AlexNet_Weights, VGG16_Weights
 
-    url = (AlexNet_Weights if net == "alex" else VGG16_Weights).IMAGENET1K_V1.url
-    return Path(torch.hub.get_dir()) / "checkpoints" / url.rsplit("/", 1)[-1]
-
-
-def _backbone_url(net: str) -> str:
-    from torchvision.models import AlexNet_Weights, VGG16_Weights
-
-    return (AlexNet_Weights if net == "alex" else VGG16_Weights).IMAGENET1K_V1.url
+    return Path(torch.hub.get_dir()) / "checkpoints" / _backbone_url(net).rsplit("/", 1)[-1]
 
 
 def _build(net: str, spatial: bool, pretrained_backbone: bool, seed: int) -> Any:
