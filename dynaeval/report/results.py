@@ -63,6 +63,44 @@ def _mean(values: list[float | None]) -> tuple[float | None, int, str | None]:
     return math.fsum(defined) / len(defined), len(defined), None
 
 
+FRAME_FIELDS = ("camera", "frame", "index", "pred", "gt")
+"""Keys of a frame row that are not metric values."""
+
+
+def place_temporal(
+    rows: list[dict[str, Any]], temporal: dict[str, dict[str, dict]]
+) -> tuple[dict[str, dict[str, float | None]], list[dict]]:
+    """Put per-pair temporal values into the frame rows, in place; return the camera-level ones.
+
+    The value of pair (t-1, t) goes into the row of frame t (the first frame of a camera has
+    none). Terms without per-pair values (``flicker``, or a term undefined for the whole camera)
+    are camera-level: returned as ``{camera: {name: value}}``, with a warning when null.
+
+    Args:
+        rows: frame rows of every camera, each camera's in index order.
+        temporal: per camera, ``dynaeval.metrics.temporal.temporal_metrics`` output.
+    """
+    camera_values: dict[str, dict[str, float | None]] = {}
+    warnings: list[dict] = []
+    for cam, terms in temporal.items():
+        cam_rows = sorted((r for r in rows if r["camera"] == cam), key=lambda r: r["index"])
+        for name, entry in terms.items():
+            per_pair = entry.get("per_pair") or []
+            if per_pair and len(per_pair) == len(cam_rows) - 1:
+                for row, value in zip(cam_rows[1:], per_pair, strict=True):
+                    row[name] = value
+                    if value is None:
+                        warnings.append({"camera": cam, "frame": row["frame"], "metric": name,
+                                         "reason": entry.get("reason")
+                                         or "undefined for the pair (previous frame, this frame)"})
+                continue
+            camera_values.setdefault(cam, {})[name] = entry.get("value")
+            if entry.get("value") is None:
+                warnings.append({"camera": cam, "metric": name,
+                                 "reason": entry.get("reason") or "undefined"})
+    return camera_values, warnings
+
+
 def build_results(
     *,
     rows: list[dict[str, Any]],
@@ -78,45 +116,54 @@ def build_results(
     timing: dict[str, float],
     version: str,
     temporal: dict[str, dict[str, dict]] | None = None,
+    camera_values: dict[str, dict[str, float | None]] | None = None,
 ) -> dict[str, Any]:
     """Assemble the results document from per-frame rows (values may be inf; made strict here).
 
-    ``temporal``: per camera, ``dynaeval.metrics.temporal.temporal_metrics`` output; each camera
-    gets the ``value`` of every term, the summary the mean over all frame pairs of all cameras
-    (``flicker``, which has no per-pair value: the mean over cameras).
+    Every metric that has per-frame values is summarised the same way: per camera the mean over
+    its frames, overall the mean over all frames (``_mean``). ``temporal`` (per camera,
+    ``temporal_metrics`` output) is first spread over the rows by ``place_temporal``: a temporal
+    term's per-frame value is that of the pair (previous frame, this frame), so its summary is
+    the mean over all frame pairs of all cameras. Camera-level terms (``flicker``; or
+    ``camera_values`` given directly, as ``merge`` does) are summarised as the mean over cameras.
     """
     warnings = list(warnings)
-    temporal = temporal or {}
+    camera_values = {c: dict(v) for c, v in (camera_values or {}).items()}
+    if temporal:
+        placed, more = place_temporal(rows, temporal)
+        warnings.extend(more)
+        for cam, values in placed.items():
+            camera_values.setdefault(cam, {}).update(values)
+    names = list(metric_names)
+    for row in rows:
+        for k, v in row.items():
+            if k not in FRAME_FIELDS and k not in names and (v is None or isinstance(v, float)):
+                names.append(k)
+    camera_only = [n for vals in camera_values.values() for n in vals]
+    camera_only = [n for i, n in enumerate(camera_only)
+                   if n not in camera_only[:i] and not any(n in r for r in rows)]
     cameras: dict[str, dict[str, Any]] = {}
     by_camera: dict[str, list[dict]] = {}
     for row in rows:
         by_camera.setdefault(row["camera"], []).append(row)
     for cam, cam_rows in by_camera.items():
         entry: dict[str, Any] = {"n_frames": len(cam_rows)}
-        for name in metric_names:
+        for name in names:
             entry[name], _, _ = _mean([r.get(name) for r in cam_rows])
+        for name in camera_only:
+            entry[name] = camera_values.get(cam, {}).get(name)
         cameras[cam] = entry
     summary: dict[str, Any] = {"n_frames": len(rows)}
     counts: dict[str, int] = {}
-    for name in metric_names:
+    for name in names:
         summary[name], counts[name], reason = _mean([r.get(name) for r in rows])
         if reason and rows:
             warnings.append({"metric": name, "reason": f"summary is null: {reason}"})
-    temporal_names: list[str] = []
-    for cam, terms in temporal.items():
-        for name, entry in terms.items():
-            if name not in temporal_names:
-                temporal_names.append(name)
-            cameras.setdefault(cam, {"n_frames": 0})[name] = entry.get("value")
-            if entry.get("value") is None and entry.get("reason"):
-                warnings.append({"camera": cam, "metric": name, "reason": entry["reason"]})
-    for name in temporal_names:
-        pooled: list[float | None] = []
-        for terms in temporal.values():
-            entry = terms.get(name, {})
-            per_pair = entry.get("per_pair")
-            pooled.extend(per_pair if per_pair else [entry.get("value")])
-        summary[name], counts[name], _ = _mean(pooled)
+    for name in camera_only:
+        summary[name], counts[name], reason = _mean([c.get(name) for c in cameras.values()])
+        if reason and rows:
+            warnings.append({"metric": name, "reason": f"summary is null: {reason} (per camera)"})
+    metric_names = [*names, *camera_only]
     frames = [
         {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in r.items()}
         for r in rows
@@ -138,7 +185,7 @@ def build_results(
         "settings": settings,
         "metrics": {
             n: dict(zip(("higher_is_better", "unit"), _direction(n), strict=True))
-            for n in [*metric_names, *temporal_names]
+            for n in metric_names
         },
         "frames": frames,
         "cameras": cameras,

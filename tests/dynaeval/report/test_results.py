@@ -95,3 +95,26 @@ def test_load_results_checks_schema(tmp_path):
     bad.write_text("{")
     with pytest.raises(InputError, match="not a JSON file"):
         load_results(bad)
+
+
+def test_temporal_pairs_go_to_the_later_frame_and_flicker_stays_per_camera():
+    rows = [_row("a", i, psnr=20.0 + i) for i in range(3)] + [_row("b", 0, psnr=30.0)]
+    temporal = {
+        "a": {"warp_error": {"value": 0.2, "reason": None, "per_pair": [0.1, 0.3]},
+              "flicker": {"value": 0.05, "reason": None, "per_pair": []}},
+        "b": {"warp_error": {"value": None, "reason": "fewer than 2 frames", "per_pair": []},
+              "flicker": {"value": None, "reason": "fewer than 2 frames", "per_pair": []}},
+    }
+    doc = build_results(
+        rows=rows, metric_names=["psnr"], method="m", scene="s", pred_dir="p", gt_dir="g",
+        settings={}, unscored_cameras=[], skipped=[], warnings=[], timing={"total_s": 1.0},
+        version="0", temporal=temporal,
+    )
+    assert [f.get("warp_error") for f in doc["frames"]] == [None, 0.1, 0.3, None]
+    assert "warp_error" not in doc["frames"][0]  # the first frame has no previous frame
+    assert doc["cameras"]["a"]["warp_error"] == pytest.approx(0.2)
+    assert doc["cameras"]["b"]["warp_error"] is None
+    assert doc["summary"]["warp_error"] == pytest.approx(0.2) and doc["counts"]["warp_error"] == 2
+    assert doc["cameras"]["a"]["flicker"] == 0.05 and doc["cameras"]["b"]["flicker"] is None
+    assert doc["summary"]["flicker"] == 0.05 and doc["counts"]["flicker"] == 1
+    assert {"camera": "b", "metric": "flicker", "reason": "fewer than 2 frames"} in doc["warnings"]
