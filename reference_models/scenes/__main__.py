@@ -26,6 +26,7 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--spp", type=int, help="samples per pixel, a square number (1, 4, 9, ..)")
     r.add_argument("--hide", action="append", default=[],
                    help="leave out a class (ball, person) or an instance id; repeatable")
+    r.add_argument("--cameras", help="comma-separated camera names to render (default: all)")
     r.add_argument("--overwrite", action="store_true", help="allow a non-empty output folder")
     return p
 
@@ -45,7 +46,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         meta = render_scene(args.preset, args.out, size=args.size, seed=args.seed, width=args.width,
                             height=args.height, frames=args.frames, fps=args.fps, spp=args.spp,
-                            hide=hide, overwrite=args.overwrite, progress=progress)
+                            hide=hide, overwrite=args.overwrite, progress=progress,
+                            cameras=tuple(args.cameras.split(",")) if args.cameras else None)
     except InputError as err:
         bar.close()
         print(f"error: {err}", file=sys.stderr)

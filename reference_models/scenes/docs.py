@@ -1,7 +1,7 @@
 """Figures and measurements for ``docs/scenes.md``.
 
     python -m reference_models.scenes.docs figures RENDERS_DIR docs/img   # frames + layout plot
-    python -m reference_models.scenes.docs bench                          # culling cost, hd frame
+    python -m reference_models.scenes.docs bench [--hd]                   # culling cost, hd view
 
 ``RENDERS_DIR`` holds the three presets rendered at the default size (one sub-folder per preset).
 """
@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from reference_models.scenes.presets import PRESETS, build_scene
-from reference_models.scenes.render import CameraRenderer
+from reference_models.scenes.render import CameraRenderer, intersect_body
 from reference_models.scenes.world import HALF_LENGTH, HALF_WIDTH, _quads
 
 SHOWN = {"single-player-closeup": ["eval00"], "single-player-broadcast": ["cam03"],
@@ -73,8 +73,10 @@ def layout_plot(path: Path, seed: int = 0) -> None:
     plt.close(fig)
 
 
-def bench(repeats: int = 3) -> dict[str, float]:
-    """Seconds per view: a stadium camera with all players vs one player (culling), and an hd frame."""
+def bench(repeats: int = 3, hd: bool = False) -> dict[str, float]:
+    """Seconds per view of a small stadium camera with all objects, one player, none; one player
+    cast against the whole sample grid without culling; with ``hd``: an hd view (static world
+    cast, then one frame)."""
     scene = build_scene("players-stadium", seed=0, size="small")
     cam = scene.camera("cam00")
     renderer = CameraRenderer(cam, scene.sun, scene.seed, scene.spp)
@@ -90,11 +92,18 @@ def bench(repeats: int = 3) -> dict[str, float]:
            "stadium_cam00_all_objects_s": timed(()),
            "stadium_cam00_one_player_s": timed(tuple(players[1:]) + ("ball",)),
            "stadium_cam00_static_only_s": timed(("person", "ball"))}
-    hd = build_scene("players-stadium", seed=0, size="hd", frames=2)
+    body = scene.bodies(0)[1]
     start = time.perf_counter()
-    r = CameraRenderer(hd.camera("eval00"), hd.sun, hd.seed, hd.spp)
-    r.render(hd.bodies(0), hd.bodies(1))
-    res["hd_eval00_one_view_s"] = time.perf_counter() - start
+    intersect_body(cam.centre, cam.ray_grid(renderer.k)[0], body)
+    res["one_player_whole_grid_unculled_s"] = time.perf_counter() - start
+    if hd:
+        big = build_scene("players-stadium", seed=0, size="hd", frames=2)
+        start = time.perf_counter()
+        r = CameraRenderer(big.camera("eval00"), big.sun, big.seed, big.spp)
+        res["hd_eval00_static_world_s"] = time.perf_counter() - start
+        start = time.perf_counter()
+        r.render(big.bodies(0), big.bodies(1))
+        res["hd_eval00_frame_s"] = time.perf_counter() - start
     return res
 
 
@@ -104,7 +113,8 @@ def main(argv: list[str] | None = None) -> int:
     f = sub.add_parser("figures")
     f.add_argument("renders", type=Path)
     f.add_argument("img_dir", type=Path)
-    sub.add_parser("bench")
+    b = sub.add_parser("bench")
+    b.add_argument("--hd", action="store_true", help="also time an hd view (~2 GB, a minute)")
     args = p.parse_args(argv)
     if args.command == "figures":
         for path in copy_frames(args.renders, args.img_dir):
@@ -112,7 +122,7 @@ def main(argv: list[str] | None = None) -> int:
         layout_plot(args.img_dir / "scenes_camera_layouts.png")
         print(args.img_dir / "scenes_camera_layouts.png")
     else:
-        for k, v in bench().items():
+        for k, v in bench(hd=args.hd).items():
             print(f"{k}: {v:.3f}" if isinstance(v, float) else f"{k}: {v}")
     return 0
 

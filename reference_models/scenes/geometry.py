@@ -13,6 +13,10 @@ from reference_models.scenes.camera import NEAR
 
 
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    if np.ndim(b) == 1:  # many vectors with one: a matrix-vector product
+        return np.asarray(a) @ b
+    if np.ndim(a) == 1:
+        return np.asarray(b) @ a
     return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
 
 
@@ -97,8 +101,9 @@ def intersect_parallelogram(o: np.ndarray, d: np.ndarray, p0: np.ndarray, e1: np
     denom = _dot(d, n)
     safe = np.where(np.abs(denom) > 1e-12, denom, 1e-12)
     t = _dot(p0 - o, n) / safe
-    q = o + t[..., None] * d - p0
-    u, v = _dot(q, e1) / (e1 @ e1), _dot(q, e2) / (e2 @ e2)
+    op = o - p0  # u = (o + t d - p0) . e1 / |e1|^2 without forming the hit points
+    u = (_dot(op, e1) + t * _dot(d, e1)) / (e1 @ e1)
+    v = (_dot(op, e2) + t * _dot(d, e2)) / (e2 @ e2)
     ok = (np.abs(denom) > 1e-12) & (t > near) & (u >= 0) & (u <= 1) & (v >= 0) & (v <= 1)
     return np.where(ok, t, np.inf), u, v
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -74,7 +75,7 @@ def metadata(scene: Scene, spp: int, hide: tuple) -> dict:
         "generator": "reference_models.scenes", "generator_version": GENERATOR_VERSION,
         "preset": scene.preset, "seed": scene.seed, "size": scene.size,
         "width": scene.width, "height": scene.height, "frames": scene.n_frames, "fps": scene.fps,
-        "spp": spp, "hide": [str(h) for h in hide],
+        "spp": spp, "hide": [str(h) for h in hide], "cameras": [c.name for c in scene.cameras],
         "classes": {"0": "static", **{str(k): v for k, v in scene.classes.items()}},
         "world": {"units": "metres", "axes": "x along the pitch length, y across, z up; pitch in z=0",
                   "pitch": [105.0, 68.0], "sun_direction": [float(v) for v in scene.sun]},
@@ -93,18 +94,24 @@ def _write_json(path: Path, obj: object) -> None:
 def render_scene(preset: str, out_dir: str | Path, size: str = "small", seed: int = 0,
                  width: int | None = None, height: int | None = None, frames: int | None = None,
                  fps: float | None = None, spp: int | None = None, hide: tuple = (),
-                 overwrite: bool = False, progress: Callable[[int, int], None] | None = None) -> dict:
+                 cameras: tuple[str, ...] | None = None, overwrite: bool = False,
+                 progress: Callable[[int, int], None] | None = None) -> dict:
     """Render every camera and frame of ``preset`` into ``out_dir``; return the metadata.
 
     Files: ``images/<camera>/<frame>.png`` (8-bit sRGB), ``depth/...npy``, ``masks/...png``
     (uint16), ``flow/...npy`` (not for the last frame), ``boxes.json``, ``transforms.json``,
     ``metadata.json`` (all byte-identical for the same arguments) and ``timing.json`` (render
-    seconds, the one file that differs between runs). ``progress(done, total)`` is called after
-    each view. Raises InputError for bad arguments or a non-empty ``out_dir`` without ``overwrite``.
+    seconds, the one file that differs between runs). ``cameras`` renders only those (e.g. a few
+    views at hd); ``progress(done, total)`` is called after each view. Raises InputError for bad
+    arguments or a non-empty ``out_dir`` without ``overwrite``.
     """
     import cv2
 
     scene = build_scene(preset, seed, size, width, height, frames, fps, spp)
+    if cameras:
+        keep = [scene.camera(name) for name in dict.fromkeys(cameras)]
+        scene = replace(scene, cameras=keep,
+                        eval_cameras=[c.name for c in keep if c.name in scene.eval_cameras])
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise InputError("output path exists and is not a folder; choose another path", path=out)

@@ -10,7 +10,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from reference_models.scenes.geometry import hash01, intersect_capsule, intersect_parallelogram
+from reference_models.scenes.geometry import (
+    hash01,
+    intersect_capsule,
+    intersect_parallelogram,
+    intersect_sphere,
+)
 
 HALF_LENGTH = 52.5
 """Half the pitch length (m), goal lines at ``x = +-HALF_LENGTH``."""
@@ -181,10 +186,19 @@ def intersect_static(o: np.ndarray, d: np.ndarray, sun: np.ndarray, seed: int) -
         closer = tq < t
         n = np.cross(e1, e2)
         t[closer], mat[closer], normal[closer] = tq[closer], m, n / np.linalg.norm(n)
-        quad_uv[closer] = np.stack([u, v, np.full_like(u, np.linalg.norm(e1)),
-                                    np.full_like(u, which)], -1)[closer]
-    for a, b in goal_segments():
-        tc = intersect_capsule(o, d, a, b, POST_RADIUS)
+        quad_uv[closer] = np.stack([u[closer], v[closer], np.full(closer.sum(), np.linalg.norm(e1)),
+                                    np.full(closer.sum(), float(which))], -1)
+    segments = goal_segments()
+    near_goal = {}
+    for g in range(2):  # bounding sphere of each goal frame: most rays skip its capsules
+        ends = np.concatenate(segments[3 * g:3 * g + 3])
+        centre = 0.5 * (ends.min(0) + ends.max(0))
+        radius = np.linalg.norm(ends - centre, axis=1).max() + POST_RADIUS
+        near_goal[g] = np.flatnonzero(np.isfinite(intersect_sphere(o, d, centre, radius, near=-np.inf)))
+    for i, (a, b) in enumerate(segments):
+        idx = near_goal[i // 3]
+        tc = np.full(n_rays, np.inf)
+        tc[idx] = intersect_capsule(o, d[idx], a, b, POST_RADIUS)
         closer = tc < t
         t[closer], mat[closer] = tc[closer], GOAL
         if closer.any():

@@ -44,3 +44,15 @@ def test_module_entry_point_exit_code(tmp_path):
                            str(tmp_path / "o")], capture_output=True, text=True)
     assert proc.returncode == 2
     assert "error: unknown preset 'nope'" in proc.stderr
+
+
+def test_camera_subset_and_unknown_camera(tmp_path, capsys):
+    out = tmp_path / "o"
+    assert main(["render", "players-stadium", str(out), "--size", "tiny", "--frames", "2", "--spp", "1",
+                 "--cameras", "eval00,cam01"]) == 0
+    tf = json.loads((out / "transforms.json").read_text())
+    assert tf["train_cameras"] == ["cam01"] and tf["eval_cameras"] == ["eval00"]
+    assert sorted(p.name for p in (out / "images").iterdir()) == ["cam01", "eval00"]
+    assert main(["render", "players-stadium", str(tmp_path / "p"), "--size", "tiny",
+                 "--cameras", "cam77"]) == 2
+    assert "no camera 'cam77'" in capsys.readouterr().err
