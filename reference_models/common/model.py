@@ -183,11 +183,14 @@ class DynamicRadianceModel(nn.Module):
 
     @torch.no_grad()
     def render_image(self, c2w: torch.Tensor, intrinsics: torch.Tensor, time: float, height: int,
-                     width: int, chunk: int = 4096) -> torch.Tensor:
-        """Render one view: ``c2w`` (4, 4), ``intrinsics`` (4,) -> (H, W, 3) float32 in [0, 1]."""
+                     width: int, chunk: int = 4096, stride: int = 1) -> torch.Tensor:
+        """Render one view: ``c2w`` (4, 4), ``intrinsics`` (4,) -> (H, W, 3) float32 in [0, 1];
+        with ``stride`` only every stride-th row and column: (ceil(H / s), ceil(W / s), 3)."""
         from reference_models.common.rays import pixel_rays
 
-        rows, cols = torch.meshgrid(torch.arange(height), torch.arange(width), indexing="ij")
+        rows, cols = torch.meshgrid(torch.arange(0, height, stride), torch.arange(0, width, stride),
+                                    indexing="ij")
+        height, width = rows.shape
         rows, cols = rows.reshape(-1), cols.reshape(-1)
         out = []
         for i in range(0, rows.numel(), chunk):

@@ -34,7 +34,7 @@ def build_encoding(cfg: KPlanesConfig, scene: dict) -> PlaneEncoding:
 PRESETS = standard_presets(
     tiny=KPlanesConfig(resolution=16, scales=(1, 2), features=8),
     small=KPlanesConfig())
-"""``tiny``: tests (seconds); ``small``: the documented runs (~10 minutes on 2 cores)."""
+"""``tiny``: tests (seconds); ``small``: the documented runs (see ``standard_presets``)."""
 
 SPEC = ModelSpec("kplanes", KPlanesConfig, PRESETS, build_encoding)
 """What the shared CLI and training loop need to run K-Planes."""

@@ -113,7 +113,7 @@ def build_encoding(cfg: NeRFPlayerConfig, scene: dict) -> TemporalHashEncoding:
 PRESETS = standard_presets(
     tiny=NeRFPlayerConfig(levels=4, log2_table=12, base_resolution=8, max_resolution=64),
     small=NeRFPlayerConfig())
-"""``tiny``: tests (seconds); ``small``: the documented runs (~10 minutes on 2 cores)."""
+"""``tiny``: tests (seconds); ``small``: the documented runs (see ``standard_presets``)."""
 
 SPEC = ModelSpec("nerfplayer", NeRFPlayerConfig, PRESETS, build_encoding)
 """What the shared CLI and training loop need to run NeRFPlayer."""

@@ -1,0 +1,65 @@
+"""The shared training loop: checkpoints resume exactly, logs, CLI errors (exit 2)."""
+
+import json
+
+import pytest
+import torch
+
+import reference_models.common.train as train_mod
+from dynaeval.errors import InputError
+from reference_models.common.cli import main
+from reference_models.common.train import load_run, render_run, train
+from reference_models.kplanes import SPEC
+from reference_models.nerfplayer import SPEC as NERFPLAYER
+
+FAST = {"log_every": 2, "checkpoint_every": 3, "batch_rays": 64}
+
+
+def test_resume_continues_exactly(tiny_data, tmp_path, monkeypatch):
+    train(SPEC, tiny_data, tmp_path / "straight", size="tiny", iters=6, progress=False, overrides=FAST)
+    real_save = train_mod._atomic_save
+
+    def crash_after_first_checkpoint(obj, path):
+        real_save(obj, path)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(train_mod, "_atomic_save", crash_after_first_checkpoint)
+    with pytest.raises(KeyboardInterrupt):
+        train(SPEC, tiny_data, tmp_path / "resumed", size="tiny", iters=6, progress=False, overrides=FAST)
+    monkeypatch.setattr(train_mod, "_atomic_save", real_save)
+    assert torch.load(tmp_path / "resumed" / "checkpoint.pt", weights_only=False)["step"] == 3
+    train(SPEC, tiny_data, tmp_path / "resumed", resume=True, progress=False)
+    _, a, ca = load_run(tmp_path / "straight", SPEC)
+    _, b, cb = load_run(tmp_path / "resumed", SPEC)
+    assert ca["step"] == cb["step"] == 6
+    for (name, pa), pb in zip(a.state_dict().items(), b.state_dict().values(), strict=True):
+        torch.testing.assert_close(pa, pb, rtol=0, atol=0, msg=name)
+    log = [json.loads(x) for x in (tmp_path / "resumed" / "log.jsonl").read_text().splitlines()]
+    assert [r["step"] for r in log] == [2, 4, 6]
+    assert log[-1]["train_seconds"] > log[0]["train_seconds"] and "eval_psnr" in log[-1]
+    cfg = json.loads((tmp_path / "resumed" / "config.json").read_text())
+    assert cfg["model"] == "kplanes" and cfg["train_config"]["batch_rays"] == 64
+
+
+def test_errors(tiny_data, tmp_path):
+    run = tmp_path / "run"
+    train(SPEC, tiny_data, run, size="tiny", iters=1, progress=False, overrides={"batch_rays": 16})
+    with pytest.raises(InputError, match="already holds a checkpoint; pass --resume"):
+        train(SPEC, tiny_data, run, size="tiny", iters=1, progress=False)
+    with pytest.raises(InputError, match="trained with model 'kplanes', not 'nerfplayer'"):
+        render_run(NERFPLAYER, run)
+    with pytest.raises(InputError, match="not a training run"):
+        render_run(SPEC, tmp_path)
+    with pytest.raises(InputError, match="unknown size 'huge'"):
+        train(SPEC, tiny_data, tmp_path / "x", size="huge")
+    with pytest.raises(InputError, match="iters must be >= 1"):
+        train(SPEC, tiny_data, tmp_path / "x", size="tiny", iters=0)
+    with pytest.raises(InputError, match="sampling must be one of"):
+        train(SPEC, tiny_data, tmp_path / "x", size="tiny", sampling="random")
+
+
+def test_cli_exit_codes(tiny_data, tmp_path, capsys):
+    assert main(SPEC, ["render", str(tmp_path), "--quiet"]) == 2
+    assert "not a training run" in capsys.readouterr().err
+    assert main(SPEC, ["train", str(tmp_path / "nope"), "--out", str(tmp_path / "r"), "--quiet"]) == 2
+    assert "dataset folder does not exist" in capsys.readouterr().err
