@@ -11,7 +11,6 @@ from dynaeval.metrics.focused import (
     masked_psnr,
     masked_ssim,
 )
-from dynaeval.metrics.meter import MetricMeter
 from dynaeval.metrics.perceptual import backbone_weights_file, load_lpips, lpips, lpips_map
 from dynaeval.metrics.pixel import (
     SquaredErrorStats,
@@ -26,7 +25,6 @@ from dynaeval.metrics.structural import ssim, ssim_map, ssim_reference
 __all__ = [
     "METRICS",
     "MetricInfo",
-    "MetricMeter",
     "SquaredErrorStats",
     "backbone_weights_file",
     "focused_lpips",
