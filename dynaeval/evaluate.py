@@ -58,6 +58,10 @@ class ScoreConfig:
     focus: FocusConfig = field(default_factory=lambda: FocusConfig(source="none", masked=False))
     """Regions for ``focused_*`` and ``masked_*`` metrics (``FocusConfig.parse`` reads the CLI
     form). The library default scores the whole frame only; the CLI's default is the detector."""
+    presence: bool = True
+    """Decide per ground-truth object whether the prediction shows it: ``presence_person``,
+    ``presence_ball``, ``tight_psnr_*`` and ``objects`` per frame (``dynaeval.metrics.presence``).
+    Needs boxes with classes: focus ``detector`` or ``boxes``."""
     temporal: bool = True
     """Compute the temporal terms (warp_error, tof, tlp, flicker) per camera."""
     flow: str = "dis"
@@ -191,6 +195,44 @@ def _warning(pair: FramePair, metric: str, reason: str) -> dict:
     return {"camera": pair.camera, "frame": pair.frame, "metric": metric, "reason": reason}
 
 
+PresenceStep = Callable[[FramePair, np.ndarray, np.ndarray],
+                        tuple[dict[str, float | None], dict[str, str], list[dict]]]
+
+
+def _presence_step(config: ScoreConfig, sources: Any, settings: dict) -> PresenceStep | None:
+    """The per-frame presence step, ``(pair, pred, gt) -> (values, reasons, objects)``, or None
+    when it does not run (``settings["presence"]`` says why)."""
+    src = config.focus.source
+    if not config.presence or src not in ("detector", "boxes"):
+        why = ("disabled (presence=False)" if not config.presence else
+               f"needs boxes with classes (focus detector or boxes:FILE), focus is {src!r}")
+        settings["presence"] = {"enabled": False, "reason": why}
+        return None
+    from dynaeval.metrics.presence import PRESENCE_METRICS, PresenceConfig, frame_presence
+    from dynaeval.regions.boxes_file import frame_key
+
+    pcfg = PresenceConfig(data_range=config.data_range)
+    settings["presence"] = {
+        "enabled": True, **pcfg.describe(), "detector_test": src == "detector",
+        "objects": "the boxes file's records" if src == "boxes" else "the detector on the ground truth",
+    }
+
+    def step(pair: FramePair, pred: np.ndarray, gt: np.ndarray):
+        detections = None
+        if src == "boxes":
+            records = sources.boxes.get(frame_key(pair.camera, pair.frame))
+            if records is None:
+                why = f"frame {frame_key(pair.camera, pair.frame)!r} is not in the boxes file"
+                return dict.fromkeys(PRESENCE_METRICS), dict.fromkeys(PRESENCE_METRICS, why), []
+        else:  # the detector again on the ground truth: FrameRegions keeps boxes, not classes
+            records = sources.detector(gt).records()
+            detections = sources.detector(pred)
+        fp = frame_presence(pred, gt, records, detections=detections, config=pcfg)
+        return fp.values, fp.reasons, fp.objects
+
+    return step
+
+
 def _score_frame(
     pair: FramePair,
     regions: FrameRegions,
@@ -198,6 +240,7 @@ def _score_frame(
     metric_fns: dict[str, tuple[str, MetricFn]],
     timing: dict[str, float],
     lock: threading.Lock,
+    presence: PresenceStep | None = None,
 ) -> tuple[dict[str, Any], list[dict]]:
     t0 = time.perf_counter()
     pred, gt = _load_pair(pair, config)
@@ -210,6 +253,7 @@ def _score_frame(
         "gt": str(pair.gt),
     }
     warnings: list[dict] = []
+    values: list[tuple[str, float | None, str | None]] = []
     for name, (kind, fn) in metric_fns.items():
         value: float | None
         if kind == "boxes" and regions.boxes is None:
@@ -225,6 +269,13 @@ def _score_frame(
             except EmptyRegionError as err:
                 value, reason = None, str(err)
             elapsed[name] = time.perf_counter() - t0
+        values.append((name, value, reason))
+    if presence is not None:
+        t0 = time.perf_counter()
+        found, reasons, row["objects"] = presence(pair, pred, gt)
+        values.extend((name, v, reasons.get(name)) for name, v in found.items())
+        elapsed["presence"] = time.perf_counter() - t0
+    for name, value, reason in values:
         if value is None:
             warnings.append(_warning(pair, name, reason or "undefined"))
         elif math.isnan(value):  # inputs are checked finite before this point
@@ -313,6 +364,7 @@ def score(
     from tqdm.auto import tqdm
 
     from dynaeval import __version__
+    from dynaeval.metrics.presence import PRESENCE_METRICS
     from dynaeval.metrics.protocols import check_lpips_net, get_protocol, resolve_quantize
     from dynaeval.regions.focus import camera_regions, open_sources
     from dynaeval.report.results import build_results
@@ -331,6 +383,7 @@ def score(
     metric_fns, settings = _build_metric_fns(config, warnings)
     sources = open_sources(config.focus)
     settings["focus"] = sources.settings
+    presence = _presence_step(config, sources, settings)
     temporal_config = None
     if config.temporal:
         from dynaeval.metrics.flow import FlowConfig
@@ -363,7 +416,7 @@ def score(
                 on_regions(cam, pairs, regions)
 
             def work(item: tuple[FramePair, FrameRegions]):
-                out = _score_frame(item[0], item[1], config, metric_fns, timing, lock)
+                out = _score_frame(item[0], item[1], config, metric_fns, timing, lock, presence)
                 bar.update(1)
                 return out
 
@@ -387,7 +440,7 @@ def score(
     return Results(
         build_results(
             rows=rows,
-            metric_names=list(metric_fns),
+            metric_names=[*metric_fns, *(PRESENCE_METRICS if presence else ())],
             method=config.method or Path(pred_dir).resolve().name,
             scene=config.scene or Path(gt_dir).resolve().name,
             pred_dir=str(pred_dir),

@@ -64,3 +64,13 @@ METRICS.update(
         "flicker": _info("flicker", False, (0.0, math.inf), "", "temporal flicker of static pixels compared with the ground truth"),
     }
 )
+# Object presence (defined in dynaeval.metrics.presence): per frame, over the ground-truth objects.
+for _cls in ("person", "ball"):
+    METRICS[f"presence_{_cls}"] = _info(
+        f"presence_{_cls}", True, (0.0, 1.0), "",
+        f"fraction of the frame's ground-truth {_cls} objects the prediction shows (tight-box NCC "
+        "and PSNR against calibrated thresholds, plus the detector when it made the boxes)")
+    METRICS[f"tight_psnr_{_cls}"] = _info(
+        f"tight_psnr_{_cls}", True, (0.0, math.inf), "dB",
+        f"PSNR over the union of the {_cls} objects' tight boxes (raw boxes grown by the presence "
+        "margin, not the expanded focus boxes)")

@@ -1,0 +1,436 @@
+"""Object presence: does the prediction still show each ground-truth object (the ball, every player)?
+
+A box-averaged PSNR can stay high while the ball is simply gone: the ball is a few pixels of a box
+of hundreds. Presence decides per object, then reports per class the fraction of ground-truth
+objects the prediction shows (``presence_person``, ``presence_ball``).
+
+Two tests, both on the object's **tight** box (its raw ground-truth box, not the expanded one used
+by ``focused_*``, grown by ``PresenceConfig.margin`` pixels and clipped to the image):
+
+* **region test** (detector-free, always run): the crop of the prediction is compared with the crop
+  of the ground truth by
+
+  - ``ncc``: zero-mean normalised cross-correlation over the crop's pixels and channels, in
+    [-1, 1] (1: the same pattern, whatever the brightness and contrast; about 0: unrelated, e.g.
+    the pitch where the ball should be). Undefined (``None``) when the ground-truth crop is
+    uniform; 0 when only the prediction's crop is uniform (no structure of the object is there);
+  - ``psnr``: PSNR in dB of the crop (``inf`` for identical crops);
+
+  both the best over displacements of the prediction's crop by up to ``shift`` px; and
+  - ``visibility``: the fraction of the object's contrast against its surroundings (background:
+    the ground truth's margin ring) that the prediction shows, about the opacity of a *ghost*: a
+    faded object keeps its pattern (high ``ncc``) but not its contrast; blur keeps it.
+
+  The object passes when ``ncc >= ncc_min``, ``psnr >= psnr_min`` (per class,
+  ``PresenceThresholds``, calibrated on the synthetic scenes by
+  ``python -m reference_models.studies.presence``: values and provenance in
+  ``CALIBRATED_THRESHOLDS``, docs/presence.md) and ``visibility >= visibility_min`` (0.5, by
+  definition); an undefined ``ncc`` or ``visibility`` passes.
+* **detector test** (when a detector made the ground-truth boxes): the same detector is run on the
+  prediction and ground-truth objects are matched to its detections of the same class at
+  IoU >= ``iou_min`` (0.5), greedily: all same-class pairs by decreasing IoU (ties: lower
+  ground-truth index, then higher detection score first), a pair is taken when neither side is
+  taken yet. Greedy and Hungarian matching differ only when one detection overlaps two
+  ground-truth objects at IoU >= 0.5 each, which boxes of one class after NMS almost never do.
+
+An object is ``present`` when it passes the region test and, if the detector test ran, that too.
+
+Images are ``(H, W)`` or ``(H, W, C)`` float in ``[0, data_range]`` (integers are upcast); boxes
+``[x_min, y_min, x_max, y_max]`` int pixels, max exclusive (``dynaeval.regions.boxes``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from dynaeval.errors import InputError
+from dynaeval.metrics._common import check_data_range, check_pair
+from dynaeval.metrics.pixel import psnr as _psnr
+from dynaeval.regions.boxes import as_boxes, clip_boxes
+
+PRESENCE_CLASSES = ("person", "ball")
+"""Classes with a ``presence_<class>`` and ``tight_psnr_<class>`` value per frame."""
+PRESENCE_METRICS = (*(f"presence_{c}" for c in PRESENCE_CLASSES),
+                    *(f"tight_psnr_{c}" for c in PRESENCE_CLASSES))
+"""Per-frame values ``frame_presence`` returns (names in the results and the metrics registry)."""
+
+
+@dataclass(frozen=True)
+class PresenceThresholds:
+    """Region-test thresholds of one class: an object passes when both hold."""
+
+    ncc_min: float
+    """Lowest zero-mean normalised cross-correlation of the crops, in [-1, 1]."""
+    psnr_min: float
+    """Lowest PSNR of the crops in dB (at ``data_range``)."""
+
+
+CALIBRATED_THRESHOLDS: dict[str, PresenceThresholds] = {
+    "person": PresenceThresholds(ncc_min=0.40, psnr_min=20.5),
+    "ball": PresenceThresholds(ncc_min=0.64, psnr_min=10.0),
+}
+"""Thresholds per class, calibrated on the synthetic scenes with the default margin (1 px), shift
+(1 px) and ``visibility_min`` (0.5) by ``python -m reference_models.studies.presence`` (seed 1,
+size small, 205 shown / 41 erased players and 120 shown / 24 erased balls; run 2026-11-22 on the
+tree of commit af49f9a plus this module). Misses / false passes on that set: players 3.4 % / 2.4 %,
+balls 6.7 % / 4.2 %. For the ball ``psnr_min`` is at the grid's floor: ``ncc`` and ``visibility``
+decide. Tables: docs/presence.md."""
+
+FALLBACK_CLASS = "person"
+"""Classes without thresholds of their own (e.g. ``motion`` boxes) use this class's thresholds."""
+
+
+@dataclass(frozen=True)
+class PresenceConfig:
+    """How objects are compared between prediction and ground truth (goes into the settings)."""
+
+    margin: int = 1
+    """Pixels added on every side of an object's tight box (then clipped to the image), so that
+    a 2-px ball's crop holds some of the pitch around it and a uniform crop is rare."""
+    shift: int = 1
+    """The prediction's crop is also compared displaced by up to this many pixels in x and y;
+    ``ncc`` and ``psnr`` are the best over the displacements (each on its own): an object
+    rendered one pixel off (camera calibration, rounding) is still there."""
+    thresholds: Mapping[str, PresenceThresholds] = field(
+        default_factory=lambda: dict(CALIBRATED_THRESHOLDS))
+    """Region-test thresholds per class name; other classes use ``FALLBACK_CLASS``'s."""
+    iou_min: float = 0.5
+    """Detector test: lowest IoU of a ground-truth box and a same-class detection to match."""
+    visibility_min: float = 0.5
+    """Lowest ``visibility`` (fraction of the object's contrast against its surroundings the
+    prediction shows, see ``visibility``): an object shown at less than half its contrast, a
+    ghost, counts as missing. Chosen, not calibrated: it is the definition of a ghost."""
+    data_range: float = 1.0
+    """Peak value of the images (PSNR's L)."""
+
+    def __post_init__(self) -> None:
+        if isinstance(self.margin, bool) or not isinstance(self.margin, (int, np.integer)) \
+                or self.margin < 0:
+            raise InputError(f"presence margin must be an integer >= 0 (pixels), got {self.margin!r}")
+        if isinstance(self.shift, bool) or not isinstance(self.shift, (int, np.integer)) \
+                or not 0 <= self.shift <= 8:
+            raise InputError(f"presence shift must be an integer in [0, 8] (pixels), got {self.shift!r}")
+        if not 0.0 <= self.visibility_min <= 1.0:
+            raise InputError(f"presence visibility_min must be in [0, 1], got {self.visibility_min!r}")
+        if not 0.0 < self.iou_min <= 1.0:
+            raise InputError(f"presence iou_min must be in (0, 1], got {self.iou_min!r}")
+        if FALLBACK_CLASS not in self.thresholds:
+            raise InputError(
+                f"presence thresholds must include {FALLBACK_CLASS!r} (used for other classes), "
+                f"got classes {sorted(self.thresholds)}"
+            )
+        check_data_range(self.data_range)
+
+    def for_class(self, cls: str) -> PresenceThresholds:
+        """Thresholds of class ``cls`` (``FALLBACK_CLASS``'s when it has none)."""
+        return self.thresholds.get(cls, self.thresholds[FALLBACK_CLASS])
+
+    def describe(self) -> dict[str, Any]:
+        """JSON-ready description for the results' settings."""
+        return {
+            "margin": int(self.margin),
+            "shift": int(self.shift),
+            "iou_min": float(self.iou_min),
+            "visibility_min": float(self.visibility_min),
+            "thresholds": {c: {"ncc_min": t.ncc_min, "psnr_min": t.psnr_min}
+                           for c, t in sorted(self.thresholds.items())},
+            "fallback_class": FALLBACK_CLASS,
+            "rule": "present = ncc >= ncc_min and psnr >= psnr_min and visibility >= "
+                    "visibility_min (an undefined ncc or visibility passes) on the tight box "
+                    "grown by margin; with a detector also matched at IoU >= iou_min (greedy by "
+                    "IoU, same class)",
+        }
+
+
+@dataclass(frozen=True)
+class FramePresence:
+    """Presence of the objects of one frame."""
+
+    objects: list[dict[str, Any]]
+    """Per ground-truth object: ``class``, ``id``, ``box`` (tight box scored), ``present``,
+    ``ncc`` (None when undefined), ``psnr`` (dB, ``inf`` when the crops are identical),
+    ``visibility`` (None when undefined), ``detected`` (None without a detector test)."""
+    values: dict[str, float | None]
+    """``presence_<class>`` (fraction of the class's objects present, in [0, 1]) and
+    ``tight_psnr_<class>`` (PSNR in dB over the union of the class's tight boxes), for every class
+    in ``PRESENCE_CLASSES``; None when the frame has no object of the class."""
+    reasons: dict[str, str]
+    """Why a value of ``values`` is None."""
+
+
+def tight_box(box: object, height: int, width: int, margin: int = 0) -> np.ndarray | None:
+    """An object's box grown by ``margin`` px per side and clipped to ``height x width``.
+
+    Returns a (4,) int64 box, or None when nothing of it lies inside the image.
+    """
+    b = as_boxes(box)
+    if len(b) != 1:
+        raise InputError(f"expected one box [x_min, y_min, x_max, y_max], got {len(b)}")
+    grown = b + np.array([-margin, -margin, margin, margin], dtype=np.int64)
+    clipped = clip_boxes(grown, height, width)
+    return clipped[0] if len(clipped) else None
+
+
+def zncc(pred: object, gt: object, box: object = None, *, eps: float = 1e-6) -> float | None:
+    """Zero-mean normalised cross-correlation of two images (or of their crops at ``box``).
+
+    Args:
+        pred, gt: (H, W) or (H, W, C) arrays of equal shape, float (integers are upcast).
+        box: optional ``[x_min, y_min, x_max, y_max]`` (max exclusive): correlate only this crop.
+        eps: a crop whose standard deviation is at most ``eps`` (in data units) is uniform.
+
+    Returns:
+        ``sum(p' g') / sqrt(sum(p'^2) sum(g'^2))`` over all pixels and channels of the crop, with
+        ``p' = p - mean(p)``, computed in float64: in [-1, 1], invariant to brightness and
+        contrast. None when the ground-truth crop is uniform (undefined); 0.0 when only the
+        prediction's crop is uniform (none of the ground truth's pattern is there).
+
+    Raises:
+        InputError: shapes differ, NaN/Inf pixels, or the box holds no pixel of the image.
+    """
+    p, g = check_pair(pred, gt)
+    if box is not None:
+        b = clip_boxes(box, p.shape[0], p.shape[1])
+        if len(b) != 1:
+            raise InputError(f"box {np.asarray(box).tolist()} holds no pixel of the "
+                             f"{p.shape[1]}x{p.shape[0]} image")
+        x0, y0, x1, y1 = (int(v) for v in b[0])
+        p, g = p[y0:y1, x0:x1], g[y0:y1, x0:x1]
+    pd = p.astype(np.float64).ravel()
+    gd = g.astype(np.float64).ravel()
+    pd -= pd.mean()
+    gd -= gd.mean()
+    n = pd.size
+    sg = math.sqrt(float(gd @ gd) / n)
+    if sg <= eps:
+        return None
+    sp = math.sqrt(float(pd @ pd) / n)
+    if sp <= eps:
+        return 0.0
+    value = float(pd @ gd) / (n * sp * sg)
+    return min(1.0, max(-1.0, value))
+
+
+def crop_similarity(
+    pred: object, gt: object, box: object, *, shift: int = 0, data_range: float = 1.0
+) -> tuple[float | None, float]:
+    """Best ``zncc`` and PSNR of the ground truth's crop at ``box`` against the prediction's crop
+    at ``box`` displaced by up to ``shift`` px in x and y (displacements leaving the image are
+    skipped).
+
+    Args:
+        pred, gt: (H, W) or (H, W, C) float in [0, ``data_range``], equal shapes.
+        box: ``[x_min, y_min, x_max, y_max]`` inside the image (max exclusive).
+        shift: largest displacement in pixels (0: the same crop only).
+        data_range: peak value for PSNR.
+
+    Returns:
+        ``(ncc, psnr)``: the largest ``zncc`` over the displacements (None when the ground-truth
+        crop is uniform) and the largest PSNR in dB (``inf`` when a displaced crop is identical);
+        each is maximised on its own.
+    """
+    from dynaeval.metrics.pixel import psnr_from_stats, squared_error_stats
+
+    p, g = check_pair(pred, gt)
+    h, w = p.shape[:2]
+    b = clip_boxes(box, h, w)
+    if len(b) != 1 or not np.array_equal(b[0], as_boxes(box)[0]):
+        raise InputError(f"box {np.asarray(box).tolist()} must lie inside the {w}x{h} image")
+    x0, y0, x1, y1 = (int(v) for v in b[0])
+    gc = g[y0:y1, x0:x1]
+    best_ncc: float | None = None
+    best_psnr = -math.inf
+    for dy in range(-shift, shift + 1):
+        for dx in range(-shift, shift + 1):
+            if y0 + dy < 0 or x0 + dx < 0 or y1 + dy > h or x1 + dx > w:
+                continue
+            pc = p[y0 + dy:y1 + dy, x0 + dx:x1 + dx]
+            ncc = zncc(pc, gc)
+            if ncc is not None and (best_ncc is None or ncc > best_ncc):
+                best_ncc = ncc
+            value = psnr_from_stats(squared_error_stats(pc, gc), data_range=data_range)
+            best_psnr = max(best_psnr, value)
+    return best_ncc, best_psnr
+
+
+def visibility(
+    pred: object, gt: object, box: object, inner: object, *, data_range: float = 1.0,
+    min_contrast: float = 0.01,
+    min_snr: float = 3.0,
+) -> float | None:
+    """How much of the object's contrast against its surroundings the prediction shows.
+
+    The background is estimated from the ground truth alone: the per-channel median of the crop
+    ``box`` outside the object's own box ``inner`` (the margin ring). With ``M(x)`` the sum over
+    the crop of ``x - background`` (one value per channel), the visibility is the projection
+    ``<M(pred), M(gt)> / <M(gt), M(gt)>``: 1 when the prediction shows the object's full
+    contrast, ``a`` for a ghost blended in at opacity ``a`` over that background, about 0 when
+    the object is erased. A blur that keeps the object's light inside the crop keeps the sum, so
+    blur barely lowers it (unlike ``zncc`` and PSNR); noise averages out.
+
+    Args:
+        pred, gt: (H, W) or (H, W, C) float in [0, ``data_range``], equal shapes.
+        box: the crop ``[x0, y0, x1, y1]`` inside the image (the tight box grown by a margin).
+        inner: the object's own box, inside ``box``.
+        data_range: peak value.
+        min_contrast: below this mean contrast per object pixel (fraction of ``data_range``) the
+            object does not stand out from its background and the visibility is undefined.
+        min_snr: the object's summed contrast must also exceed ``min_snr`` times what the
+            background's texture alone sums to (robust sigma of the ring x sqrt(crop pixels)),
+            else the background estimate decides the ratio and the visibility is undefined.
+
+    Returns:
+        The visibility (unitless, about [0, 1], may exceed 1 when the prediction over-brightens),
+        or None when undefined: no margin ring (the box is the object's box), or the object's
+        summed contrast is below ``min_contrast`` or ``min_snr``.
+    """
+    p, g = check_pair(pred, gt)
+    x0, y0, x1, y1 = (int(v) for v in as_boxes(box)[0])
+    ix0, iy0, ix1, iy1 = (int(v) for v in as_boxes(inner)[0])
+    gc = g[y0:y1, x0:x1].astype(np.float64)
+    pc = p[y0:y1, x0:x1].astype(np.float64)
+    if gc.ndim == 2:
+        gc, pc = gc[..., None], pc[..., None]
+    ring = np.ones(gc.shape[:2], dtype=bool)
+    ring[max(iy0 - y0, 0):max(iy1 - y0, 0), max(ix0 - x0, 0):max(ix1 - x0, 0)] = False
+    if not ring.any():
+        return None
+    background = np.median(gc[ring], axis=0)
+    # spread of the background (MAD as a robust sigma): the sum of a textured background over the
+    # crop fluctuates by about sigma * sqrt(pixels), which an object's sum must clearly exceed
+    sigma = 1.4826 * np.median(np.abs(gc[ring] - background), axis=0)
+    mass_gt = (gc - background).sum(axis=(0, 1))
+    mass_pred = (pc - background).sum(axis=(0, 1))
+    energy = float(mass_gt @ mass_gt)
+    n_inner = max(1, (ix1 - ix0) * (iy1 - iy0))
+    floor = max(min_contrast * data_range * n_inner,
+                min_snr * float(np.linalg.norm(sigma)) * math.sqrt(gc.shape[0] * gc.shape[1]))
+    if math.sqrt(energy) <= floor:
+        return None
+    return float(mass_pred @ mass_gt) / energy
+
+
+def match_objects(
+    gt_boxes: object,
+    gt_classes: Sequence[str],
+    det_boxes: object,
+    det_classes: Sequence[str],
+    *,
+    iou_min: float = 0.5,
+    det_scores: object = None,
+) -> np.ndarray:
+    """Match ground-truth objects to detections of the same class at IoU >= ``iou_min``.
+
+    Greedy by IoU: all same-class pairs with IoU >= ``iou_min`` are taken in order of decreasing
+    IoU (ties: lower ground-truth index, then higher detection score, then lower detection index);
+    a pair is kept when neither its object nor its detection is matched yet.
+
+    Args:
+        gt_boxes: (M, 4) ground-truth boxes; ``gt_classes`` their M class names.
+        det_boxes: (N, 4) detections on the prediction; ``det_classes`` their N class names.
+        iou_min: lowest IoU (boxes as continuous rectangles, area = width x height) of a match.
+        det_scores: optional (N,) detection scores (tie-break only).
+
+    Returns:
+        (M,) int64: index of the matched detection, -1 for an unmatched ground-truth object.
+    """
+    from dynaeval.regions.detector import box_iou_matrix
+
+    g = as_boxes(gt_boxes).astype(np.float64)
+    d = as_boxes(det_boxes).astype(np.float64)
+    if len(gt_classes) != len(g) or len(det_classes) != len(d):
+        raise InputError(
+            f"need one class per box: {len(g)} ground-truth boxes with {len(gt_classes)} classes, "
+            f"{len(d)} detections with {len(det_classes)} classes"
+        )
+    out = np.full(len(g), -1, dtype=np.int64)
+    if len(g) == 0 or len(d) == 0:
+        return out
+    scores = np.zeros(len(d)) if det_scores is None else np.asarray(det_scores, np.float64)
+    iou = box_iou_matrix(g, d)
+    same = np.asarray(gt_classes, dtype=object)[:, None] == np.asarray(det_classes, dtype=object)[None, :]
+    gi, di = np.nonzero(same & (iou >= iou_min))
+    order = sorted(range(len(gi)), key=lambda k: (-iou[gi[k], di[k]], gi[k], -scores[di[k]], di[k]))
+    used = np.zeros(len(d), dtype=bool)
+    for k in order:
+        if out[gi[k]] < 0 and not used[di[k]]:
+            out[gi[k]] = di[k]
+            used[di[k]] = True
+    return out
+
+
+def frame_presence(
+    pred: object,
+    gt: object,
+    objects: Iterable[Mapping[str, Any]],
+    *,
+    detections: Any = None,
+    config: PresenceConfig | None = None,
+) -> FramePresence:
+    """Presence of every ground-truth object of one frame, and the per-class fractions.
+
+    Args:
+        pred, gt: (H, W[, C]) prediction and ground truth, float in [0, ``config.data_range``].
+        objects: ground-truth records ``{"class": str, "box": [x0, y0, x1, y1], "id"?: int}``
+            (boxes-file records, or ``Detections.records()`` of the detector on the ground truth).
+            Boxes outside the image are dropped (they show nothing to compare).
+        detections: optional detections on the *prediction* (``dynaeval.regions.Detections``, or
+            anything with ``boxes`` (N, 4), ``classes`` (N names) and optionally ``scores``): runs
+            the detector test.
+        config: margin, thresholds, IoU; default ``PresenceConfig()``.
+
+    Returns:
+        ``FramePresence`` (objects, ``presence_*`` and ``tight_psnr_*`` values, reasons).
+
+    Raises:
+        InputError: bad images or records.
+    """
+    cfg = config or PresenceConfig()
+    p, g = check_pair(pred, gt)
+    h, w = p.shape[:2]
+    kept: list[dict[str, Any]] = []
+    for i, rec in enumerate(objects):
+        cls = rec.get("class") if isinstance(rec, Mapping) else None
+        if not isinstance(cls, str) or not cls or "box" not in rec:
+            raise InputError(f"object {i}: expected a record with 'class' (str) and 'box', got {rec!r}")
+        inner = clip_boxes(rec["box"], h, w)
+        if len(inner) == 0:
+            continue  # outside the image: nothing to compare
+        kept.append({"class": cls, "id": rec.get("id", i), "inner": inner[0],
+                     "box": tight_box(inner[0], h, w, cfg.margin)})
+    detected: list[bool | None] = [None] * len(kept)
+    if detections is not None:
+        match = match_objects(
+            as_boxes([o["inner"] for o in kept]), [o["class"] for o in kept],
+            detections.boxes, list(detections.classes), iou_min=cfg.iou_min,
+            det_scores=getattr(detections, "scores", None),
+        )
+        detected = [bool(m >= 0) for m in match]
+    out: list[dict[str, Any]] = []
+    for obj, det in zip(kept, detected, strict=True):
+        box = obj["box"]
+        ncc, value = crop_similarity(p, g, box, shift=cfg.shift, data_range=cfg.data_range)
+        vis = visibility(p, g, box, obj["inner"], data_range=cfg.data_range)
+        th = cfg.for_class(obj["class"])
+        passed = ((ncc is None or ncc >= th.ncc_min) and value >= th.psnr_min
+                  and (vis is None or vis >= cfg.visibility_min))
+        out.append({"class": obj["class"], "id": obj["id"], "box": [int(v) for v in box],
+                    "present": bool(passed and det is not False), "ncc": ncc, "psnr": value,
+                    "visibility": vis, "detected": det})
+    values: dict[str, float | None] = dict.fromkeys(PRESENCE_METRICS)
+    reasons: dict[str, str] = {}
+    for cls in PRESENCE_CLASSES:
+        mine = [o for o in out if o["class"] == cls]
+        if not mine:
+            for name in (f"presence_{cls}", f"tight_psnr_{cls}"):
+                reasons[name] = f"no {cls} in the ground truth of this frame"
+            continue
+        values[f"presence_{cls}"] = sum(o["present"] for o in mine) / len(mine)
+        values[f"tight_psnr_{cls}"] = _psnr(p, g, data_range=cfg.data_range,
+                                            boxes=as_boxes([o["box"] for o in mine]))
+    return FramePresence(out, values, reasons)
