@@ -15,7 +15,7 @@ import numpy as np
 from dynaeval.regions.boxes import mask_to_box
 from reference_models.scenes.actors import Body
 from reference_models.scenes.camera import Camera
-from reference_models.scenes.geometry import intersect_capsules
+from reference_models.scenes.geometry import intersect_capsule, intersect_capsules
 from reference_models.scenes.world import AMBIENT, GROUND, SKY, SUN, StaticHit, intersect_static
 
 
@@ -58,6 +58,15 @@ def intersect_body(o: np.ndarray, d: np.ndarray, body: Body) -> tuple[np.ndarray
 
 _CHUNK = 1 << 19
 """Rays x parts evaluated at once by ``intersect_body`` (bounds the temporary memory)."""
+_PER_PART = 4096
+"""Above this many rays in a body's block, each part is culled on its own."""
+
+
+def _part_spheres(body: Body) -> list[tuple[tuple[np.ndarray, float], int]]:
+    """Bounding sphere ``(centre, radius)`` and index of each capsule part."""
+    half = 0.5 * np.linalg.norm(body.b - body.a, axis=1)
+    return [((0.5 * (body.a[i] + body.b[i]), float(half[i] + body.radius[i])), i)
+            for i in range(len(body.radius))]
 
 
 class CameraRenderer:
@@ -98,8 +107,10 @@ class CameraRenderer:
             if rect is None:
                 continue
             r0, r1, c0, c1 = rect
-            d = dirs[r0:r1, c0:c1]
-            tb, pb = intersect_body(o, d, body)
+            if (r1 - r0) * (c1 - c0) > _PER_PART:
+                tb, pb = self._parts_in_block(k, body, rect)
+            else:
+                tb, pb = intersect_body(o, dirs[r0:r1, c0:c1], body)
             alone[body.id] = int(np.isfinite(tb).sum())
             win = tb < t[r0:r1, c0:c1]
             if not win.any():
@@ -118,24 +129,53 @@ class CameraRenderer:
         lit = np.ones(t.shape)
         ground = (ids == 0) & (st.material == GROUND)
         for body in bodies:
-            rect = self._shadow_rect(body, k)
+            rect = self._shadow_rect(*body.bound, k)
             if rect is None:
                 continue
-            r0, r1, c0, c1 = rect
-            sel = ground[r0:r1, c0:c1]
-            if not sel.any():
-                continue
-            p = st.point[r0:r1, c0:c1][sel] + np.array([0.0, 0.0, 1e-4])
-            ts, _ = intersect_body(p, self.sun, body)
-            block = lit[r0:r1, c0:c1]
-            block[sel] = np.where(np.isfinite(ts), 0.0, block[sel])
+            per_part = (rect[1] - rect[0]) * (rect[3] - rect[2]) > _PER_PART
+            spheres = ([(sphere, [i]) for sphere, i in _part_spheres(body)] if per_part
+                       else [(body.bound, slice(None))])
+            for (centre, radius), parts in spheres:
+                sub = self._shadow_rect(centre, radius, k) if per_part else rect
+                if sub is None:
+                    continue
+                r0, r1, c0, c1 = sub
+                sel = ground[r0:r1, c0:c1] & (lit[r0:r1, c0:c1] > 0)
+                if not sel.any():
+                    continue
+                p = st.point[r0:r1, c0:c1][sel] + np.array([0.0, 0.0, 1e-4])
+                ts = intersect_capsules(p, self.sun, body.a[parts], body.b[parts],
+                                        body.radius[parts]).min(-1)
+                block = lit[r0:r1, c0:c1]
+                block[sel] = np.where(np.isfinite(ts), 0.0, 1.0)
         static = st.albedo * (AMBIENT + SUN * st.sunlit * lit)[..., None]
         static = np.where((st.material == SKY)[..., None], st.albedo, static)
         colour = np.where((ids > 0)[..., None], colour, static)
         return colour, t, ids, x_next, alone
 
-    def _shadow_rect(self, body: Body, k: int) -> tuple[int, int, int, int] | None:
-        centre, radius = body.bound
+    def _parts_in_block(self, k: int, body: Body, rect: tuple[int, int, int, int]):
+        """Like ``intersect_body`` on the grid block ``rect``, but each part is cast only in the
+        sub-block its own bounding sphere projects to (for bodies that fill much of the image)."""
+        dirs = self._grids[k][0]
+        r0, r1, c0, c1 = rect
+        t = np.full((r1 - r0, c1 - c0), np.inf)
+        part = np.zeros(t.shape, dtype=np.int64)
+        for (centre, radius), i in _part_spheres(body):
+            sub = self.camera.rect_of_sphere(centre, radius, k)
+            if sub is None:
+                continue
+            s0, s1, q0, q1 = max(sub[0], r0), min(sub[1], r1), max(sub[2], c0), min(sub[3], c1)
+            if s1 <= s0 or q1 <= q0:
+                continue
+            ti = intersect_capsule(self.camera.centre, dirs[s0:s1, q0:q1], body.a[i], body.b[i],
+                                   float(body.radius[i]))
+            bt, bp = t[s0 - r0:s1 - r0, q0 - c0:q1 - c0], part[s0 - r0:s1 - r0, q0 - c0:q1 - c0]
+            closer = ti < bt
+            bt[closer], bp[closer] = ti[closer], i
+        return t, part
+
+    def _shadow_rect(self, centre: np.ndarray, radius: float, k: int) -> tuple[int, int, int, int] | None:
+        """Grid block holding the ground points whose sun ray can meet a sphere."""
         if self.sun[2] <= 0.05:
             return None
         foot = centre[:2] - centre[2] / self.sun[2] * self.sun[:2]

@@ -157,3 +157,18 @@ def test_chunked_casting_gives_the_same_view(monkeypatch):
     for name in ("rgb", "depth", "ids", "flow"):
         np.testing.assert_array_equal(getattr(whole, name), getattr(chunked, name))
     assert whole.boxes == chunked.boxes
+
+
+def test_per_part_culling_gives_the_same_view(monkeypatch):
+    import reference_models.scenes.render as render
+
+    scene = build_scene("single-player-closeup", seed=0, size="tiny", width=160, height=90)
+    monkeypatch.setattr(render, "_PER_PART", 10**9)  # whole bodies, vectorised over parts
+    whole = render_view(scene, "eval00", 3)
+    monkeypatch.setattr(render, "_PER_PART", 0)  # every part in its own block
+    parts = render_view(scene, "eval00", 3)
+    np.testing.assert_array_equal(whole.ids, parts.ids)
+    np.testing.assert_allclose(whole.depth, parts.depth, rtol=1e-6)
+    np.testing.assert_allclose(whole.flow, parts.flow, atol=1e-4)
+    np.testing.assert_allclose(whole.rgb, parts.rgb, atol=1e-6)
+    assert whole.boxes == parts.boxes
