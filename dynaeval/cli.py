@@ -79,9 +79,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("score", help="score predicted frames against ground truth",
                        description="Score PRED frames against GT frames (folders of images, one "
-                                   "sub-folder per camera, or videos).")
-    p.add_argument("pred", help="folder of predicted frames")
-    p.add_argument("gt", help="folder of ground-truth frames, same layout")
+                                   "sub-folder per camera, or videos), or one render folder of "
+                                   "NeRFBaselines (color/ + gt-color/) or ns-render (rgb/ + "
+                                   "gt-rgb/): docs/integration.md.")
+    p.add_argument("pred", help="folder of predicted frames, or a render folder")
+    p.add_argument("gt", nargs="?",
+                   help="folder of ground-truth frames, same layout (omit for a render folder)")
     _add_score_options(p)
 
     t = sub.add_parser("detect", help="find boxes in ground-truth frames once, for --focus boxes:FILE",
@@ -128,8 +131,9 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _run_score(pred: str, gt: str, args: argparse.Namespace, *, overwrite: bool) -> int:
+def _run_score(pred: str, gt: str | None, args: argparse.Namespace, *, overwrite: bool) -> int:
     from dynaeval.evaluate import ScoreConfig, score
+    from dynaeval.io.layouts import detect_layout
     from dynaeval.regions.focus import FocusConfig
     from dynaeval.report import summary_table, write_json_atomic
 
@@ -141,9 +145,20 @@ def _run_score(pred: str, gt: str, args: argparse.Namespace, *, overwrite: bool)
     if report and (Path(report) / "index.html").exists() and not overwrite:
         raise InputError("report exists; pass --overwrite or choose another --report folder",
                          path=Path(report) / "index.html")
+    layout = detect_layout(pred, gt)
+    run_name = None
+    if layout.name != "folders":
+        run_name = Path(pred).resolve().name
+        print(f"dynaeval: {layout.name} render folder: scoring {layout.pred} against {layout.gt}",
+              file=sys.stderr)
+        if not getattr(args, "no_temporal", False):
+            print("dynaeval: warning: render folders hold separate test views; temporal metrics "
+                  "treat them as a sequence (pass --no-temporal unless they are one)",
+                  file=sys.stderr)
+    pred, gt = str(layout.pred), str(layout.gt)
     config = ScoreConfig(
-        method=getattr(args, "method", None) or ("sample-degraded" if args.command == "demo" else None),
-        scene=getattr(args, "scene", None) or ("sample" if args.command == "demo" else None),
+        method=getattr(args, "method", None) or ("sample-degraded" if args.command == "demo" else run_name),
+        scene=getattr(args, "scene", None) or ("sample" if args.command == "demo" else run_name),
         lpips=not args.no_lpips,
         lpips_net=getattr(args, "lpips_net", "alex"),
         quantize=getattr(args, "quantize", "none"),

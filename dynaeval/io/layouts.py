@@ -1,0 +1,114 @@
+"""Render-folder layouts of other tools, so ``dynaeval score`` reads them without renaming.
+
+Rules (docs/integration.md repeats them with examples):
+
+1. ``score RUN`` (one folder): RUN, or exactly one of its direct sub-folders, must hold a pair of
+   sibling folders of a known layout:
+
+   * NeRFBaselines (``nerfbaselines render`` / ``evaluate`` output): ``color/`` (predictions) and
+     ``gt-color/`` (ground truth), same relative file names;
+   * nerfstudio ``ns-render dataset --rendered-output-names rgb gt-rgb``: ``rgb/`` and ``gt-rgb/``
+     (ns-render writes them under ``OUT/<split>/``, hence the one level of sub-folders).
+
+   Several matches (e.g. ``test/`` and ``train/`` splits) are an error listing them: point at one.
+2. ``score PRED GT`` (two folders): used as given, so ``score RUN/color RUN/gt-color`` works too.
+   If PRED is itself a render folder (holds ``color/`` + ``gt-color/`` or ``rgb/`` + ``gt-rgb/``)
+   and GT is the same folder, rule 1 applies.
+3. nerfstudio ``ns-eval --render-output-path`` writes ``NNNNNN-img.jpg`` files that hold the ground
+   truth and the prediction side by side in one 8-bit JPEG: they are refused with a message
+   (JPEG loss and the shared file make them unfit for scoring); render with ``ns-render`` instead.
+
+Frames in these folders are usually *different test views*, not a video: the layout says so
+(``sequence=False``), and the CLI warns that temporal metrics then compare unrelated views.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from dynaeval.errors import InputError
+
+LAYOUTS: dict[str, tuple[str, str]] = {
+    "nerfbaselines": ("color", "gt-color"),
+    "nerfstudio": ("rgb", "gt-rgb"),
+}
+"""Layout name -> (prediction folder, ground-truth folder), siblings in one render folder."""
+
+
+@dataclass(frozen=True)
+class RenderLayout:
+    """Where predictions and ground truth of one run are, and what wrote them."""
+
+    name: str
+    """``nerfbaselines``, ``nerfstudio`` or ``folders`` (PRED and GT as given)."""
+    pred: Path
+    """Folder of predictions."""
+    gt: Path
+    """Folder of ground truth."""
+    root: Path | None = None
+    """The render folder the pair was found in (None for ``folders``)."""
+    sequence: bool = True
+    """False when frames are independent test views (temporal metrics are then meaningless)."""
+
+
+def _pairs_in(folder: Path) -> list[RenderLayout]:
+    found = []
+    for name, (pred, gt) in LAYOUTS.items():
+        if (folder / pred).is_dir() and (folder / gt).is_dir():
+            found.append(RenderLayout(name, folder / pred, folder / gt, folder, sequence=False))
+    return found
+
+
+def _check_not_ns_eval(folder: Path) -> None:
+    if folder.is_dir() and any(folder.glob("[0-9]*-img.jpg")):
+        raise InputError(
+            "this looks like an 'ns-eval --render-output-path' folder: its NNNNNN-img.jpg files "
+            "hold ground truth and prediction side by side in one 8-bit JPEG, which dynaeval does "
+            "not score; write separate frames with 'ns-render dataset --rendered-output-names rgb "
+            "gt-rgb --image-format png' and score that folder",
+            path=folder,
+        )
+
+
+def detect_layout(pred: str | Path, gt: str | Path | None = None) -> RenderLayout:
+    """Find the prediction and ground-truth folders of a run (rules in the module docstring).
+
+    Args:
+        pred: a render folder (with ``gt`` None or equal to it), or the prediction folder.
+        gt: the ground-truth folder, or None.
+
+    Returns:
+        RenderLayout; ``name="folders"`` when PRED and GT are ordinary folders used as given.
+
+    Raises:
+        InputError: one folder given that holds no known pair (or several), a missing folder, or
+            an ns-eval side-by-side folder.
+    """
+    pred = Path(pred)
+    same = gt is not None and Path(gt).resolve() == pred.resolve()
+    if gt is not None and not same:
+        for folder in (pred, Path(gt)):
+            _check_not_ns_eval(folder)
+        return RenderLayout("folders", pred, Path(gt))
+    if not pred.is_dir():
+        raise InputError("render folder not found (or not a folder)", path=pred)
+    _check_not_ns_eval(pred)
+    found = _pairs_in(pred)
+    if not found:
+        for sub in sorted(p for p in pred.iterdir() if p.is_dir() and not p.name.startswith(".")):
+            found += _pairs_in(sub)
+    if len(found) == 1:
+        return found[0]
+    known = "; ".join(f"{n}: {p}/ + {g}/" for n, (p, g) in LAYOUTS.items())
+    if not found:
+        raise InputError(
+            f"one folder was given but it holds no known render layout ({known}), neither directly "
+            "nor in a sub-folder; pass PRED and GT folders instead",
+            path=pred,
+        )
+    listing = ", ".join(f"{f.root.relative_to(pred).as_posix() or '.'} ({f.name})" for f in found
+                        if f.root is not None)
+    raise InputError(
+        f"several render layouts found: {listing}; point at one of these folders", path=pred
+    )

@@ -1,0 +1,78 @@
+"""Render-folder layouts (NeRFBaselines, ns-render) read by score without renaming."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from dynaeval.cli import main
+from dynaeval.errors import InputError
+from dynaeval.io.layouts import detect_layout
+from tests.dynaeval.helpers import textured_frame, write_frames
+
+
+def _run(root, pred_name, gt_name, rng, n=3):
+    gt = [textured_frame(rng, 32, 40) for _ in range(n)]
+    pred = [np.clip(f.astype(int) + 6, 0, 255).astype(np.uint8) for f in gt]
+    write_frames(root, pred_name, pred)
+    write_frames(root, gt_name, gt)
+    return root
+
+
+def test_nerfbaselines_folder(tmp_path, rng):
+    run = _run(tmp_path / "run", "color", "gt-color", rng)
+    lay = detect_layout(run)
+    assert (lay.name, lay.pred, lay.gt, lay.root, lay.sequence) == (
+        "nerfbaselines", run / "color", run / "gt-color", run, False)
+    assert detect_layout(run, run) == lay  # PRED == GT: the same rule
+
+
+def test_ns_render_split_subfolder(tmp_path, rng):
+    out = tmp_path / "renders"
+    _run(out / "test", "rgb", "gt-rgb", rng)
+    lay = detect_layout(out)
+    assert (lay.name, lay.pred, lay.gt) == ("nerfstudio", out / "test" / "rgb", out / "test" / "gt-rgb")
+
+
+def test_two_folders_are_used_as_given(tmp_path, rng):
+    run = _run(tmp_path / "run", "color", "gt-color", rng)
+    lay = detect_layout(run / "color", run / "gt-color")
+    assert (lay.name, lay.pred, lay.gt, lay.root) == ("folders", run / "color", run / "gt-color", None)
+
+
+def test_errors(tmp_path, rng):
+    out = tmp_path / "renders"
+    _run(out / "test", "rgb", "gt-rgb", rng)
+    _run(out / "train", "rgb", "gt-rgb", rng)
+    with pytest.raises(InputError, match=r"several render layouts found: test \(nerfstudio\), train \(nerfstudio\)"):
+        detect_layout(out)
+    with pytest.raises(InputError, match="holds no known render layout"):
+        detect_layout(out / "test" / "rgb")
+    with pytest.raises(InputError, match="render folder not found"):
+        detect_layout(tmp_path / "nope")
+    ev = tmp_path / "eval"
+    ev.mkdir()
+    (ev / "000000-img.jpg").write_bytes(b"")
+    with pytest.raises(InputError, match="ns-eval --render-output-path.*ns-render dataset"):
+        detect_layout(ev)
+    with pytest.raises(InputError, match="ns-eval --render-output-path"):
+        detect_layout(ev, out / "test" / "gt-rgb")
+
+
+def test_cli_scores_a_render_folder_with_one_argument(tmp_path, rng, capsys):
+    run = _run(tmp_path / "myrun", "color", "gt-color", rng)
+    out = tmp_path / "r.json"
+    assert main(["score", str(run), "--no-lpips", "--no-temporal", "--focus", "none",
+                 "--no-masked", "-q", "-o", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "nerfbaselines render folder" in err
+    two = tmp_path / "r2.json"
+    assert main(["score", str(run / "color"), str(run / "gt-color"), "--no-lpips", "--no-temporal",
+                 "--focus", "none", "--no-masked", "-q", "-o", str(two)]) == 0
+    import json
+
+    a, b = json.loads(out.read_text()), json.loads(two.read_text())
+    assert a["summary"]["psnr"] == b["summary"]["psnr"] and a["summary"]["n_frames"] == 3
+    assert a["method"] == a["scene"] == "myrun"
+    assert main(["score", str(tmp_path / "nothing"), "--no-lpips", "-q"]) == 2
+    assert "render folder not found" in capsys.readouterr().err
