@@ -87,13 +87,32 @@ def flatten_settings(settings: dict[str, Any], prefix: str = "") -> dict[str, An
     return out
 
 
+def _skipped_sections(a: dict[str, Any], b: dict[str, Any]) -> list[str]:
+    """Sections whose metrics exist in at most one of the files, so there is nothing to compare:
+    a section present in one file only (``temporal`` of a ``--no-temporal`` run) or switched off
+    in either (``lpips.enabled`` false: LPIPS did not run)."""
+    out = []
+    for key in {*a, *b}:
+        va, vb = a.get(key), b.get(key)
+        if isinstance(va, dict) or isinstance(vb, dict):
+            if va is None or vb is None:
+                out.append(key + ".")
+            elif va.get("enabled") is False or vb.get("enabled") is False:
+                out.append(key + ".")
+    return out
+
+
 def settings_differences(a: dict[str, Any], b: dict[str, Any]) -> list[tuple[str, Any, Any]]:
     """Number-changing settings that differ between two results' ``settings``:
-    ``[(field, value in a, value in b)]`` (``None`` where a field is absent), in field order."""
+    ``[(field, value in a, value in b)]`` (``None`` where a field is absent), in field order.
+
+    Not compared: ``IGNORED_SETTINGS`` and sections of metrics that ran in at most one of the
+    two files (a section absent from one, or with ``enabled: false`` in either)."""
     fa, fb = flatten_settings(a), flatten_settings(b)
+    skipped = tuple(_skipped_sections(a, b))
     out = []
     for key in [*fa, *(k for k in fb if k not in fa)]:
-        if key in IGNORED_SETTINGS:
+        if key in IGNORED_SETTINGS or key.startswith(skipped):
             continue
         if fa.get(key) != fb.get(key):
             out.append((key, fa.get(key), fb.get(key)))

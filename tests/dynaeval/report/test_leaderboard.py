@@ -133,6 +133,19 @@ def test_paths_devices_and_missing_lpips_are_not_incompatibilities():
     assert settings_differences(SETTINGS, other) == []
 
 
+def test_sections_of_metrics_that_ran_in_one_file_only_are_not_compared():
+    with_temporal = dict(json.loads(json.dumps(SETTINGS)), temporal={"flow": {"method": "dis"}})
+    assert settings_differences(with_temporal, SETTINGS) == []  # --no-temporal run
+    no_lpips = json.loads(json.dumps(SETTINGS))
+    no_lpips["lpips"].update(enabled=False, net="vgg")
+    assert settings_differences(SETTINGS, no_lpips) == []  # vgg never ran: nothing to differ
+    vgg = json.loads(json.dumps(SETTINGS))
+    vgg["lpips"]["net"] = "vgg"
+    other_flow = dict(json.loads(json.dumps(SETTINGS)), temporal={"flow": {"method": "tvl1"}})
+    assert settings_differences(SETTINGS, vgg) == [("lpips.net", "alex", "vgg")]
+    assert settings_differences(with_temporal, other_flow) == [("temporal.flow.method", "dis", "tvl1")]
+
+
 def test_duplicate_method_scene_pair_is_an_error(tmp_path, files):
     dup = _write(tmp_path / "dup.json", "A", "s1", [1.0])
     with pytest.raises(InputError, match=r"method 'A' on scene 's1' appears twice: in .*A_s1.json and .*dup.json"):
