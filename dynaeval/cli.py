@@ -13,6 +13,7 @@ from pathlib import Path
 
 from dynaeval import __version__
 from dynaeval.errors import InputError
+from dynaeval.io.frames import parse_shard
 
 EXIT_OK, EXIT_BUG, EXIT_INPUT = 0, 1, 2
 
@@ -66,6 +67,9 @@ def _add_score_options(p: argparse.ArgumentParser) -> None:
                    help="also write an HTML report (DIR/index.html + DIR/img/): summary, per-frame "
                         "curves, worst frames with the scored regions drawn")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--shard", metavar="I/N",
+                   help="score only the I-th of N slices of the cameras (1 <= I <= N); "
+                        "'dynaeval merge' combines the N results into the unsharded numbers")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -86,6 +90,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("gt", nargs="?",
                    help="folder of ground-truth frames, same layout (omit for a render folder)")
     _add_score_options(p)
+
+    m = sub.add_parser("merge", help="combine the results of 'score --shard I/N' runs",
+                       description="Merge the results files of all N shards of one scoring run "
+                                   "into the results of the unsharded run (same numbers, bit for "
+                                   "bit).")
+    m.add_argument("parts", nargs="+", metavar="PART.json")
+    m.add_argument("-o", "--output", required=True, metavar="results.json")
+    m.add_argument("--overwrite", action="store_true", help="replace an existing -o file")
 
     t = sub.add_parser("detect", help="find boxes in ground-truth frames once, for --focus boxes:FILE",
                        description="Write the boxes of every ground-truth frame (raw, unexpanded) "
@@ -167,6 +179,7 @@ def _run_score(pred: str, gt: str | None, args: argparse.Namespace, *, overwrite
         workers=args.workers,
         device=getattr(args, "device", "cpu"),
         progress=not args.quiet,
+        shard=parse_shard(args.shard) if getattr(args, "shard", None) else None,
         focus=FocusConfig.parse(
             args.focus,
             detector_model=getattr(args, "detector", None),
@@ -253,6 +266,18 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if args.command == "score":
             return _run_score(args.pred, args.gt, args, overwrite=args.overwrite)
+        if args.command == "merge":
+            from dynaeval.report import write_json_atomic
+            from dynaeval.report.merge import merge_results
+
+            if Path(args.output).exists() and not args.overwrite:
+                raise InputError("results file exists; pass --overwrite or choose another -o",
+                                 path=args.output)
+            merged = merge_results(args.parts)
+            write_json_atomic(args.output, merged, overwrite=args.overwrite)
+            print(f"{len(args.parts)} shards, {merged['summary']['n_frames']} frames merged into "
+                  f"{args.output}", file=sys.stderr)
+            return EXIT_OK
         if args.command == "detect":
             return _run_detect(args)
         if args.command == "leaderboard":

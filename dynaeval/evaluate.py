@@ -28,6 +28,7 @@ import numpy as np
 
 from dynaeval.errors import EmptyRegionError, InputError, WeightsUnavailableError
 from dynaeval.io import FramePair, pair_frames
+from dynaeval.io.frames import select_shard
 from dynaeval.regions.focus import FocusConfig, FrameRegions
 
 BASE_METRICS = ("psnr", "ssim", "lpips")
@@ -72,6 +73,9 @@ class ScoreConfig:
     """Torch device for LPIPS: ``cpu``, ``cuda`` or ``auto``."""
     progress: bool = True
     """Show a progress bar on stderr."""
+    shard: tuple[int, int] | None = None
+    """Score only slice ``(I, N)`` of the cameras (``dynaeval.io.frames.select_shard``); the
+    shards' results combine with ``dynaeval merge`` into exactly the unsharded numbers."""
     protocol: str = "dynaeval"
     """Whose whole-frame PSNR/SSIM and 8-bit step to reproduce: ``dynaeval``, ``nerfbaselines``
     or ``nerfstudio`` (``dynaeval.metrics.protocols``; ``quantize`` then defaults to the
@@ -266,6 +270,8 @@ def _score_frame(
             t0 = time.perf_counter()
             try:
                 value, reason = float(fn(pred, gt, kw)), None
+            except InputError as err:  # e.g. a frame smaller than the SSIM window
+                raise InputError(f"{name}: {err}", path=str(pair.pred)) from err
             except EmptyRegionError as err:
                 value, reason = None, str(err)
             elapsed[name] = time.perf_counter() - t0
@@ -379,6 +385,8 @@ def score(
         raise InputError(f"workers must be >= 1, got {config.workers}")
     t_start = time.perf_counter()
     pairing = pair_frames(pred_dir, gt_dir, allow_missing=config.allow_missing)
+    if config.shard is not None:
+        pairing = select_shard(pairing, *config.shard)
     warnings: list[dict] = []
     metric_fns, settings = _build_metric_fns(config, warnings)
     sources = open_sources(config.focus)
@@ -447,6 +455,7 @@ def score(
             gt_dir=str(gt_dir),
             settings=settings,
             unscored_cameras=pairing.unscored_cameras,
+            shard=config.shard,
             skipped=pairing.skipped,
             warnings=warnings,
             timing={"total_s": time.perf_counter() - t_start, **dict(timing)},

@@ -232,3 +232,31 @@ def pair_frames(
             pairs.append(FramePair(cam_name, gt_name, index, pred_ref, gt_ref))
     unscored = [c for c in gt if c not in pred]
     return Pairing(pairs=pairs, unscored_cameras=unscored, skipped=skipped)
+
+
+def parse_shard(spec: str) -> tuple[int, int]:
+    """``"I/N"`` (1 <= I <= N) -> (I, N); InputError otherwise."""
+    try:
+        i, n = (int(x) for x in spec.split("/"))
+    except ValueError:
+        raise InputError(f"--shard must be I/N with whole numbers, e.g. 1/4; got {spec!r}") from None
+    if not 1 <= i <= n:
+        raise InputError(f"--shard I/N needs 1 <= I <= N, got {spec!r}")
+    return i, n
+
+
+def select_shard(pairing: Pairing, index: int, count: int) -> Pairing:
+    """The deterministic slice ``index`` of ``count`` (1-based) of a pairing, by whole cameras.
+
+    Camera k (0-based, in natural order) goes to shard ``k % count + 1``. Whole cameras, because
+    motion masks and temporal terms need a camera's full sequence: the per-frame and per-camera
+    numbers of a shard are then exactly those of an unsharded run, and ``dynaeval merge`` puts
+    the shards back together bit for bit. A shard may hold no camera (more shards than cameras).
+    """
+    cameras = sorted({p.camera for p in pairing.pairs}, key=natural_key)
+    mine = {c for k, c in enumerate(cameras) if k % count + 1 == index}
+    return Pairing(
+        pairs=[p for p in pairing.pairs if p.camera in mine],
+        unscored_cameras=list(pairing.unscored_cameras),
+        skipped=[s for s in pairing.skipped if s["camera"] in mine],
+    )

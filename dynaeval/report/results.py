@@ -117,6 +117,7 @@ def build_results(
     version: str,
     temporal: dict[str, dict[str, dict]] | None = None,
     camera_values: dict[str, dict[str, float | None]] | None = None,
+    shard: tuple[int, int] | None = None,
 ) -> dict[str, Any]:
     """Assemble the results document from per-frame rows (values may be inf; made strict here).
 
@@ -181,6 +182,7 @@ def build_results(
             "cameras": list(by_camera),
             "unscored_cameras": list(unscored_cameras),
             "skipped_frames": list(skipped),
+            **({"shard": {"index": shard[0], "count": shard[1]}} if shard else {}),
         },
         "settings": settings,
         "metrics": {

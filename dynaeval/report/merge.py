@@ -1,0 +1,90 @@
+"""Merging the results of shards (``dynaeval score --shard I/N``) into the unsharded results.
+
+Shards split a run by whole cameras (``dynaeval.io.frames.select_shard``), so every per-frame and
+per-camera number of a shard is the unsharded one; merging recomputes the summaries from them with
+the same function (``build_results``), which makes the merged numbers equal to an unsharded run's,
+bit for bit.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from dynaeval.errors import InputError
+from dynaeval.io.frames import natural_key
+from dynaeval.report.results import FRAME_FIELDS, build_results, load_results
+
+
+def merge_results(paths: list[str | Path]) -> dict[str, Any]:
+    """Merge the results files of all shards of one run.
+
+    Raises:
+        InputError: a file is unreadable or not a shard, the shards come from different runs
+            (method, scene, inputs or settings differ), a shard is missing or given twice.
+    """
+    if not paths:
+        raise InputError("merge needs the results files of the shards")
+    docs = [(Path(p), load_results(p)) for p in paths]
+    first_path, first = docs[0]
+    counts = set()
+    seen: dict[int, Path] = {}
+    for path, doc in docs:
+        shard = doc["inputs"].get("shard")
+        if not shard:
+            raise InputError("not a shard (scored without --shard I/N)", path=path)
+        counts.add(shard["count"])
+        if shard["index"] in seen:
+            raise InputError(f"shard {shard['index']}/{shard['count']} given twice: also "
+                             f"{seen[shard['index']]}", path=path)
+        seen[shard["index"]] = path
+        for key in ("method", "scene", "settings", "dynaeval_version"):
+            if doc[key] != first[key]:
+                raise InputError(f"shards of different runs: '{key}' differs from {first_path}",
+                                 path=path)
+        for key in ("pred", "gt", "unscored_cameras"):
+            if doc["inputs"][key] != first["inputs"][key]:
+                raise InputError(f"shards of different runs: inputs.{key} differs from "
+                                 f"{first_path}", path=path)
+    if len(counts) != 1:
+        raise InputError(f"shards of different splits: I/N with N in {sorted(counts)}")
+    (count,) = counts
+    missing = sorted(set(range(1, count + 1)) - set(seen))
+    if missing:
+        raise InputError(f"shards missing: {', '.join(f'{i}/{count}' for i in missing)}")
+
+    rows = [dict(f) for _, doc in docs for f in doc["frames"]]
+    rows.sort(key=lambda r: (natural_key(r["camera"]), r["index"]))
+    frame_names = {k for r in rows for k in r if k not in FRAME_FIELDS}
+    metric_names = [n for n in first["metrics"] if n in frame_names]
+    camera_values = {
+        cam: {k: v for k, v in entry.items() if k != "n_frames" and k not in frame_names}
+        for _, doc in docs for cam, entry in doc["cameras"].items()
+    }
+    warnings: list[dict] = []
+    for _, doc in docs:
+        for w in doc["warnings"]:
+            if "camera" in w or (not w["reason"].startswith("summary is null")
+                                 and w not in warnings):
+                warnings.append(w)
+    timing: dict[str, float] = {}
+    for _, doc in docs:
+        for k, v in doc["timing"].items():
+            timing[k] = timing.get(k, 0.0) + v
+    skipped = sorted((s for _, doc in docs for s in doc["inputs"]["skipped_frames"]),
+                     key=lambda s: (natural_key(s["camera"]), natural_key(s["frame"])))
+    return build_results(
+        rows=rows,
+        metric_names=metric_names,
+        method=first["method"],
+        scene=first["scene"],
+        pred_dir=first["inputs"]["pred"],
+        gt_dir=first["inputs"]["gt"],
+        settings=first["settings"],
+        unscored_cameras=first["inputs"]["unscored_cameras"],
+        skipped=skipped,
+        warnings=warnings,
+        timing=timing,
+        version=first["dynaeval_version"],
+        camera_values=camera_values,
+    )

@@ -1,0 +1,84 @@
+"""Sharded scoring merged back equals the unsharded run, bit for bit."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from dynaeval.cli import main
+from dynaeval.errors import InputError
+from dynaeval.io.frames import pair_frames, parse_shard, select_shard
+from dynaeval.report.merge import merge_results
+
+from ..helpers import moving_square_scene, write_frames
+
+NUMBERS = ("frames", "cameras", "summary", "counts", "metrics")
+
+
+@pytest.fixture
+def scene(tmp_path):
+    gt, frames = moving_square_scene(tmp_path / "gt", cameras=("cam0", "cam1", "cam2"))
+    rng = np.random.default_rng(3)
+    for cam, seq in frames.items():
+        write_frames(tmp_path / "pred", cam, [
+            np.clip(f.astype(int) + rng.integers(-9, 10, f.shape), 0, 255).astype(np.uint8)
+            for f in seq])
+    return tmp_path / "pred", gt
+
+
+def test_shards_are_whole_cameras_round_robin(scene):
+    pred, gt = scene
+    pairing = pair_frames(pred, gt)
+    parts = [select_shard(pairing, i, 2) for i in (1, 2)]
+    assert sorted({p.camera for p in parts[0].pairs}) == ["cam0", "cam2"]
+    assert sorted({p.camera for p in parts[1].pairs}) == ["cam1"]
+    assert select_shard(pairing, 4, 4).pairs == []  # more shards than cameras: an empty one
+
+
+@pytest.mark.parametrize("spec,message", [("1", "must be I/N"), ("0/2", "1 <= I <= N"),
+                                          ("3/2", "1 <= I <= N"), ("a/b", "must be I/N")])
+def test_bad_shard_spec(spec, message):
+    with pytest.raises(InputError, match=message):
+        parse_shard(spec)
+
+
+def test_merged_shards_equal_unsharded_bit_for_bit(tmp_path, scene, capsys):
+    pred, gt = scene
+    common = ["--no-lpips", "-q", "--focus", "motion"]
+    assert main(["score", str(pred), str(gt), "-o", str(tmp_path / "all.json"), *common]) == 0
+    parts = []
+    for i in (1, 2, 3, 4):
+        out = tmp_path / f"part{i}.json"
+        assert main(["score", str(pred), str(gt), "-o", str(out), "--shard", f"{i}/4",
+                     *common]) == 0
+        parts.append(str(out))
+    assert main(["merge", *parts, "-o", str(tmp_path / "merged.json")]) == 0
+    whole = json.loads((tmp_path / "all.json").read_text())
+    merged = json.loads((tmp_path / "merged.json").read_text())
+    for key in NUMBERS:
+        assert merged[key] == whole[key], key
+    assert "shard" not in merged["inputs"]
+    assert sorted(map(json.dumps, merged["warnings"])) == sorted(map(json.dumps, whole["warnings"]))
+    capsys.readouterr()
+
+
+def test_merge_refuses_incomplete_or_mixed(tmp_path, scene, capsys):
+    pred, gt = scene
+    common = ["--no-lpips", "-q", "--focus", "none", "--no-temporal"]
+    for i in (1, 2):
+        main(["score", str(pred), str(gt), "-o", str(tmp_path / f"p{i}.json"), "--shard",
+              f"{i}/2", *common])
+    main(["score", str(pred), str(gt), "-o", str(tmp_path / "q.json"), "--shard", "2/2",
+          "--quantize", "round", *common])
+    main(["score", str(pred), str(gt), "-o", str(tmp_path / "whole.json"), *common])
+    with pytest.raises(InputError, match=r"shards missing: 2/2"):
+        merge_results([tmp_path / "p1.json"])
+    with pytest.raises(InputError, match=r"q\.json: shards of different runs: 'settings' differs"):
+        merge_results([tmp_path / "p1.json", tmp_path / "q.json"])
+    with pytest.raises(InputError, match=r"shard 1/2 given twice"):
+        merge_results([tmp_path / "p1.json", tmp_path / "p1.json"])
+    with pytest.raises(InputError, match=r"whole\.json: not a shard"):
+        merge_results([tmp_path / "whole.json"])
+    capsys.readouterr()
