@@ -101,11 +101,11 @@ def _summary_html(results: dict[str, Any]) -> str:
             for p, _ in regions)
         rows.append(f"<tr><td>{escape(b)} {arrow}{escape(unit)}</td>{cells}</tr>")
     table = f"<table><tr><th>metric</th>{head}</tr>{''.join(rows)}</table>"
-    per_frame = [m for m in metrics if m in results["frames"][0]] if results["frames"] else []
-    cam_head = "".join(f"<th>{escape(m)}</th>" for m in per_frame)
+    per_cam = [m for m in metrics if any(m in v for v in results["cameras"].values())]
+    cam_head = "".join(f"<th>{escape(m)}</th>" for m in per_cam)
     cam_rows = "".join(
         f"<tr><td>{escape(cam)}</td><td>{v['n_frames']}</td>"
-        + "".join(f"<td>{_fmt(_base(m), v.get(m))}</td>" for m in per_frame) + "</tr>"
+        + "".join(f"<td>{_fmt(_base(m), v.get(m))}</td>" for m in per_cam) + "</tr>"
         for cam, v in results["cameras"].items())
     cams = f"<table><tr><th>camera</th><th>frames</th>{cam_head}</tr>{cam_rows}</table>"
     return table + "<h3>Per camera (means over frames)</h3>" + cams
@@ -242,7 +242,8 @@ def write_report(
     parts = [
         "<!DOCTYPE html>", "<html><head><meta charset='utf-8'>", f"<title>{escape(title)}</title>",
         f"<style>{TABLE_CSS}img{{max-width:100%;display:block;margin:0.5em 0}}"
-        "details pre{font-size:12px;background:#f7f7f7;padding:1em}</style></head><body>",
+        "details pre{font-size:12px;background:#f7f7f7;padding:1em}"
+        ".curves img{display:inline-block;width:49%;margin:0}</style></head><body>",
         f"<h1>{escape(title)}</h1>",
         f"<p>{results['summary']['n_frames']} frames, {len(results['cameras'])} camera(s); "
         f"dynaeval {escape(results['dynaeval_version'])}, {escape(results['created'])}. "
@@ -250,7 +251,9 @@ def write_report(
         "<h2>Summary</h2>", _summary_html(results),
         "<h2>Per-frame curves</h2>",
     ]
+    parts.append("<div class='curves'>")
     parts += [f"<img src='{escape(src)}' alt='{escape(name)} per frame'>" for name, src in curves]
+    parts.append("</div>")
     parts.append(f"<h2>Worst frames by {escape(metric)}</h2>")
     if recorder is not None:
         parts.append("<p>Drawn on each panel: <span style='color:#b09000'>boxes</span> "

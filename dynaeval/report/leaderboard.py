@@ -15,8 +15,9 @@ generator is seeded from ``seed`` and the (method, scene, metric) names, so an i
 depend on which other files are combined or in what order. Frames of a video are correlated, so the
 interval is the spread of a per-frame average, not of a new recording: read it as a lower bound.
 
-Temporal metrics have one value per camera (or per frame pair), not per frame: they get means and
-no interval (``null``).
+A metric without per-frame values in ``frames`` (``flicker``, ``tlp``: one value per camera) gets
+its mean and no interval (``null``); per-pair temporal values stored on the later frame of each
+pair (``warp_error``, ``tof``) are resampled like any per-frame value.
 """
 
 from __future__ import annotations
