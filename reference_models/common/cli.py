@@ -2,7 +2,7 @@
 
     python -m reference_models.<model> train DATA --out RUN [--size tiny|small] [--iters N]
         [--sampling uniform|isg|ist] [--resume] [--threads 2]
-    python -m reference_models.<model> render RUN [--data DATA]
+    python -m reference_models.<model> render RUN [--data DATA] [--every N]
 """
 
 from __future__ import annotations
@@ -32,6 +32,8 @@ def _parser(spec: ModelSpec) -> argparse.ArgumentParser:
     r = sub.add_parser("render", help="render the eval cameras to RUN/pred/<camera>/<frame>.png")
     r.add_argument("run", help="run folder written by train")
     r.add_argument("--data", help="dataset folder (default: the one the run was trained on)")
+    r.add_argument("--every", type=int, default=1,
+                   help="render every N-th eval frame only (score with --allow-missing)")
     r.add_argument("--threads", type=int, default=1, help="torch CPU threads (default 1: faster than 2 on a shared machine)")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
     return p
@@ -51,7 +53,7 @@ def main(spec: ModelSpec, argv: list[str] | None = None) -> int:
                             if k in rec)
             print(f"trained {spec.name}: {msg}; checkpoint in {args.out}", file=sys.stderr)
         else:
-            files = render_run(spec, args.run, args.data, progress=not args.quiet)
+            files = render_run(spec, args.run, args.data, progress=not args.quiet, every=args.every)
             print(f"rendered {len(files)} views to {args.run}/pred", file=sys.stderr)
     except InputError as err:
         print(f"error: {err}", file=sys.stderr)

@@ -21,14 +21,19 @@ class PlaneEncoding(nn.Module):
     Within a scale, the features of the planes ``xy, xz, yz, xt, yt, zt`` (bilinear lookups) are
     multiplied; across scales they are concatenated, so ``out_dim = features * len(scales)``.
     Space-only planes start uniform in [0.1, 0.5], planes with a time axis start at 1 (so a
-    static scene needs no change in them). ``static=True`` keeps only the three space planes.
+    static scene needs no change in them). ``planes="space"`` keeps only the three space planes
+    (a static field), ``planes="time"`` only the three with a time axis (a time factor).
     """
 
     def __init__(self, resolution: int, time_resolution: int, scales: tuple[int, ...],
-                 features: int, max_resolution: int = 256, static: bool = False) -> None:
+                 features: int, max_resolution: int = 256, planes: str = "space-time") -> None:
         super().__init__()
-        axes = [0, 1, 2] if static else [0, 1, 2, 3]
-        self.pairs = list(itertools.combinations(axes, 2))
+        all_pairs = list(itertools.combinations(range(4), 2))
+        choice = {"space-time": all_pairs, "space": [p for p in all_pairs if 3 not in p],
+                  "time": [p for p in all_pairs if 3 in p]}
+        if planes not in choice:
+            raise ValueError(f"planes must be one of {', '.join(choice)}, got {planes!r}")
+        self.pairs = choice[planes]
         self.features, self.scales = features, tuple(scales)
         self.out_dim = features * len(self.scales)
         self.planes = nn.ParameterList()

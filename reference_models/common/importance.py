@@ -39,6 +39,43 @@ def view_weights(views: Views, kind: str) -> np.ndarray:
     return out
 
 
+def moving_box(views: Views, box: np.ndarray, cells: int = 48, agree: float = 0.9
+               ) -> np.ndarray | None:
+    """The world box ``(2, 3)`` float32 (metres) that holds everything the motion masks say moves.
+
+    Each training camera's motion masks (``dynaeval.regions.motion.motion_mask``, ISG defaults)
+    are OR-ed over its frames; a cell of a ``cells``^3 grid over the inner ``box`` moves when at
+    least two cameras see it and ``agree`` of those see it on a moving pixel (a visual hull that
+    forgives a few missed masks). The result is grown by one cell; None when no cell moves.
+    """
+    from dynaeval.regions.motion import motion_mask
+
+    lo, hi = box[0].astype(np.float64), box[1].astype(np.float64)
+    axes = [lo[i] + (np.arange(cells) + 0.5) * (hi[i] - lo[i]) / cells for i in range(3)]
+    pts = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+    seen = np.zeros(len(pts), np.int32)
+    moving = np.zeros(len(pts), np.int32)
+    for idx in views.camera_sequences().values():
+        if len(idx) < 2:
+            continue
+        ever = motion_mask(views.images[idx]).any(axis=0)
+        c2w, (fx, fy, cx, cy) = views.c2w[idx[0]].astype(np.float64), views.intrinsics[idx[0]]
+        pc = (pts - c2w[:3, 3]) @ c2w[:3, :3]
+        depth = -pc[:, 2]
+        ok = depth > 1e-3
+        u = np.floor(fx * pc[:, 0] / np.where(ok, depth, 1.0) + cx).astype(np.int64)
+        v = np.floor(-fy * pc[:, 1] / np.where(ok, depth, 1.0) + cy).astype(np.int64)
+        ok &= (u >= 0) & (u < views.width) & (v >= 0) & (v < views.height)
+        seen += ok
+        moving[ok] += ever[v[ok], u[ok]]
+    hit = (seen >= 2) & (moving >= agree * seen)
+    if not hit.any():
+        return None
+    cell = (hi - lo) / cells
+    out = np.stack([pts[hit].min(0) - cell, pts[hit].max(0) + cell])
+    return np.clip(out, lo, hi).astype(np.float32)
+
+
 def _search(cdf: torch.Tensor, row: torch.Tensor, u: torch.Tensor) -> torch.Tensor:
     """For each ``row`` (K,) of ``cdf`` (V, M) (non-decreasing, last entry 1), the first column
     whose value exceeds ``u`` (K,) in [0, 1): a binary search with one gather per halving."""

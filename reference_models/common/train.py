@@ -86,8 +86,11 @@ class ModelSpec:
     """Dataclass of the model's encoding settings."""
     presets: dict[str, tuple[Any, RenderConfig, TrainConfig]]
     """Size name (``tiny``, ``small``) -> (model config, render config, train config)."""
-    build_encoding: Callable[[Any, Dataset | dict], torch.nn.Module]
-    """(model config, dataset or its ``scene`` dict from config.json) -> encoding module."""
+    build_encoding: Callable[[Any, dict], torch.nn.Module]
+    """(model config, the run's ``scene`` dict from config.json) -> encoding module."""
+    scene_extras: Callable[[Any, Dataset], dict] | None = None
+    """(model config, dataset) -> more ``scene`` entries the encoding needs, computed once when
+    a run starts and stored in config.json (e.g. the box the motion masks say moves)."""
 
 
 def standard_presets(tiny: Any, small: Any) -> dict[str, tuple[Any, RenderConfig, TrainConfig]]:
@@ -215,8 +218,10 @@ def train(spec: ModelSpec, data_path: str | Path, out: str | Path, size: str = "
         cfg["train_config"] = asdict(train_cfg)
     else:
         torch.manual_seed(train_cfg.seed)
-        model = build_model(spec, model_cfg, render_cfg, scene_info(data))
         cfg = _config_dict(spec, data, model_cfg, render_cfg, train_cfg, size)
+        if spec.scene_extras is not None:
+            cfg["scene"].update(spec.scene_extras(model_cfg, data))
+        model = build_model(spec, model_cfg, render_cfg, cfg["scene"])
     out.mkdir(parents=True, exist_ok=True)
     (out / "config.json").write_text(json.dumps(cfg, indent=1) + "\n")
     return _loop(model, data, train_cfg, out, ckpt, progress)
@@ -292,9 +297,11 @@ def _loop(model: DynamicRadianceModel, data: Dataset, cfg: TrainConfig, out: Pat
 
 
 def render_run(spec: ModelSpec, run: str | Path, data_path: str | Path | None = None,
-               progress: bool = True) -> list[Path]:
-    """Render every eval view of the run's dataset to ``RUN/pred/<camera>/<frame>.png`` (8-bit
-    sRGB); returns the written files. ``data_path`` overrides the dataset recorded in the run."""
+               progress: bool = True, every: int = 1) -> list[Path]:
+    """Render the eval views of the run's dataset to ``RUN/pred/<camera>/<frame>.png`` (8-bit
+    sRGB); returns the written files. ``data_path`` overrides the dataset recorded in the run;
+    ``every`` > 1 renders only every ``every``-th frame of each camera (score those with
+    ``dynaeval score --allow-missing``)."""
     import cv2
     from tqdm import tqdm
 
@@ -304,9 +311,12 @@ def render_run(spec: ModelSpec, run: str | Path, data_path: str | Path | None = 
     if data.eval is None:
         raise InputError("the dataset names no evaluation views (eval_cameras / val_filenames / "
                          "transforms_test.json); nothing to render", path=data.root)
+    if every < 1:
+        raise InputError(f"every must be >= 1, got {every}")
     model.eval()
     views, written = data.eval, []
-    for i in tqdm(range(len(views)), disable=not progress, unit="view"):
+    keep = [int(i) for seq in views.camera_sequences().values() for i in seq[::every]]
+    for i in tqdm(sorted(keep), disable=not progress, unit="view"):
         img = model.render_image(torch.from_numpy(views.c2w[i]), torch.from_numpy(views.intrinsics[i]),
                                  float(views.times[i]), views.height, views.width)
         path = run / "pred" / views.cameras[i] / f"{views.frames[i]}.png"

@@ -1,10 +1,26 @@
-"""K-Planes' field for the shared model: configuration, presets, and the encoding builder."""
+"""K-Planes' field for the shared model: configuration, presets, and the encoding builder.
+
+"Model only what a scene needs" (``dynamic_box=True``): the static stadium needs no time planes.
+A static three-plane field (xy, xz, yz) covers the whole contracted world, and the three
+space-time planes (xt, yt, zt) exist only inside the box the motion masks say moves
+(``reference_models.common.importance.moving_box``), at their own, finer resolution over that
+box. Inside it the features are ``static(x) * time_factor(x, t)`` — exactly K-Planes' product,
+with the time planes starting at 1 — and outside the time factor is 1.
+"""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
+import numpy as np
+import torch
+from torch import nn
+
+from dynaeval.errors import InputError
+from reference_models.common.data import Dataset
 from reference_models.common.encodings import PlaneEncoding
+from reference_models.common.importance import moving_box
+from reference_models.common.rays import contract
 from reference_models.common.train import ModelSpec, standard_presets
 
 
@@ -22,19 +38,76 @@ class KPlanesConfig:
     """Cap on any space resolution (planes above 256^2 cost much more on CPU)."""
     time_resolution: int | None = None
     """Cells along time; None: the number of frames (knots on frames, as the ball needs)."""
+    dynamic_box: bool = False
+    """Time planes only inside the box the motion masks say moves, a static field elsewhere."""
+    dynamic_resolution: int = 32
+    """``dynamic_box``: space cells of the coarsest time planes across the moving box."""
 
 
-def build_encoding(cfg: KPlanesConfig, scene: dict) -> PlaneEncoding:
-    """The six-plane encoding for a scene (``scene["n_frames"]`` sets the default time cells)."""
+class DynamicBoxEncoding(nn.Module):
+    """Static planes everywhere, times a time factor inside the moving box (see module doc)."""
+
+    def __init__(self, cfg: KPlanesConfig, n_frames: int, box_grid: np.ndarray) -> None:
+        super().__init__()
+        t_res = max(cfg.time_resolution or n_frames, 2)
+        self.static = PlaneEncoding(cfg.resolution, t_res, tuple(cfg.scales), cfg.features,
+                                    cfg.max_resolution, planes="space")
+        self.time = PlaneEncoding(cfg.dynamic_resolution, t_res, tuple(cfg.scales), cfg.features,
+                                  cfg.max_resolution, planes="time")
+        self.out_dim = self.static.out_dim
+        box = torch.as_tensor(box_grid, dtype=torch.float32)
+        self.register_buffer("centre", 0.5 * (box[0] + box[1]))
+        self.register_buffer("half_size", (0.5 * (box[1] - box[0])).clamp_min(1e-6))
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        """(N, 4) grid coordinates in [-1, 1] -> (N, out_dim) features."""
+        local = (x[:, :3] - self.centre) / self.half_size
+        inside = (local.abs() <= 1.0).all(-1, keepdim=True)
+        f = self.static(x)
+        if bool(inside.any()):
+            sel = inside[:, 0]
+            factor = self.time(torch.cat([local[sel], x[sel, 3:]], -1))
+            f = f.clone()
+            f[sel] = f[sel] * factor
+        return f
+
+    def regularizers(self) -> dict[str, torch.Tensor]:
+        """The static planes' TV plus the time planes' TV, smoothness and L1."""
+        a, b = self.static.regularizers(), self.time.regularizers()
+        return {**b, "tv": a["tv"] + b["tv"]}
+
+
+def find_moving_box(cfg: KPlanesConfig, data: Dataset) -> dict:
+    """``scene`` entries for ``dynamic_box``: the moving box in metres (empty without it)."""
+    if not cfg.dynamic_box:
+        return {}
+    found = moving_box(data.train, data.box)
+    if found is None:
+        raise InputError("the motion masks of the training cameras found nothing that moves; "
+                         "train the plain model (without dynamic_box)", path=data.root)
+    return {"moving_box": found.tolist()}
+
+
+def build_encoding(cfg: KPlanesConfig, scene: dict) -> nn.Module:
+    """The encoding for a scene: six planes, or with ``dynamic_box`` static planes plus time
+    planes over ``scene["moving_box"]`` (``scene["n_frames"]`` sets the default time cells)."""
     t_res = cfg.time_resolution or int(scene["n_frames"])
-    return PlaneEncoding(cfg.resolution, max(t_res, 2), tuple(cfg.scales), cfg.features,
-                         cfg.max_resolution)
+    if not cfg.dynamic_box:
+        return PlaneEncoding(cfg.resolution, max(t_res, 2), tuple(cfg.scales), cfg.features,
+                             cfg.max_resolution)
+    corners = contract(torch.tensor(scene["moving_box"]), torch.tensor(scene["box"]))
+    return DynamicBoxEncoding(cfg, int(scene["n_frames"]), corners.numpy())
 
 
 PRESETS = standard_presets(
     tiny=KPlanesConfig(resolution=16, scales=(1, 2), features=8),
     small=KPlanesConfig())
-"""``tiny``: tests (seconds); ``small``: the documented runs (see ``standard_presets``)."""
+for _name in ("tiny", "small"):
+    _model, _render, _train = PRESETS[_name]
+    PRESETS[f"{_name}-dynbox"] = (replace(_model, dynamic_box=True,
+                                          dynamic_resolution=_model.resolution // 2), _render, _train)
+"""``tiny``: tests (seconds); ``small``: the documented runs (see ``standard_presets``);
+``-dynbox``: the same with ``dynamic_box``."""
 
-SPEC = ModelSpec("kplanes", KPlanesConfig, PRESETS, build_encoding)
+SPEC = ModelSpec("kplanes", KPlanesConfig, PRESETS, build_encoding, find_moving_box)
 """What the shared CLI and training loop need to run K-Planes."""

@@ -32,7 +32,7 @@ def test_time_planes_start_at_one_so_features_ignore_time():
 def test_corners_of_minus_one_to_one_hit_the_corner_texels():
     """grid_sample takes [-1, 1] (align_corners): -1 and 1 are the first and last texels; a
     [0, 1] convention would read the middle of the plane at 0."""
-    enc = PlaneEncoding(4, 3, (1,), 1, static=True)
+    enc = PlaneEncoding(4, 3, (1,), 1, planes="space")
     for p in enc.planes:
         p.copy_(torch.arange(16.0).view(1, 1, 4, 4) + 1.0)
     got = enc(torch.tensor([[-1.0, -1.0, -1.0, 0.0], [1.0, 1.0, 1.0, 0.0]])).squeeze(-1)

@@ -50,6 +50,10 @@ def test_errors(tiny_data, tmp_path):
         render_run(NERFPLAYER, run)
     with pytest.raises(InputError, match="not a training run"):
         render_run(SPEC, tmp_path)
+    with pytest.raises(InputError, match="every must be >= 1"):
+        render_run(SPEC, run, every=0)
+    written = render_run(SPEC, run, progress=False, every=3)
+    assert [p.name for p in written] == ["0000.png", "0003.png", "0006.png"]
     with pytest.raises(InputError, match="unknown size 'huge'"):
         train(SPEC, tiny_data, tmp_path / "x", size="huge")
     with pytest.raises(InputError, match="iters must be >= 1"):

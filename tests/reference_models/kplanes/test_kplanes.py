@@ -1,5 +1,6 @@
 """K-Planes end to end on the tiny scene (train, render, `dynaeval score`) and its field."""
 
+import numpy as np
 import torch
 
 from reference_models.kplanes import SPEC, KPlanesConfig
@@ -21,3 +22,35 @@ def test_time_resolution_defaults_to_the_frames():
     assert shapes[5] == (24, 8) and shapes[11] == (24, 12)  # zt plane at both scales; space capped
     assert enc.out_dim == 8 and sum(p.numel() for p in enc.parameters()) > 0
     assert isinstance(enc(torch.zeros(3, 4)), torch.Tensor)
+
+
+def test_moving_box_holds_the_player_and_the_ball(tiny_data):
+    from reference_models.common.data import load_dataset
+    from reference_models.kplanes.field import find_moving_box
+    from reference_models.scenes import build_scene
+
+    data = load_dataset(tiny_data)
+    box = np.array(find_moving_box(KPlanesConfig(dynamic_box=True), data)["moving_box"])
+    assert find_moving_box(KPlanesConfig(), data) == {}
+    scene = build_scene("single-player-closeup", size="tiny")
+    centres = np.concatenate([0.5 * (b.a + b.b) for f in range(scene.n_frames) for b in scene.bodies(f)])
+    inside = np.all((centres >= box[0] - 0.3) & (centres <= box[1] + 0.3), axis=1)
+    assert inside.mean() > 0.9, inside.mean()  # 4 cameras: a coarse hull, but it holds the action
+    assert np.prod(box[1] - box[0]) < 0.25 * np.prod(data.box[1] - data.box[0])  # much smaller
+
+
+def test_dynamic_box_encoding_is_static_outside_and_starts_static_inside():
+    scene = {"n_frames": 5, "box": [[-1.0, -1.0, -1.0], [1.0, 1.0, 1.0]],
+             "moving_box": [[-0.5, -0.5, -0.5], [0.5, 0.5, 0.5]]}
+    enc = build_encoding(KPlanesConfig(resolution=8, scales=(1,), features=4, dynamic_box=True,
+                                       dynamic_resolution=4), scene)
+    assert len(enc.static.planes) == 3 and len(enc.time.planes) == 3
+    x = torch.tensor([[0.0, 0.0, 0.0, -1.0], [0.0, 0.0, 0.0, 1.0], [0.4, 0.0, 0.0, 0.5]])
+    with torch.no_grad():
+        np.testing.assert_allclose(enc(x), enc.static(x), rtol=1e-6)  # time planes start at 1
+        for p in enc.time.planes:
+            p.mul_(torch.linspace(0.5, 2.0, 5).view(1, 1, 5, 1))  # vary along time
+        f = enc(x)
+        assert not torch.allclose(f[0], f[1])  # inside the moving box time matters ...
+        np.testing.assert_allclose(f[2], enc.static(x)[2], rtol=1e-6)  # ... outside it does not
+    assert set(enc.regularizers()) == {"tv", "time_smooth", "time_l1"}
