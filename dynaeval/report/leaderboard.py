@@ -76,6 +76,11 @@ class BootstrapConfig:
         }
 
 
+def schema_path() -> Path:
+    """Path of the JSON Schema of the leaderboard document shipped in the package."""
+    return Path(__file__).resolve().parent.parent / "schemas" / "leaderboard-v1.schema.json"
+
+
 def flatten_settings(settings: dict[str, Any], prefix: str = "") -> dict[str, Any]:
     """Nested settings -> ``{"ssim.win_size": 11, ...}`` (lists kept as values)."""
     out: dict[str, Any] = {}

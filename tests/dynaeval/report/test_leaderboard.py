@@ -17,6 +17,7 @@ from dynaeval.report.leaderboard import (
     BootstrapConfig,
     build_leaderboard,
     render,
+    schema_path,
     settings_differences,
 )
 
@@ -207,3 +208,17 @@ def test_cli_refusal_exit_2_and_force(tmp_path, files, capsys):
     assert "'quantize'" in capsys.readouterr().err
     assert main(["leaderboard", files[("A", "s1")], bad, "--force"]) == 0
     assert "differing setting 'quantize'" in capsys.readouterr().err
+
+
+def test_leaderboard_validates_against_shipped_schema(files, tmp_path):
+    jsonschema = pytest.importorskip("jsonschema")
+    schema = json.loads(schema_path().read_text())
+    other = json.loads(json.dumps(SETTINGS))
+    other["quantize"] = "round"
+    forced = _write(tmp_path / "f.json", "C", "s1", [20.0, 21.0], settings=other)
+    board = json.loads(render(build_leaderboard([*files.values(), forced], force=True), "json"))
+    jsonschema.validate(board, schema)
+    board["rows"][0]["values"]["psnr"]["mean"] = "20"
+    with pytest.raises(jsonschema.ValidationError):
+        jsonschema.validate(board, schema)
+
