@@ -93,3 +93,14 @@ def test_cli_score_report(tmp_path, capsys):
     assert all((tmp_path / "rep" / s).is_file() for s in _sources(html))
     assert main(args) == 2  # refused before scoring
     assert "report exists" in capsys.readouterr().err
+
+
+def test_new_modules_import_no_heavy_dependency():
+    import subprocess
+    import sys
+
+    code = ("import sys, dynaeval.report.html, dynaeval.report.leaderboard, dynaeval.io.layouts, "
+            "dynaeval.metrics.protocols, dynaeval.metrics.accumulate; "
+            "print(sorted(m for m in ('torch', 'matplotlib', 'onnxruntime', 'pandas') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
