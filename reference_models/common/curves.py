@@ -1,0 +1,109 @@
+"""PSNR against training wall time, from the runs' own logs (no number typed by hand)::
+
+    python -m reference_models.common.curves RUN [RUN ...] --out docs/img/models_psnr_time.png
+
+Plots the logged eval-camera PSNR of every run against its training seconds and prints a
+Markdown table per run: steps, training minutes, iterations/s, last eval PSNR, parameters,
+checkpoint size, and — when ``RUN/results.json`` from ``dynaeval score`` exists — its whole-frame,
+focused and masked PSNR.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from dynaeval.errors import InputError
+
+
+def read_log(run: Path) -> list[dict]:
+    """The run's ``log.jsonl`` records; InputError when there is none."""
+    path = Path(run) / "log.jsonl"
+    if not path.is_file():
+        raise InputError("no log.jsonl: not a training run", path=run)
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+
+
+def run_summary(run: Path) -> dict:
+    """One table row of a run (see module doc)."""
+    import torch
+
+    log = read_log(run)
+    evals = [r for r in log if "eval_psnr" in r]
+    ckpt = Path(run) / "checkpoint.pt"
+    state = torch.load(ckpt, weights_only=False)["model"] if ckpt.is_file() else {}
+    row = {
+        "run": Path(run).name,
+        "steps": log[-1]["step"],
+        "train_min": log[-1]["train_seconds"] / 60.0,
+        "it_per_s": log[-1]["step"] / log[-1]["train_seconds"],
+        "eval_psnr": evals[-1]["eval_psnr"] if evals else None,
+        "params_M": sum(v.numel() for k, v in state.items() if v.is_floating_point()) / 1e6,
+        "ckpt_MB": ckpt.stat().st_size / 1e6 if ckpt.is_file() else None,
+    }
+    res = Path(run) / "results.json"
+    if res.is_file():
+        summary = json.loads(res.read_text())["summary"]
+        for key in ("psnr", "focused_psnr", "masked_psnr"):
+            row[f"score_{key}"] = summary.get(key)
+    return row
+
+
+def plot(runs: list[Path], out: Path) -> None:
+    """Eval PSNR (dB) against training minutes, one line per run, written to ``out`` (PNG)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.0), dpi=120)
+    for run in runs:
+        evals = [r for r in read_log(run) if "eval_psnr" in r]
+        ax.plot([r["train_seconds"] / 60 for r in evals], [r["eval_psnr"] for r in evals],
+                marker="o", label=Path(run).name)
+    ax.set_xlabel("training wall time (min, 1 thread on a shared 2-core machine)")
+    ax.set_ylabel("eval-camera PSNR (dB)")
+    ax.grid(alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out)
+    plt.close(fig)
+
+
+def _fmt(v: object) -> str:
+    if v is None:
+        return "n/a"
+    return f"{v:.2f}" if isinstance(v, float) else str(v)
+
+
+def markdown_table(rows: list[dict]) -> str:
+    """The rows as a Markdown table (columns: the union of the rows' keys, in order)."""
+    cols: list[str] = []
+    for r in rows:
+        cols += [k for k in r if k not in cols]
+    lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+    lines += ["| " + " | ".join(_fmt(r.get(c)) for c in cols) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point; returns the exit code (0 done, 2 bad input)."""
+    p = argparse.ArgumentParser(prog="python -m reference_models.common.curves",
+                                description="PSNR-vs-time curves and a table from training runs.")
+    p.add_argument("runs", nargs="+", type=Path, help="run folders (log.jsonl, checkpoint.pt)")
+    p.add_argument("--out", type=Path, required=True, help="PNG file for the curves")
+    args = p.parse_args(argv)
+    try:
+        plot(args.runs, args.out)
+        print(markdown_table([run_summary(r) for r in args.runs]))
+    except InputError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

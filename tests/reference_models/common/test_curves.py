@@ -1,0 +1,36 @@
+"""Curves and tables come from the logs as written."""
+
+import json
+
+import pytest
+
+from dynaeval.errors import InputError
+from reference_models.common.curves import main, markdown_table, run_summary
+
+
+def _run(path, evals):
+    path.mkdir()
+    recs = [{"step": 10 * (i + 1), "train_seconds": 30.0 * (i + 1), "eval_psnr": v} for i, v in enumerate(evals)]
+    (path / "log.jsonl").write_text("".join(json.dumps(r) + "\n" for r in recs))
+    (path / "results.json").write_text(json.dumps({"summary": {"psnr": 21.5, "masked_psnr": 17.0}}))
+    return path
+
+
+def test_table_and_plot(tmp_path, capsys):
+    a = _run(tmp_path / "a", [15.0, 18.0])
+    row = run_summary(a)
+    assert row["steps"] == 20 and row["train_min"] == pytest.approx(1.0) and row["eval_psnr"] == 18.0
+    assert row["it_per_s"] == pytest.approx(20 / 60) and row["score_psnr"] == 21.5
+    assert row["score_focused_psnr"] is None and row["ckpt_MB"] is None
+    assert main([str(a), "--out", str(tmp_path / "img" / "c.png")]) == 0
+    assert (tmp_path / "img" / "c.png").stat().st_size > 1000
+    out = capsys.readouterr().out
+    assert "| a | 20 | 1.00 | 0.33 | 18.00 |" in out and "n/a" in out
+    assert markdown_table([{"x": 1}, {"y": 2.0}]).splitlines()[2:] == ["| 1 | n/a |", "| n/a | 2.00 |"]
+
+
+def test_missing_log(tmp_path, capsys):
+    with pytest.raises(InputError, match="no log.jsonl"):
+        run_summary(tmp_path)
+    assert main([str(tmp_path), "--out", str(tmp_path / "c.png")]) == 2
+    assert "not a training run" in capsys.readouterr().err
