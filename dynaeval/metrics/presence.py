@@ -30,8 +30,9 @@ by ``focused_*``, grown by ``PresenceConfig.margin`` pixels and clipped to the i
   prediction and ground-truth objects are matched to its detections of the same class at
   IoU >= ``iou_min`` (0.5), greedily: all same-class pairs by decreasing IoU (ties: lower
   ground-truth index, then higher detection score first), a pair is taken when neither side is
-  taken yet. Greedy and Hungarian matching differ only when one detection overlaps two
-  ground-truth objects at IoU >= 0.5 each, which boxes of one class after NMS almost never do.
+  taken yet. Greedy and a maximum (Hungarian) matching can find different numbers of matches only
+  when one detection overlaps two ground-truth objects at IoU >= 0.5 each: two same-class boxes
+  overlapping heavily (players occluding each other), rare in practice.
 
 An object is ``present`` when it passes the region test and, if the detector test ran, that too.
 
@@ -78,8 +79,8 @@ CALIBRATED_THRESHOLDS: dict[str, PresenceThresholds] = {
 (1 px) and ``visibility_min`` (0.5) by ``python -m reference_models.studies.presence`` (seed 1,
 size small, 205 shown / 41 erased players and 120 shown / 24 erased balls; run 2026-11-22 on the
 tree of commit af49f9a plus this module). Misses / false passes on that set: players 3.4 % / 2.4 %,
-balls 6.7 % / 4.2 %. For the ball ``psnr_min`` is at the grid's floor: ``ncc`` and ``visibility``
-decide. Tables: docs/presence.md."""
+balls 6.7 % / 4.2 %. For the ball, any ``psnr_min`` from 5 to about 15 dB gives the same result
+(``ncc`` and ``visibility`` decide); 10 dB is the middle of that run. Tables: docs/presence.md."""
 
 FALLBACK_CLASS = "person"
 """Classes without thresholds of their own (e.g. ``motion`` boxes) use this class's thresholds."""
@@ -101,6 +102,10 @@ class PresenceConfig:
     """Region-test thresholds per class name; other classes use ``FALLBACK_CLASS``'s."""
     iou_min: float = 0.5
     """Detector test: lowest IoU of a ground-truth box and a same-class detection to match."""
+    min_visible: float = 0.25
+    """Ground-truth records with a ``visible`` field (the scene generator's unoccluded fraction)
+    below this are skipped, neither present nor missing: a ball 90 % hidden behind a player
+    leaves a few pixels that say nothing about the prediction. Records without it are kept."""
     visibility_min: float = 0.5
     """Lowest ``visibility`` (fraction of the object's contrast against its surroundings the
     prediction shows, see ``visibility``): an object shown at less than half its contrast, a
@@ -115,6 +120,8 @@ class PresenceConfig:
         if isinstance(self.shift, bool) or not isinstance(self.shift, (int, np.integer)) \
                 or not 0 <= self.shift <= 8:
             raise InputError(f"presence shift must be an integer in [0, 8] (pixels), got {self.shift!r}")
+        if not 0.0 <= self.min_visible <= 1.0:
+            raise InputError(f"presence min_visible must be in [0, 1], got {self.min_visible!r}")
         if not 0.0 <= self.visibility_min <= 1.0:
             raise InputError(f"presence visibility_min must be in [0, 1], got {self.visibility_min!r}")
         if not 0.0 < self.iou_min <= 1.0:
@@ -137,6 +144,7 @@ class PresenceConfig:
             "shift": int(self.shift),
             "iou_min": float(self.iou_min),
             "visibility_min": float(self.visibility_min),
+            "min_visible": float(self.min_visible),
             "thresholds": {c: {"ncc_min": t.ncc_min, "psnr_min": t.psnr_min}
                            for c, t in sorted(self.thresholds.items())},
             "fallback_class": FALLBACK_CLASS,
@@ -376,9 +384,10 @@ def frame_presence(
 
     Args:
         pred, gt: (H, W[, C]) prediction and ground truth, float in [0, ``config.data_range``].
-        objects: ground-truth records ``{"class": str, "box": [x0, y0, x1, y1], "id"?: int}``
-            (boxes-file records, or ``Detections.records()`` of the detector on the ground truth).
-            Boxes outside the image are dropped (they show nothing to compare).
+        objects: ground-truth records ``{"class": str, "box": [x0, y0, x1, y1], "id"?: int,
+            "visible"?: float}`` (boxes-file records, or ``Detections.records()`` of the detector
+            on the ground truth). Boxes outside the image, and records whose ``visible`` is below
+            ``config.min_visible``, are left out (they show nothing to compare).
         detections: optional detections on the *prediction* (``dynaeval.regions.Detections``, or
             anything with ``boxes`` (N, 4), ``classes`` (N names) and optionally ``scores``): runs
             the detector test.
@@ -399,8 +408,8 @@ def frame_presence(
         if not isinstance(cls, str) or not cls or "box" not in rec:
             raise InputError(f"object {i}: expected a record with 'class' (str) and 'box', got {rec!r}")
         inner = clip_boxes(rec["box"], h, w)
-        if len(inner) == 0:
-            continue  # outside the image: nothing to compare
+        if len(inner) == 0 or float(rec.get("visible", 1.0)) < cfg.min_visible:
+            continue  # outside the image, or mostly occluded: nothing to compare
         kept.append({"class": cls, "id": rec.get("id", i), "inner": inner[0],
                      "box": tight_box(inner[0], h, w, cfg.margin)})
     detected: list[bool | None] = [None] * len(kept)

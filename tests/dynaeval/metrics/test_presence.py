@@ -189,6 +189,12 @@ def test_frame_presence_erased_ghost_and_missing_class(rng):
     # an object wholly outside the image shows nothing: it is left out, not counted as missing
     out = frame_presence(gt, gt, [*objects, {"class": "ball", "box": [50, 50, 60, 60]}])
     assert len(out.objects) == 1 and out.values["presence_ball"] == 1.0
+    # so is a mostly occluded one (the generator's "visible" below min_visible), even if erased
+    hidden = [{"class": "ball", "box": inner.tolist(), "visible": 0.1}]
+    out = frame_presence(bg, gt, hidden)
+    assert out.objects == [] and out.values["presence_ball"] is None
+    assert frame_presence(bg, gt, hidden, config=PresenceConfig(min_visible=0.05)).values[
+        "presence_ball"] == 0.0
 
 
 def test_frame_presence_detector_test(rng):
@@ -229,6 +235,7 @@ def test_frame_presence_bad_records(record, match):
     ({"shift": 9}, r"shift must be an integer in \[0, 8\]"),
     ({"iou_min": 0.0}, r"iou_min must be in \(0, 1\]"),
     ({"visibility_min": 1.5}, r"visibility_min must be in \[0, 1\]"),
+    ({"min_visible": -0.1}, r"min_visible must be in \[0, 1\]"),
     ({"thresholds": {"ball": PresenceThresholds(0.5, 10.0)}}, "must include 'person'"),
     ({"data_range": 0}, "data_range must be a positive number"),
 ])
