@@ -235,10 +235,14 @@ def test_empty_regions_raise():
 
 
 def test_opencv_gaussian_kernel_is_our_window():
-    """The fast path calls cv2.GaussianBlur((11, 11), 1.5): its kernel must be gaussian_window()."""
+    """OpenCV's (11, 1.5) Gaussian and the fast path's float32 taps are gaussian_window()."""
     cv2 = pytest.importorskip("cv2")
+    from dynaeval.metrics.structural import _kernel
+
     k = cv2.getGaussianKernel(WIN_SIZE, 1.5, ktype=cv2.CV_64F).ravel()
     np.testing.assert_allclose(k, gaussian_window(), rtol=0, atol=1e-15)
+    assert _kernel().dtype == np.float32
+    np.testing.assert_allclose(_kernel(), gaussian_window(), rtol=1e-7, atol=0)
 
 
 def test_banded_computation_equals_one_band(rng, monkeypatch):
@@ -248,3 +252,31 @@ def test_banded_computation_equals_one_band(rng, monkeypatch):
     whole = ssim_map(a, b)
     monkeypatch.setattr(structural, "BAND_ROWS", 7)  # 140 output rows in 20 bands
     np.testing.assert_array_equal(ssim_map(a, b), whole)
+
+
+@pytest.mark.parametrize("threads", [2, 3, 50])
+def test_threads_give_bit_identical_numbers(rng, monkeypatch, threads):
+    from dynaeval.metrics import structural
+
+    monkeypatch.setattr(structural, "BAND_ROWS", 9)  # 130 output rows in 15 bands
+    a, b = _pair(rng, (140, 33, 3))
+    assert ssim(a, b, threads=threads) == ssim(a, b)
+    np.testing.assert_array_equal(ssim_map(a, b, threads=threads), ssim_map(a, b))
+
+
+def test_whole_image_sum_path_equals_the_map_mean(rng):
+    """ssim() sums bands without building the map; it must be the map's mean and scikit-image's."""
+    a, b = _pair(rng, (75, 90, 3))
+    assert abs(ssim(a, b) - float(ssim_map(a, b).mean(dtype=np.float64))) < 1e-9
+    assert abs(ssim(a, b) - _sk(a, b)) < TOL
+
+
+@pytest.mark.parametrize("level", [0.0, 1e-3, 0.5, 1.0])
+def test_flat_dark_and_bright_windows_keep_the_constants_exact(rng, level):
+    """Flat regions are where C1/C2 dominate and float32 cancellation would show (the fast path
+    subtracts moments before adding the constants): nearly constant images near 0, 0.5 and 1."""
+    a = np.full((40, 50, 3), level) + 1e-3 * rng.random((40, 50, 3))
+    a = np.clip(a, 0, 1)
+    b = np.clip(a + 2e-3 * rng.standard_normal(a.shape), 0, 1)
+    assert abs(ssim(a, b) - _sk(a, b)) < TOL
+    np.testing.assert_allclose(ssim_map(a, b), ssim_reference(a, b), rtol=0, atol=1e-5)
