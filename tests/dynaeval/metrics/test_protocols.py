@@ -83,8 +83,8 @@ def test_nerfbaselines_psnr_is_float32_mse_of_clipped_images(rng):
 def test_valid_border_unclamped_is_dynaeval_ssim_and_reflect_border_differs(rng):
     pred, gt = _pair(rng)
     p64, g64 = pred.astype(np.float64), gt.astype(np.float64)
-    # dynaeval's fast path filters float32 (held to its float64 reference at ~1e-8)
-    assert ssim_variant(p64, g64, precision="float64") == pytest.approx(ssim(p64, g64), abs=1e-7)
+    # dynaeval's fast path filters float32 (held to its float64 reference by its own tests)
+    assert ssim_variant(p64, g64, precision="float64") == pytest.approx(ssim(p64, g64), abs=1e-6)
     assert ssim_variant(pred, gt) == pytest.approx(ssim(pred, gt), abs=1e-5)
     # the reflected border windows are what separates nerfstudio's SSIM from the others
     assert abs(ssim_variant(pred, gt, border="reflect") - ssim(pred, gt)) > 1e-3
