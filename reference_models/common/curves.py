@@ -5,7 +5,9 @@
 Plots the logged eval-camera PSNR of every run against its training seconds and prints a
 Markdown table per run: steps, training minutes, iterations/s, last eval PSNR, parameters,
 checkpoint size, and — when ``RUN/results.json`` from ``dynaeval score`` exists — its whole-frame,
-focused and masked PSNR.
+focused and masked PSNR. With ``--data DATA`` (a generator dataset) it also says whether the ball
+survives: PSNR inside the ball's boxes (``DATA/boxes.json``) of the rendered frames, next to the
+same PSNR of the ground truth rendered *without* the ball (what a model that drops the ball gets).
 """
 
 from __future__ import annotations
@@ -49,6 +51,36 @@ def run_summary(run: Path) -> dict:
         for key in ("psnr", "focused_psnr", "masked_psnr"):
             row[f"score_{key}"] = summary.get(key)
     return row
+
+
+def ball_psnr(run: Path, data: Path) -> dict:
+    """``ball_psnr`` (dB) of ``RUN/pred`` inside the visible ball boxes vs the ground truth, and
+    ``noball_psnr``: the generator's render of the same frames with the ball hidden, scored the
+    same way. The model keeps the ball where ``ball_psnr`` clearly beats ``noball_psnr``."""
+    import numpy as np
+
+    from dynaeval.io.images import read_image
+    from dynaeval.metrics import psnr
+    from reference_models.scenes import build_scene, render_view
+
+    meta = json.loads((Path(data) / "metadata.json").read_text())
+    boxes = json.loads((Path(data) / "boxes.json").read_text())
+    scene = build_scene(meta["preset"], meta["seed"], meta["size"], meta["width"], meta["height"],
+                        meta["frames"], meta["fps"], meta["spp"])
+    got, base = [], []
+    for pred in sorted((Path(run) / "pred").glob("*/*.png")):
+        key = f"{pred.parent.name}/{pred.stem}"
+        ball = [b["box"] for b in boxes.get(key, []) if b["class"] == "ball" and b["visible"] > 0.5]
+        if not ball:
+            continue
+        gt = read_image(Path(data) / "images" / f"{key}.png")
+        noball = render_view(scene, pred.parent.name, int(pred.stem), hide=("ball",)).rgb
+        noball = np.round(np.clip(noball, 0, 1) * 255) / 255
+        got.append(psnr(read_image(pred), gt, boxes=np.array(ball)))
+        base.append(psnr(noball.astype(np.float32), gt, boxes=np.array(ball)))
+    if not got:
+        return {"ball_psnr": None, "noball_psnr": None}
+    return {"ball_psnr": float(np.mean(got)), "noball_psnr": float(np.mean(base))}
 
 
 def plot(runs: list[Path], out: Path) -> None:
@@ -95,10 +127,14 @@ def main(argv: list[str] | None = None) -> int:
                                 description="PSNR-vs-time curves and a table from training runs.")
     p.add_argument("runs", nargs="+", type=Path, help="run folders (log.jsonl, checkpoint.pt)")
     p.add_argument("--out", type=Path, required=True, help="PNG file for the curves")
+    p.add_argument("--data", type=Path, help="generator dataset: add the ball-survival columns")
     args = p.parse_args(argv)
     try:
         plot(args.runs, args.out)
-        print(markdown_table([run_summary(r) for r in args.runs]))
+        rows = [run_summary(r) for r in args.runs]
+        if args.data is not None:
+            rows = [{**row, **ball_psnr(r, args.data)} for row, r in zip(rows, args.runs, strict=True)]
+        print(markdown_table(rows))
     except InputError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
