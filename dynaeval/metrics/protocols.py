@@ -177,8 +177,16 @@ class Protocol:
                 "ssim": self.ssim, "clip": self.clip, "lpips_net": self.lpips_net,
                 "reference": self.reference}
 
+    def _check_range(self, data_range: float) -> None:
+        if self.clip and data_range != 1.0:
+            raise InputError(
+                f"protocol {self.name} clips images to [0, 1], so it needs data_range=1, got "
+                f"{data_range}; scale the images to [0, 1] or use --protocol dynaeval"
+            )
+
     def whole_psnr(self, pred: object, gt: object, *, data_range: float = 1.0) -> float:
         """Whole-frame PSNR in dB under this protocol."""
+        self._check_range(data_range)
         if self.psnr == "float32":
             return psnr_float32(pred, gt, data_range=data_range, clip=self.clip)
         from dynaeval.metrics.pixel import psnr
@@ -187,6 +195,7 @@ class Protocol:
 
     def whole_ssim(self, pred: object, gt: object, *, data_range: float = 1.0) -> float:
         """Whole-frame SSIM under this protocol."""
+        self._check_range(data_range)
         if self.ssim == "skimage-gaussian":
             from dynaeval.metrics.structural import ssim
 

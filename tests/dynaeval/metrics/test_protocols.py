@@ -141,5 +141,7 @@ def test_protocol_errors():
         ssim_variant(np.zeros((12, 12)), np.zeros((12, 12)), border="zero")
     with pytest.raises(InputError, match="clamp must be one of none, zero, dm_pix"):
         ssim_variant(np.zeros((12, 12)), np.zeros((12, 12)), clamp="yes")
+    with pytest.raises(InputError, match="protocol nerfbaselines clips images to \\[0, 1\\], so it needs data_range=1"):
+        get_protocol("nerfbaselines").whole_ssim(np.zeros((12, 12)), np.zeros((12, 12)), data_range=255.0)
     with pytest.raises(InputError, match="SSIM needs images of at least 11x11"):
         ssim_variant(np.zeros((8, 8)), np.zeros((8, 8)))
