@@ -327,12 +327,13 @@ def _ordered_rows(board: dict[str, Any], by: str) -> list[dict[str, Any]]:
     return sorted(board["rows"], key=key)
 
 
-def _fmt(name: str, v: float | None, digits: int | None = None) -> str:
+def _fmt(name: str, v: float | None) -> str:
+    """dB values with 2 decimals, others with 4, small errors (< 0.01) with 3 significant digits."""
     if v is None:
         return "n/a"
-    base = name.split("_", 1)[-1] if name.startswith(("focused_", "masked_")) else name
-    d = digits if digits is not None else (2 if base == "psnr" else 4)
-    return f"{v:.{d}f}"
+    if "psnr" in name:
+        return f"{v:.2f}"
+    return f"{v:.4f}" if abs(v) >= 0.01 or v == 0 else f"{v:.3g}"
 
 
 def _cell(name: str, entry: dict[str, Any]) -> str:
