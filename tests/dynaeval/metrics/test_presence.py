@@ -90,6 +90,35 @@ def test_crop_similarity_tolerates_a_one_pixel_shift(rng):
         crop_similarity(p, g, [15, 15, 25, 25])
 
 
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.integers(0, 2), st.integers(0, 9), st.integers(0, 9),
+       st.integers(1, 6), st.integers(1, 6))
+def test_crop_similarity_equals_the_best_zncc_and_psnr_over_displacements(seed, shift, x0, y0, bw, bh):
+    """The fast path against the readable definition: zncc / psnr of every displaced crop."""
+    from dynaeval.metrics import psnr
+
+    rng = np.random.default_rng(seed)
+    g = rng.random((16, 16, 3)).astype(np.float32)
+    p = np.clip(g + 0.2 * rng.standard_normal(g.shape), 0, 1).astype(np.float32)
+    box = [x0, y0, x0 + bw, y0 + bh]
+    nccs, psnrs = [], []
+    for dy in range(-shift, shift + 1):
+        for dx in range(-shift, shift + 1):
+            if y0 + dy < 0 or x0 + dx < 0 or y0 + bh + dy > 16 or x0 + bw + dx > 16:
+                continue
+            pc = p[y0 + dy:y0 + bh + dy, x0 + dx:x0 + bw + dx]
+            gc = g[y0:y0 + bh, x0:x0 + bw]
+            nccs.append(zncc(pc, gc))
+            psnrs.append(psnr(pc, gc))
+    ncc, best = crop_similarity(p, g, box, shift=shift)
+    assert best == pytest.approx(max(psnrs), rel=0, abs=1e-9)
+    defined = [v for v in nccs if v is not None]
+    if not defined:
+        assert ncc is None
+    else:
+        assert ncc == pytest.approx(max(defined), rel=0, abs=1e-9)
+
+
 def test_tight_box_grows_and_clips():
     np.testing.assert_array_equal(tight_box([3, 4, 6, 7], 20, 30, 2), [1, 2, 8, 9])
     np.testing.assert_array_equal(tight_box([0, 0, 2, 2], 20, 30, 3), [0, 0, 5, 5])
