@@ -77,6 +77,7 @@ def metadata(scene: Scene, spp: int, hide: tuple) -> dict:
         "width": scene.width, "height": scene.height, "frames": scene.n_frames, "fps": scene.fps,
         "spp": spp, "hide": [str(h) for h in hide], "cameras": [c.name for c in scene.cameras],
         "classes": {"0": "static", **{str(k): v for k, v in scene.classes.items()}},
+        "action": scene.action,
         "world": {"units": "metres", "axes": "x along the pitch length, y across, z up; pitch in z=0",
                   "pitch": [105.0, 68.0], "sun_direction": [float(v) for v in scene.sun]},
         "depth": "float32 .npy, z-depth in metres along the optical axis, 0 = sky",

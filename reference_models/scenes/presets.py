@@ -71,6 +71,8 @@ class Scene:
     """Players and balls (ids 1..)."""
     sun: np.ndarray = field(default_factory=sun_direction, repr=False)
     """(3,) unit vector towards the sun."""
+    action: dict = field(default_factory=dict)
+    """Who does what: kicker / striker / goalkeeper ids, kick time (s), shot speed (m/s)."""
 
     @property
     def train_cameras(self) -> list[str]:
@@ -184,7 +186,8 @@ def _stadium(rng: np.random.Generator, t_end: float) -> tuple[list, dict]:
     v0 = (vh * np.cos(heading), vh * np.sin(heading), vz)
     ball_id = n_players + 1
     actors.append(_kick_ball(striker, ball_id, v0, spin=(0.0, 0.0, 8.0), t_end=t_end, net_x=HALF_LENGTH + 2.0))
-    action = {"striker": 3, "keeper": 1, "shot_speed": float(speed)}
+    action = {"striker_id": 3, "goalkeeper_id": 1, "shot_ball_id": ball_id,
+              "shot_speed_m_s": round(float(speed), 3), "kick_time_s": t_kick}
     if n_balls == 2:
         passer = actors[3] if n_players > 3 else actors[1]
         ang = rng.uniform(-np.pi, np.pi)
@@ -259,12 +262,14 @@ def build_scene(preset: str, seed: int = 0, size: str = "small", width: int | No
     rng = np.random.default_rng(seed)
     t_end = (chosen.frames + 1) / chosen.fps + 1.0
     if preset == "players-stadium":
-        actors, _ = _stadium(rng, t_end)
+        actors, action = _stadium(rng, t_end)
         train, evals = _stadium_cameras(rng, chosen, actors, 0.5 * chosen.frames / chosen.fps)
     else:
         actors = _single_player(t_end)
+        action = {"kicker_id": 1, "ball_id": 2, "kick_time_s": actors[0].t_event}
         make = _closeup_cameras if preset == "single-player-closeup" else _broadcast_cameras
         train, evals = make(rng, chosen)
     cams = _pick(train, chosen.n_train, "cam") + _pick(evals, chosen.n_eval, "eval")
     return Scene(preset, int(seed), size, chosen.width, chosen.height, chosen.frames, chosen.fps,
-                 chosen.spp, cams, [c.name for c in cams if c.name.startswith("eval")], actors)
+                 chosen.spp, cams, [c.name for c in cams if c.name.startswith("eval")], actors,
+                 action=action)

@@ -57,7 +57,8 @@ def test_ball_is_a_few_pixels_in_stadium_views_and_large_in_closeups():
 
 def test_stadium_shot_is_20_to_30_metres_per_second():
     scene = build_scene("players-stadium", size="small")
-    ball = next(a for a in scene.actors if isinstance(a, Ball))
+    ball = next(a for a in scene.actors if a.id == scene.action["shot_ball_id"])
+    assert isinstance(ball, Ball) and 20 <= scene.action["shot_speed_m_s"] <= 30
     t0 = ball.segments[1].t0
     v = (ball.body(t0 + 0.02).a - ball.body(t0 + 0.01).a)[0] / 0.01
     assert 20 <= np.linalg.norm(v) <= 30
