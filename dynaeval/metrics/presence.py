@@ -77,8 +77,8 @@ CALIBRATED_THRESHOLDS: dict[str, PresenceThresholds] = {
 }
 """Thresholds per class, calibrated on the synthetic scenes with the default margin (1 px), shift
 (1 px) and ``visibility_min`` (0.5) by ``python -m reference_models.studies.presence`` (seed 1,
-size small, 205 shown / 41 erased players and 120 shown / 24 erased balls; run 2026-11-22 on the
-tree of commit af49f9a plus this module). Misses / false passes on that set: players 3.4 % / 2.4 %,
+size small, 205 shown / 41 erased players and 120 shown / 24 erased balls; run 2026-11-22,
+reproduced unchanged at commit 53152e7). Misses / false passes on that set: players 3.4 % / 2.4 %,
 balls 6.7 % / 4.2 %. For the ball, any ``psnr_min`` from 5 to about 15 dB gives the same result
 (``ncc`` and ``visibility`` decide); 10 dB is the middle of that run. Tables: docs/presence.md."""
 
