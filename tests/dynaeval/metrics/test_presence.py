@@ -273,6 +273,24 @@ def test_presence_config_errors(kwargs, match):
         PresenceConfig(**kwargs)
 
 
+def test_presence_stays_light():
+    """Presence on arrays imports neither torch nor onnxruntime nor matplotlib (and the check can
+    see them: with a stand-in registered as ``torch`` the same code lists it)."""
+    import subprocess
+    import sys
+
+    code = ("import sys, numpy as np; {pre}from dynaeval.metrics.presence import frame_presence; "
+            "g = np.random.default_rng(0).random((20, 20, 3)); "
+            "frame_presence(g, g, [{{'class': 'ball', 'box': [3, 3, 8, 8]}}]); "
+            "print(sorted(m for m in ('torch', 'onnxruntime', 'matplotlib') if m in sys.modules))")
+    run = [sys.executable, "-c"]
+    assert subprocess.run([*run, code.format(pre="")], capture_output=True, text=True,
+                          check=True).stdout.strip() == "[]"
+    stand_in = "sys.modules['torch'] = sys; "
+    assert "torch" in subprocess.run([*run, code.format(pre=stand_in)], capture_output=True,
+                                     text=True, check=True).stdout
+
+
 def test_registry_has_presence_names():
     for name in PRESENCE_METRICS:
         assert METRICS[name].higher_is_better
