@@ -6,10 +6,12 @@ Starting from a ground-truth sequence of one static camera, inject (a) brightnes
 score each with per-frame PSNR/SSIM and the temporal metrics. Also: optical-flow endpoint error
 against the exact flow, and time per frame pair at 960x540 and 1920x1080.
 
-The ground truth is a procedural 2-D soccer-like sequence made here (``synthetic_sequence``:
-striped textured pitch, white lines, a crowd, textured players and a ball moving at constant
-sub-pixel velocities, exact forward flow), because the 3-D scene generator
-(``reference_models.scenes``) was not committed when this study was written.
+Ground truth, ``--source``: ``scenes`` (default) renders one static camera of
+``reference_models.scenes`` (players-stadium, small) with its exact flow, boxes and a ball-less
+render; ``synthetic`` uses a procedural 2-D soccer-like sequence made here
+(``synthetic_sequence``: striped textured pitch, lines, crowd, textured players and a ball at
+constant sub-pixel velocities, exact forward flow) at any resolution, and also times the metrics
+at 960x540 and 1920x1080 (rendering hd scenes takes minutes per frame on this machine).
 
 LPIPS: the pretrained AlexNet backbone is not available offline, so tLP uses the lpips package's
 calibrated linear layers on a *random* AlexNet backbone (``pretrained_backbone=False, seed=0``):
@@ -17,8 +19,8 @@ the numbers show the metric's behaviour, not calibrated LPIPS values.
 
 Deterministic: fixed seeds, no timing in the tables except the timing table.
 
-    python -m reference_models.studies.temporal_sensitivity            # prints the Markdown
-    python -m reference_models.studies.temporal_sensitivity --write    # also updates the docs
+    python -m reference_models.studies.temporal_sensitivity --write                     # scenes
+    python -m reference_models.studies.temporal_sensitivity --source synthetic --write  # + timing
 """
 
 from __future__ import annotations
@@ -38,6 +40,8 @@ from dynaeval.regions import mask_to_box
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "temporal-metrics.md"
 BEGIN, END = "<!-- BEGIN temporal_sensitivity -->", "<!-- END temporal_sensitivity -->"
+BEGIN_SCENES = "<!-- BEGIN temporal_sensitivity scenes -->"
+END_SCENES = "<!-- END temporal_sensitivity scenes -->"
 
 
 # ------------------------------------------------------------------------------ ground truth
@@ -131,6 +135,44 @@ def synthetic_sequence(h: int = 270, w: int = 480, n_frames: int = 12, seed: int
         for m in masks:
             covered |= m
     static = ~cv2.dilate(covered.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)
+    return Sequence(frames, frames_nb, flows, boxes, static)
+
+
+def scene_sequence(
+    preset: str = "players-stadium",
+    camera: str = "eval00",
+    n_frames: int = 12,
+    size: str = "small",
+    seed: int = 0,
+) -> Sequence:
+    """Frames of one static camera of ``reference_models.scenes`` with its exact flow and boxes.
+
+    The ball-less frames are rendered with ``hide=("ball",)`` (no pixels, no shadow). Static
+    mask: pixels whose instance id is 0 (static world) in every frame and whose colour never
+    changes by more than 1/255 from frame 0 (that excludes moving shadows), minus a 2 px margin.
+    """
+    import cv2
+
+    from reference_models.scenes import CameraRenderer, build_scene
+
+    scene = build_scene(preset, seed=seed, size=size)
+    n_frames = min(n_frames, scene.n_frames)
+    renderer = CameraRenderer(scene.camera(camera), scene.sun, scene.seed, scene.spp)
+    frames, frames_nb, flows, boxes = [], [], [], []
+    moving = None
+    for t in range(n_frames):
+        nxt = scene.bodies(t + 1) if t + 1 < scene.n_frames else None
+        view = renderer.render(scene.bodies(t), nxt)
+        frames.append(view.rgb.astype(np.float32))
+        frames_nb.append(renderer.render(scene.bodies(t, ("ball",)), None).rgb.astype(np.float32))
+        if t < n_frames - 1:
+            flows.append(view.flow.astype(np.float32))
+        b = np.array([o["box"] for o in view.boxes], np.int64).reshape(-1, 4)
+        boxes.append(b + np.array([-2, -2, 2, 2]))
+        # objects, and what they change on the static world (shadows): not static
+        changed = (view.ids > 0) | (np.abs(view.rgb - frames[0]).max(axis=-1) > 1.0 / 255)
+        moving = changed if moving is None else moving | changed
+    static = ~cv2.dilate(moving.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)
     return Sequence(frames, frames_nb, flows, boxes, static)
 
 
@@ -361,16 +403,32 @@ def timing() -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument(
+        "--source",
+        choices=("scenes", "synthetic"),
+        default="scenes",
+        help="ground truth: reference_models.scenes players-stadium (default) or the 2-D sequence",
+    )
     parser.add_argument("--write", action="store_true", help=f"replace the study block in {DOC}")
     parser.add_argument(
         "--no-timing", action="store_true", help="skip the (machine-dependent) timing"
     )
     args = parser.parse_args()
-    gt = synthetic_sequence()
+    if args.source == "scenes":
+        gt = scene_sequence()
+        what = (
+            "Ground truth: `reference_models.scenes`, preset `players-stadium`, size `small` "
+            "(320x180), camera `eval00`, frames 0-11 (11 pairs), seed 0; exact flow and boxes "
+            "from the generator, ball-less frames rendered with `hide=('ball',)`."
+        )
+        begin, end = BEGIN_SCENES, END_SCENES
+    else:
+        gt = synthetic_sequence()
+        what = "Ground truth: `synthetic_sequence(h=270, w=480, n_frames=12, seed=0)` (11 pairs)."
+        begin, end = BEGIN, END
     parts = [
-        "Ground truth: `synthetic_sequence(h=270, w=480, n_frames=12, seed=0)` (11 pairs). "
-        "psnr: pooled over frames (dB); ssim, lpips: mean over frames; warp_error columns and "
-        "`signed` (the mean signed warp-error difference) are x 1e-3; lpips and tlp on a "
+        what + " psnr: pooled over frames (dB); ssim, lpips: mean over frames; warp_error columns "
+        "and `signed` (the mean signed warp-error difference) are x 1e-3; lpips and tlp on a "
         "random-backbone AlexNet.",
         "",
         artefact_tables(gt),
@@ -380,7 +438,7 @@ def main() -> None:
         "",
         flow_accuracy(gt),
     ]
-    if not args.no_timing:
+    if args.source == "synthetic" and not args.no_timing:
         parts += [
             "",
             "Time per frame pair, `temporal_metrics` (DIS medium), mean of 2 pairs:",
@@ -391,7 +449,7 @@ def main() -> None:
     print(block)
     if args.write:
         text = DOC.read_text()
-        i, j = text.index(BEGIN) + len(BEGIN), text.index(END)
+        i, j = text.index(begin) + len(begin), text.index(end)
         DOC.write_text(text[:i] + "\n" + block + "\n" + text[j:])
 
 

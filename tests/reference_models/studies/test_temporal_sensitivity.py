@@ -58,3 +58,19 @@ def test_static_and_varying_noise_have_equal_per_frame_error(seq):
     mse = lambda ps: [float(((p - g) ** 2).mean()) for p, g in zip(ps, seq.frames, strict=True)]  # noqa: E731
     np.testing.assert_allclose(mse(s), mse(v), rtol=0.02)  # equal up to clipping at 0 and 1
     assert not np.array_equal(v[0], v[1] - seq.frames[1] + seq.frames[0])
+
+
+def test_scene_sequence_has_exact_flow_boxes_and_a_ball_less_render():
+    from reference_models.studies.temporal_sensitivity import scene_sequence
+
+    seq = scene_sequence(n_frames=3, size="tiny")
+    assert len(seq.frames) == len(seq.frames_no_ball) == 3 and len(seq.flows) == 2
+    assert all(f.shape == (36, 64, 3) and f.dtype == np.float32 for f in seq.frames)
+    assert all(b.shape[1] == 4 for b in seq.boxes) and seq.static.any()
+    # hiding the ball changes some pixels of some frame (and only where an object may be)
+    diff = [
+        np.abs(f - nb).max(axis=-1) > 0
+        for f, nb in zip(seq.frames, seq.frames_no_ball, strict=True)
+    ]
+    assert any(d.any() for d in diff)
+    assert not any((d & seq.static).any() for d in diff)
