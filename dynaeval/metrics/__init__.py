@@ -11,7 +11,14 @@ from dynaeval.metrics.focused import (
     masked_psnr,
     masked_ssim,
 )
-from dynaeval.metrics.perceptual import backbone_weights_file, load_lpips, lpips, lpips_map
+from dynaeval.metrics.perceptual import (
+    LPIPS_BACKENDS,
+    backbone_weights_file,
+    load_lpips,
+    load_lpips_onnx,
+    lpips,
+    lpips_map,
+)
 from dynaeval.metrics.pixel import (
     SquaredErrorStats,
     psnr,
@@ -23,6 +30,7 @@ from dynaeval.metrics.registry import METRICS, MetricInfo
 from dynaeval.metrics.structural import ssim, ssim_map, ssim_reference
 
 __all__ = [
+    "LPIPS_BACKENDS",
     "METRICS",
     "MetricInfo",
     "SquaredErrorStats",
@@ -31,6 +39,7 @@ __all__ = [
     "focused_psnr",
     "focused_ssim",
     "load_lpips",
+    "load_lpips_onnx",
     "lpips",
     "lpips_map",
     "masked_lpips",

@@ -39,11 +39,12 @@ def focused_lpips(
     device: object = None,
     pretrained_backbone: bool = True,
     seed: int = 0,
+    backend: str = "torch",
 ) -> float:
     """LPIPS in the boxes: area-weighted LPIPS of the crops (default) or map mean; see ``lpips``."""
     return lpips(
         pred, gt, net=net, boxes=boxes, region_mode=region_mode, device=device,
-        pretrained_backbone=pretrained_backbone, seed=seed,
+        pretrained_backbone=pretrained_backbone, seed=seed, backend=backend,
     )
 
 
@@ -66,9 +67,10 @@ def masked_lpips(
     device: object = None,
     pretrained_backbone: bool = True,
     seed: int = 0,
+    backend: str = "torch",
 ) -> float:
     """Mean of the whole-frame spatial LPIPS map over the masked pixels; see ``lpips``."""
     return lpips(
         pred, gt, net=net, mask=mask, device=device,
-        pretrained_backbone=pretrained_backbone, seed=seed,
+        pretrained_backbone=pretrained_backbone, seed=seed, backend=backend,
     )

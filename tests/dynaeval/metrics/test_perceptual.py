@@ -186,3 +186,78 @@ def test_lpips_empty_region():
     z = np.zeros((32, 32, 3))
     with pytest.raises(EmptyRegionError, match="no box"):
         lpips(z, z, boxes=[[40, 40, 50, 50]], **RANDOM)
+
+
+# ---- fast path: the same network through onnxruntime, devices ---------------------------------
+
+
+ort = pytest.importorskip("onnxruntime")
+ONNX = {**RANDOM, "backend": "onnxruntime"}
+
+
+def test_onnx_backend_equals_the_package(pair, package_alex):
+    a, b = pair
+    with torch.no_grad():
+        expected = package_alex(_nchw(a), _nchw(b)).item()
+    assert lpips(a, b, **ONNX) == pytest.approx(expected, abs=ATOL)
+    assert lpips(a, b, **ONNX) == pytest.approx(lpips(a, b, **RANDOM), abs=ATOL)
+
+
+def test_onnx_backend_map_crops_and_mask_equal_torch(pair):
+    a, b = pair
+    np.testing.assert_allclose(lpips_map(a, b, **ONNX), lpips_map(a, b, **RANDOM), rtol=0, atol=ATOL)
+    boxes = np.array([[0, 0, 40, 40], [20, 5, 60, 45], [3, 10, 14, 20]])  # two equal sizes: a batch
+    assert lpips(a, b, boxes=boxes, **ONNX) == pytest.approx(lpips(a, b, boxes=boxes, **RANDOM), abs=ATOL)
+    mask = np.zeros(a.shape[:2], bool)
+    mask[10:30, 20:50] = True
+    assert lpips(a, b, mask=mask, **ONNX) == pytest.approx(lpips(a, b, mask=mask, **RANDOM), abs=ATOL)
+
+
+def test_onnx_session_is_cached_and_other_sizes_run(pair):
+    from dynaeval.metrics import load_lpips_onnx
+
+    s1 = load_lpips_onnx("alex", **RANDOM)
+    assert s1 is load_lpips_onnx("alex", **RANDOM)
+    rng = np.random.default_rng(3)
+    c, d = rng.random((40, 33, 3)), rng.random((40, 33, 3))  # dynamic height and width
+    assert lpips(c, d, **ONNX) == pytest.approx(lpips(c, d, **RANDOM), abs=ATOL)
+
+
+def test_export_refuses_a_model_in_training_mode_and_keeps_eval():
+    """Dropout in training mode would move LPIPS by up to 1e-3: the export must see eval mode."""
+    model = _package("alex")
+    model.train()
+    with pytest.raises(RuntimeError, match="training mode"):
+        perceptual.export_lpips_onnx(model)
+    model.eval()
+    data = perceptual.export_lpips_onnx(model)
+    assert not any(m.training for m in model.modules())
+    onnx = pytest.importorskip("onnx")
+    ops = {n.op_type for n in onnx.load_from_string(data).graph.node}
+    assert "Dropout" not in ops and "Conv" in ops
+
+
+def test_backend_and_device_errors(pair, monkeypatch):
+    a, b = pair
+    with pytest.raises(InputError, match="backend must be one of torch, onnxruntime"):
+        lpips(a, b, backend="tensorrt", **RANDOM)
+    monkeypatch.setattr(ort, "get_available_providers", lambda: ["CPUExecutionProvider"])
+    with pytest.raises(InputError, match="no CUDAExecutionProvider.*onnxruntime-gpu"):
+        lpips(a, b, device="cuda", **ONNX)
+
+
+def test_auto_device_is_cpu_without_a_gpu(monkeypatch):
+    monkeypatch.setattr(torch.cuda, "is_available", lambda: False)
+    assert perceptual.resolve_device("auto") == "cpu"
+    assert perceptual.resolve_device(None) == "cpu"
+    assert perceptual.onnx_providers("auto") == ["CPUExecutionProvider"]
+
+
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="no CUDA device on this machine")
+def test_cuda_equals_cpu(pair):
+    a, b = pair
+    cpu = lpips(a, b, **RANDOM)
+    assert lpips(a, b, device="cuda", **RANDOM) == pytest.approx(cpu, abs=1e-4)
+    assert lpips(a, b, device="auto", **RANDOM) == pytest.approx(cpu, abs=1e-4)
+    if "CUDAExecutionProvider" in ort.get_available_providers():
+        assert lpips(a, b, device="cuda", **ONNX) == pytest.approx(cpu, abs=1e-4)
