@@ -2,6 +2,7 @@
 
     python -m reference_models.scenes.docs figures RENDERS_DIR docs/img   # frames + layout plot
     python -m reference_models.scenes.docs bench [--hd]                   # culling cost, hd view
+    python -m reference_models.scenes.docs ball-sizes                     # ball width on screen
 
 ``RENDERS_DIR`` holds the three presets rendered at the default size (one sub-folder per preset).
 """
@@ -107,6 +108,34 @@ def bench(repeats: int = 3, hd: bool = False) -> dict[str, float]:
     return res
 
 
+def ball_sizes(seed: int = 0) -> list[str]:
+    """Projected ball diameter (pixels, ``2 r f / depth``) over every camera and frame in which the
+    ball's centre is inside the image, per preset, size and camera split."""
+    from reference_models.scenes.actors import BALL_RADIUS, Ball
+
+    lines = []
+    for preset, size, split in [("players-stadium", "hd", "train"), ("players-stadium", "small", "train"),
+                                ("players-stadium", "small", "eval"),
+                                ("single-player-broadcast", "small", "all"),
+                                ("single-player-closeup", "small", "all")]:
+        scene = build_scene(preset, seed=seed, size=size)
+        names = {"train": scene.train_cameras, "eval": scene.eval_cameras,
+                 "all": [c.name for c in scene.cameras]}[split]
+        sizes, views = [], 0
+        for f in range(scene.n_frames):
+            centres = [a.body(scene.time_of(f)).a for a in scene.actors if isinstance(a, Ball)]
+            for name in names:
+                cam, views = scene.camera(name), views + 1
+                for c in centres:
+                    uv, depth = cam.project(c)
+                    if depth[0] > 0 and 0 <= uv[0, 0] < cam.width and 0 <= uv[0, 1] < cam.height:
+                        sizes.append(2 * BALL_RADIUS * cam.fx / depth[0])
+        d = np.array(sizes)
+        lines.append(f"{preset} {size} {split}: {len(d)} ball images in {views} views, diameter px "
+                     f"min {d.min():.2f} median {np.median(d):.2f} max {d.max():.2f}")
+    return lines
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="python -m reference_models.scenes.docs")
     sub = p.add_subparsers(dest="command", required=True)
@@ -115,12 +144,15 @@ def main(argv: list[str] | None = None) -> int:
     f.add_argument("img_dir", type=Path)
     b = sub.add_parser("bench")
     b.add_argument("--hd", action="store_true", help="also time an hd view (~2 GB, a minute)")
+    sub.add_parser("ball-sizes")
     args = p.parse_args(argv)
     if args.command == "figures":
         for path in copy_frames(args.renders, args.img_dir):
             print(path)
         layout_plot(args.img_dir / "scenes_camera_layouts.png")
         print(args.img_dir / "scenes_camera_layouts.png")
+    elif args.command == "ball-sizes":
+        print("\n".join(ball_sizes()))
     else:
         for k, v in bench(hd=args.hd).items():
             print(f"{k}: {v:.3f}" if isinstance(v, float) else f"{k}: {v}")

@@ -3,7 +3,7 @@
 import cv2
 import numpy as np
 
-from reference_models.scenes.docs import FRAME, SHOWN, copy_frames, layout_plot
+from reference_models.scenes.docs import FRAME, SHOWN, ball_sizes, copy_frames, layout_plot
 
 
 def test_layout_plot_is_a_png(tmp_path):
@@ -23,3 +23,9 @@ def test_copy_frames_takes_the_shown_views(tmp_path):
     out = copy_frames(renders, tmp_path / "img")
     assert sorted(p.name for p in out) == sorted(
         f"scenes_{p}_{c}.png" for p, cams in SHOWN.items() for c in cams)
+
+
+def test_ball_sizes_counts_the_closeup_ball_in_every_view():
+    lines = ball_sizes()
+    assert len(lines) == 5
+    assert lines[-1].startswith("single-player-closeup small all: 744 ball images in 744 views")
