@@ -53,6 +53,9 @@ IGNORED_SETTINGS = (
 )
 """Settings that never change a number (paths, devices, whether a metric ran): not compared."""
 
+SCENE_SETTINGS = ("focus.boxes_file.",)
+"""Settings that belong to a scene (its boxes file): compared only between files of one scene."""
+
 
 @dataclass(frozen=True)
 class BootstrapConfig:
@@ -108,17 +111,23 @@ def _skipped_sections(a: dict[str, Any], b: dict[str, Any]) -> list[str]:
     return out
 
 
-def settings_differences(a: dict[str, Any], b: dict[str, Any]) -> list[tuple[str, Any, Any]]:
+def settings_differences(
+    a: dict[str, Any], b: dict[str, Any], *, only: tuple[str, ...] | None = None,
+    skip: tuple[str, ...] = (),
+) -> list[tuple[str, Any, Any]]:
     """Number-changing settings that differ between two results' ``settings``:
     ``[(field, value in a, value in b)]`` (``None`` where a field is absent), in field order.
 
     Not compared: ``IGNORED_SETTINGS`` and sections of metrics that ran in at most one of the
-    two files (a section absent from one, or with ``enabled: false`` in either)."""
+    two files (a section absent from one, or with ``enabled: false`` in either); fields starting
+    with a prefix in ``skip``; with ``only``, every field not starting with one of its prefixes."""
     fa, fb = flatten_settings(a), flatten_settings(b)
-    skipped = tuple(_skipped_sections(a, b))
+    skipped = (*_skipped_sections(a, b), *skip)
     out = []
     for key in [*fa, *(k for k in fb if k not in fa)]:
         if key in IGNORED_SETTINGS or key.startswith(skipped):
+            continue
+        if only is not None and not key.startswith(only):
             continue
         if fa.get(key) != fb.get(key):
             out.append((key, fa.get(key), fb.get(key)))
@@ -176,9 +185,15 @@ def _check(docs: list[dict[str, Any]], paths: list[str], force: bool) -> list[di
             )
         seen[key] = p
     forced = []
-    ref, ref_path = docs[0], paths[0]
+    first_of_scene: dict[str, tuple[dict[str, Any], str]] = {}
+    for d, p in zip(docs, paths, strict=True):
+        first_of_scene.setdefault(d["scene"], (d, p))
     for d, p in zip(docs[1:], paths[1:], strict=True):
-        diffs = settings_differences(ref["settings"], d["settings"])
+        ref, ref_path = docs[0], paths[0]
+        diffs = settings_differences(ref["settings"], d["settings"], skip=SCENE_SETTINGS)
+        if not diffs:
+            ref, ref_path = first_of_scene[d["scene"]]
+            diffs = settings_differences(ref["settings"], d["settings"], only=SCENE_SETTINGS)
         if not diffs:
             continue
         if not force:

@@ -222,3 +222,17 @@ def test_leaderboard_validates_against_shipped_schema(files, tmp_path):
     with pytest.raises(jsonschema.ValidationError):
         jsonschema.validate(board, schema)
 
+
+
+def test_boxes_files_are_compared_within_a_scene_only():
+    from dynaeval.report.leaderboard import _check
+
+    def doc(method, scene, sha):
+        return {"method": method, "scene": scene,
+                "settings": {"focus": {"source": "boxes", "boxes_file": {"sha256": sha}}}}
+
+    ok = [doc("a", "s1", "x"), doc("b", "s1", "x"), doc("a", "s2", "y"), doc("b", "s2", "y")]
+    assert _check(ok, ["1", "2", "3", "4"], force=False) == []
+    bad = [doc("a", "s1", "x"), doc("a", "s2", "y"), doc("b", "s2", "z")]
+    with pytest.raises(InputError, match=r"'focus.boxes_file.sha256' is 'y' in 2 but 'z' in 3"):
+        _check(bad, ["1", "2", "3"], force=False)
