@@ -89,7 +89,7 @@ def test_flow_carries_player_pixels_onto_the_same_body_point(preset):
                 same_id.append(np.any(near, axis=0))
     errors, same_id = np.concatenate(errors), np.concatenate(same_id)
     assert errors.size > 200
-    assert errors.max() < 0.5
+    assert errors.max() < 1e-3  # the issue asks < 0.5 px; exact flow is off by float32 rounding only
     # and the next render shows that player there (within a pixel: thin limbs, silhouettes)
     assert same_id.mean() > 0.98
 
