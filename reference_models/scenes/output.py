@@ -104,7 +104,8 @@ def render_scene(preset: str, out_dir: str | Path, size: str = "small", seed: in
     ``metadata.json`` (all byte-identical for the same arguments) and ``timing.json`` (render
     seconds, the one file that differs between runs). ``cameras`` renders only those (e.g. a few
     views at hd); ``progress(done, total)`` is called after each view. Raises InputError for bad
-    arguments or a non-empty ``out_dir`` without ``overwrite``.
+    arguments or a non-empty ``out_dir`` without ``overwrite`` (with it, files are written over;
+    files of an earlier, larger render that this one does not produce are left as they were).
     """
     import cv2
 
