@@ -21,7 +21,6 @@ import argparse
 import math
 import os
 import platform
-import statistics
 import sys
 import time
 import warnings
@@ -74,10 +73,11 @@ def sample_pair(height: int, width: int, seed: int = 0) -> tuple[np.ndarray, np.
 
 
 def _time(fn: Callable[[], Any], repeats: int) -> tuple[float, float, Any]:
-    """Median wall time and median CPU time (this process, all threads) in seconds of ``fn()``.
+    """Minimum wall time and minimum CPU time (this process, all threads) in seconds of ``fn()``.
 
-    One warm-up run first; slow paths (> 2 s) get 2 timed runs. CPU time is what the path costs
-    on a machine shared with other jobs, where wall time mostly measures the wait for a core.
+    One warm-up run first; slow paths (> 2 s) get 2 timed runs. The minimum is the run least
+    disturbed by other jobs. CPU time is what the path costs on a machine shared with other
+    jobs, where wall time mostly measures the wait for a core.
     """
     value = fn()
     walls: list[float] = []
@@ -87,7 +87,7 @@ def _time(fn: Callable[[], Any], repeats: int) -> tuple[float, float, Any]:
         fn()
         walls.append(time.perf_counter() - w0)
         cpus.append(time.process_time() - c0)
-    return statistics.median(walls), statistics.median(cpus), value
+    return min(walls), min(cpus), value
 
 
 PEERS = ("skimage", "torchmetrics")
@@ -154,6 +154,7 @@ def bench_size(
     if "skimage" in peers:
         ref_ssim = float(peers["skimage"].structural_similarity(p64, g64, **sk_kw))
     add("ssim", "dynaeval", lambda: M.ssim(pred, gt), ref_ssim)
+    add("ssim", "dynaeval, 2 threads over bands", lambda: M.ssim(pred, gt, threads=2), ref_ssim)
     if "skimage" in peers:
         add("ssim", "scikit-image (float32 in)", lambda: peers["skimage"].structural_similarity(pred, gt, **sk_kw), ref_ssim)
         add("ssim", "scikit-image (float64 in)", lambda: peers["skimage"].structural_similarity(p64, g64, **sk_kw), ref_ssim)
@@ -188,10 +189,10 @@ def _bench_lpips(pred, gt, boxes, mask, size, repeats) -> list[dict[str, Any]]: 
 
     kw = {"pretrained_backbone": False, "seed": 0}
     model = M.load_lpips("alex", **kw)
+    import copy
+
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        import copy
-
         model64 = copy.deepcopy(model).double()
     tp, tg = _nchw(pred) * 2 - 1, _nchw(gt) * 2 - 1
     with torch.no_grad():
@@ -208,11 +209,176 @@ def _bench_lpips(pred, gt, boxes, mask, size, repeats) -> list[dict[str, Any]]: 
         with torch.no_grad():
             return float(model(tp, tg).item())
 
+    model_cl = copy.deepcopy(model).to(memory_format=torch.channels_last)
+    tpc = tp.contiguous(memory_format=torch.channels_last)
+    tgc = tg.contiguous(memory_format=torch.channels_last)
+
+    def package_channels_last() -> float:
+        with torch.no_grad():
+            return float(model_cl(tpc, tgc).item())
+
     add("lpips", "dynaeval (alex, random backbone)", lambda: M.lpips(pred, gt, **kw), ref)
+    add("lpips", "dynaeval backend=onnxruntime", lambda: M.lpips(pred, gt, backend="onnxruntime", **kw), ref)
     add("lpips", "lpips package, same network", package, ref)
+    add("lpips", "lpips package, channels_last", package_channels_last, ref)
+    add("lpips_map", "dynaeval", lambda: float(M.lpips_map(pred, gt, **kw).mean()), None)
+    add(
+        "lpips_map",
+        "dynaeval backend=onnxruntime",
+        lambda: float(M.lpips_map(pred, gt, backend="onnxruntime", **kw).mean()),
+        None,
+    )
     add("focused_lpips", "dynaeval crop (default)", lambda: M.focused_lpips(pred, gt, boxes, **kw), None)
+    add(
+        "focused_lpips",
+        "dynaeval crop, backend=onnxruntime",
+        lambda: M.focused_lpips(pred, gt, boxes, backend="onnxruntime", **kw),
+        None,
+    )
     add("focused_lpips", "dynaeval map", lambda: M.focused_lpips(pred, gt, boxes, region_mode="map", **kw), None)
     add("masked_lpips", "dynaeval (box union as mask)", lambda: M.masked_lpips(pred, gt, mask, **kw), None)
+    return rows
+
+
+def sample_sequence(height: int, width: int, frames: int = 4, seed: int = 0) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """``frames`` consecutive (gt, pred) frames of a static camera: the ``sample_pair`` pitch with a
+    player-sized patch moving 1 % of the width per frame; predictions blurred and noised.
+
+    Returns two lists of (H, W, 3) float32 frames in [0, 1] (ground truth, prediction).
+    """
+    import cv2
+
+    rng = np.random.default_rng(seed)
+    _, base, _ = sample_pair(height, width, seed)
+    bh, bw = max(8, height // 8), max(4, height // 24)
+    patch = np.clip(rng.random(3) + 0.1 * rng.standard_normal((bh, bw, 3)), 0, 1).astype(np.float32)
+    gts, preds = [], []
+    for i in range(frames):
+        gt = base.copy()
+        x0, y0 = width // 4 + i * max(1, width // 100), height // 2
+        gt[y0 : y0 + bh, x0 : x0 + bw] = patch
+        pred = cv2.GaussianBlur(gt, (5, 5), 1.0) + 0.01 * rng.standard_normal(gt.shape).astype(np.float32)
+        gts.append(gt)
+        preds.append(np.clip(pred, 0, 1).astype(np.float32))
+    return gts, preds
+
+
+def bench_sequence(height: int, width: int, repeats: int, with_lpips: bool) -> list[dict[str, Any]]:
+    """Rows for the per-frame regions and temporal paths: motion masks, optical flow, warping
+    (fast vs its float64 reference), the temporal metrics and the detector (when installed)."""
+    from dynaeval.metrics.flow import FlowConfig, optical_flow, warp, warp_reference
+    from dynaeval.metrics.temporal import TemporalConfig, temporal_metrics
+    from dynaeval.regions.motion import MotionConfig, iter_motion_masks
+
+    frames = 4
+    gts, preds = sample_sequence(height, width, frames)
+    size = f"{width}x{height}"
+    rows: list[dict[str, Any]] = []
+
+    def add(metric: str, impl: str, fn: Callable[[], Any], per: int, ref: float | None = None,
+            value_of: Callable[[Any], float] = float) -> None:
+        wall, cpu, value = _time(fn, repeats)
+        v = value_of(value)
+        dev = None if ref is None else abs(v - ref)
+        rows.append({"metric": metric, "impl": impl, "size": size, "ms": 1e3 * wall / per,
+                     "cpu_ms": 1e3 * cpu / per, "dev": dev, "value": v})
+
+    add("motion_mask (isg)", "dynaeval, per frame of 4", lambda: list(iter_motion_masks(gts, MotionConfig())),
+        frames, value_of=lambda ms: float(np.mean([m.mean() for m in ms])))
+    add("motion_mask (ist)", "dynaeval, per frame of 4",
+        lambda: list(iter_motion_masks(gts, MotionConfig(kind="ist", window=2))),
+        frames, value_of=lambda ms: float(np.mean([m.mean() for m in ms])))
+    for method in ("dis", "farneback"):
+        cfg = FlowConfig(method=method)
+        add("optical_flow", f"dynaeval {method}", lambda cfg=cfg: optical_flow(gts[0], gts[1], cfg), 1,
+            value_of=lambda f: float(np.abs(f).mean()))
+    flow = optical_flow(gts[1], gts[0], FlowConfig())
+    ref_warp = float(warp_reference(gts[0].astype(np.float64), flow.astype(np.float64)).mean())
+    add("warp", "dynaeval (cv2.remap)", lambda: warp(gts[0], flow), 1, ref_warp, lambda w: float(w.mean(dtype=np.float64)))
+    region = [np.zeros((height, width), bool) for _ in range(frames)]
+    for m in region:
+        m[height // 2 - 10 : height // 2 + height // 8 + 10, width // 4 - 10 : width // 4 + width // 20 + 10] = True
+    static = np.ones((height, width), bool)
+    static[height // 2 - 20 :, :] = False
+    tcfg = TemporalConfig(tlp=with_lpips)
+    kw: dict[str, Any] = {}
+    if with_lpips:
+        from dynaeval import metrics as M
+
+        kw["lpips_fn"] = lambda a, b: M.lpips(a, b, pretrained_backbone=False, seed=0)
+    add("temporal_metrics" + (" (with tLP)" if with_lpips else " (no tLP)"),
+        "dynaeval, per frame of 4",
+        lambda: temporal_metrics(iter(preds), iter(gts), static_mask=static, region_masks=region,
+                                 config=tcfg, **kw),
+        frames, value_of=lambda r: float(r["warp_error"]["value"]))
+    try:
+        from dynaeval.regions.detector import DEFAULT_DETECTOR, Detector
+
+        if DEFAULT_DETECTOR.is_file():
+            det = Detector()
+            add("detector", "dynaeval ONNX (shipped model)", lambda: det(gts[0]), 1,
+                value_of=lambda d: float(len(d.records())))
+    except ImportError:
+        pass
+    return rows
+
+
+def speed_error_plot(rows: list[dict[str, Any]], path: Path) -> None:
+    """Log-log scatter of CPU ms per frame against deviation from the float64 reference (PNG)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    pts = [r for r in rows if r["dev"] is not None]
+    sizes = list(dict.fromkeys(r["size"] for r in pts))
+    fig, axes = plt.subplots(1, len(sizes), figsize=(6.5 * len(sizes), 5), squeeze=False)
+    for ax, size in zip(axes[0], sizes, strict=True):
+        for r in (r for r in pts if r["size"] == size):
+            dev = max(r["dev"], 1e-17)
+            marker = "o" if r["impl"].startswith("dynaeval") else "x"
+            ax.scatter(r["cpu_ms"], dev, marker=marker)
+            ax.annotate(f"{r['metric']}: {r['impl']}", (r["cpu_ms"], dev), fontsize=6,
+                        xytext=(3, 3), textcoords="offset points")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("CPU ms per frame (min over runs)")
+        ax.set_ylabel("abs. deviation from float64 reference (0 drawn at 1e-17)")
+        ax.set_title(f"speed vs error, {size} (o dynaeval, x peers)")
+        ax.grid(True, which="both", alpha=0.3)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def score_throughput(pred: str, gt: str, workers: tuple[int, ...], extra: list[str]) -> list[dict[str, Any]]:
+    """Run ``python -m dynaeval score PRED GT --workers N`` in a child process for each N.
+
+    Returns rows ``{workers, frames, wall_s, cpu_s, fps, max_rss_mb}``; CPU time and peak RSS
+    (``ru_maxrss``) come from ``os.wait4`` on that child alone.
+    """
+    import json
+    import subprocess
+    import tempfile
+
+    rows = []
+    for n in workers:
+        with tempfile.TemporaryDirectory() as tmp:
+            out = Path(tmp) / "results.json"
+            cmd = [sys.executable, "-m", "dynaeval", "score", pred, gt, "--workers", str(n), "-q",
+                   "-o", str(out), *extra]
+            t0 = time.perf_counter()
+            proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+            _, status, usage = os.wait4(proc.pid, 0)
+            wall = time.perf_counter() - t0
+            err = proc.stderr.read().decode() if proc.stderr else ""
+            proc.returncode = os.waitstatus_to_exitcode(status)
+            if proc.returncode != 0:
+                raise RuntimeError(f"{' '.join(cmd)} failed ({proc.returncode}): {err[-2000:]}")
+            frames = len(json.loads(out.read_text())["frames"])
+        rows.append({"workers": n, "frames": frames, "wall_s": wall, "cpu_s": usage.ru_utime + usage.ru_stime,
+                     "fps": frames / wall, "max_rss_mb": usage.ru_maxrss / 1024, "command": " ".join(cmd[1:])})
     return rows
 
 
@@ -292,11 +458,10 @@ def _versions() -> str:
 
 def format_table(rows: list[dict[str, Any]]) -> str:
     """Markdown table of the rows, with each implementation's CPU time relative to dynaeval's."""
-    base = {
-        (r["metric"], r["size"]): r["cpu_ms"]
-        for r in rows
-        if r["impl"].startswith("dynaeval") and "map" not in r["impl"]
-    }
+    base: dict[tuple[str, str], float] = {}
+    for r in rows:  # the first dynaeval row of each metric and size is the default path
+        if r["impl"].startswith("dynaeval") and "map" not in r["impl"]:
+            base.setdefault((r["metric"], r["size"]), r["cpu_ms"])
     lines = [
         "| metric | size | implementation | wall ms / frame | CPU ms / frame | CPU time x dynaeval | abs. deviation from float64 reference | value |",
         "|---|---|---|---:|---:|---:|---:|---:|",
@@ -331,20 +496,98 @@ def crop_vs_map(rows: list[dict[str, Any]]) -> str:
     return "\n".join(head + out)
 
 
+def peer_ratios(rows: list[dict[str, Any]], tol: float = 1e-6) -> str:
+    """Markdown table: per metric and size, dynaeval's default path against the fastest peer whose
+    deviation from the float64 reference is within ``tol`` (equal accuracy), in CPU time."""
+    lines = [
+        f"| metric | size | dynaeval CPU ms | fastest peer within {tol:g} | peer CPU ms | peer / dynaeval |",
+        "|---|---|---:|---|---:|---:|",
+    ]
+    keys = list(dict.fromkeys((r["metric"], r["size"]) for r in rows))
+    for key in keys:
+        group = [r for r in rows if (r["metric"], r["size"]) == key]
+        ours = next((r for r in group if r["impl"].startswith("dynaeval")), None)
+        peers = [r for r in group if not r["impl"].startswith("dynaeval") and r["dev"] is not None
+                 and r["dev"] <= tol and "lpips package" not in r["impl"]]
+        if ours is None or not peers:
+            continue
+        best = min(peers, key=lambda r: r["cpu_ms"])
+        lines.append(f"| {key[0]} | {key[1]} | {ours['cpu_ms']:.1f} | {best['impl']} | {best['cpu_ms']:.1f} "
+                     f"| {best['cpu_ms'] / ours['cpu_ms']:.2f} |")
+    return "\n".join(lines)
+
+
+_THREADS_CHILD = """
+import sys, time, warnings
+import numpy as np, torch
+warnings.simplefilter("ignore")
+torch.set_num_threads(int(sys.argv[1]))
+from dynaeval import metrics as M
+from dynaeval.bench import sample_pair
+p, g, _ = sample_pair(540, 960)
+M.lpips(p, g, pretrained_backbone=False)
+walls, cpus = [], []
+for _ in range(3):
+    w, c = time.perf_counter(), time.process_time()
+    M.lpips(p, g, pretrained_backbone=False)
+    walls.append(time.perf_counter() - w); cpus.append(time.process_time() - c)
+print(min(walls), min(cpus))
+"""
+
+
+def torch_threads_study() -> str:
+    """Markdown table: LPIPS (960x540) with torch intra-op threads 1 and 2, OpenMP spinning on
+    (the default) and off (``OMP_WAIT_POLICY=PASSIVE``), each in a fresh child process."""
+    import subprocess
+
+    lines = ["| torch threads | OMP_WAIT_POLICY | wall ms | CPU ms |", "|---:|---|---:|---:|"]
+    for threads, policy in ((1, None), (2, None), (2, "PASSIVE")):
+        env = dict(os.environ)
+        env.pop("OMP_WAIT_POLICY", None)
+        if policy:
+            env["OMP_WAIT_POLICY"] = policy
+        out = subprocess.run([sys.executable, "-c", _THREADS_CHILD, str(threads)], env=env,
+                             capture_output=True, text=True, check=True).stdout.split()
+        wall, cpu = float(out[-2]), float(out[-1])
+        lines.append(f"| {threads} | {policy or '(unset: spinning)'} | {1e3 * wall:.0f} | {1e3 * cpu:.0f} |")
+    return "\n".join(lines)
+
+
+def _throughput_table(rows: list[dict[str, Any]]) -> str:
+    lines = ["| workers | frames | wall s | CPU s | frames / s (wall) | CPU s / frame | peak RSS MB |",
+             "|---:|---:|---:|---:|---:|---:|---:|"]
+    for r in rows:
+        lines.append(f"| {r['workers']} | {r['frames']} | {r['wall_s']:.1f} | {r['cpu_s']:.1f} | {r['fps']:.3f} "
+                     f"| {r['cpu_s'] / r['frames']:.2f} | {r['max_rss_mb']:.0f} |")
+    return "\n".join(lines)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m dynaeval.bench", description=__doc__.split("\n")[0])
     parser.add_argument("--sizes", default=",".join(DEFAULT_SIZES), help="comma-separated WxH list")
-    parser.add_argument("--repeats", type=int, default=5, help="timed runs per path (median reported)")
+    parser.add_argument("--repeats", type=int, default=3, help="timed runs per path (minimum reported)")
     parser.add_argument("--no-lpips", action="store_true", help="skip the LPIPS paths")
+    parser.add_argument("--no-sequence", action="store_true",
+                        help="skip motion masks, optical flow, temporal metrics and the detector")
     parser.add_argument("--out", default="docs/benchmarks.md", help="markdown file to write ('-': none)")
+    parser.add_argument("--plot", default=None,
+                        help="speed-vs-error PNG to write (default: img/bench_speed_error.png next to "
+                        "--out; '-': none)")
     parser.add_argument(
         "--torch-threads",
         type=int,
         default=1,
         help="torch intra-op threads for LPIPS/torchmetrics (default 1: on a shared 2-core machine "
-        "2 threads made LPIPS up to 10x slower through contention; 0 keeps torch's default)",
+        "a second spinning OpenMP thread doubles LPIPS' CPU time, see --threads-study; 0 keeps "
+        "torch's default)",
     )
+    parser.add_argument("--threads-study", action="store_true",
+                        help="also time LPIPS with torch threads 1 / 2 / 2 without OpenMP spinning")
     parser.add_argument("--peers", default=",".join(PEERS), help="comma-separated peers to compare")
+    parser.add_argument("--score", nargs=2, metavar=("PRED", "GT"),
+                        help="also time whole `dynaeval score PRED GT` runs (frames/s, peak RSS)")
+    parser.add_argument("--score-workers", default="1,2", help="worker counts for --score")
+    parser.add_argument("--score-args", default="", help="extra arguments for --score (one string)")
     args = parser.parse_args(argv)
     if args.torch_threads > 0 and not args.no_lpips:
         import torch
@@ -359,45 +602,92 @@ def main(argv: list[str] | None = None) -> int:
     rows: list[dict[str, Any]] = []
     for h, w in sizes:
         rows.extend(bench_size(h, w, args.repeats, not args.no_lpips, tuple(args.peers.split(","))))
+        if not args.no_sequence:
+            rows.extend(bench_sequence(h, w, args.repeats, not args.no_lpips))
     table = format_table(rows)
     gap = crop_vs_map(rows)
     sample_gap = sample_scene_crop_vs_map(not args.no_lpips)
     command = "python -m dynaeval.bench" + (" " + " ".join(argv if argv is not None else sys.argv[1:])).rstrip()
-    text = "\n".join(
-        [
-            "# Benchmarks",
+    parts = [
+        "# Benchmarks",
+        "",
+        f"Command: `{command}` — run {started}.",
+        f"Machine: {machine}.",
+        f"Versions: {_versions()}; torch threads: {args.torch_threads or 'default'}.",
+        "",
+        "Minimum over the timed runs (after one warm-up run) of the wall and the CPU time (this",
+        "process, all its threads) per frame of one prediction/ground-truth pair (float32 RGB, the",
+        "procedural pitch-with-players frame of `dynaeval.bench.sample_pair`). On a machine shared",
+        "with other jobs the wall time mostly measures the wait for a core: compare CPU times, and",
+        "ratios measured in the same run. References: PSNR in float64 numpy; SSIM = scikit-image on",
+        "float64 input; LPIPS = the same network in float64; warp = `warp_reference` in float64.",
+        "LPIPS uses AlexNet with a random backbone (the pretrained one is not downloadable here; the",
+        "cost does not depend on the weights); torchmetrics' LPIPS is absent because it needs the",
+        "pretrained backbone. torchmetrics' SSIM pads the border instead of skipping it, hence its",
+        "deviation. Sequence paths (motion masks, flow, temporal metrics) run on",
+        "`dynaeval.bench.sample_sequence` (4 frames, a patch moving 1 % of the width per frame).",
+        "",
+        table,
+        "",
+        "## Against the fastest peer at equal accuracy",
+        "",
+        "CPU time of the fastest peer whose deviation from the float64 reference is within 1e-6,",
+        "divided by dynaeval's default path (above 1: dynaeval is faster).",
+        "",
+        peer_ratios(rows),
+        "",
+    ]
+    plot = args.plot
+    if plot is None:
+        plot = "-" if args.out == "-" else str(Path(args.out).parent / "img" / "bench_speed_error.png")
+    if plot != "-":
+        speed_error_plot(rows, Path(plot))
+        rel = os.path.relpath(plot, Path(args.out).parent if args.out != "-" else ".")
+        parts += ["## Speed against error", "", f"![CPU time vs deviation]({rel})", ""]
+    if args.threads_study and not args.no_lpips:
+        parts += [
+            "## Torch threads on a shared machine",
             "",
-            f"Command: `{command}` — run {started}.",
-            f"Machine: {machine}.",
-            f"Versions: {_versions()}; torch threads: {args.torch_threads or 'default'}.",
+            "LPIPS at 960x540, each setting in a fresh process (`--threads-study`). With two",
+            "intra-op threads OpenMP's waiting threads spin: when the other thread waits for a core",
+            "that other jobs hold, the spinning burns CPU for nothing. Scoring therefore",
+            "parallelises over frames (`--workers`) with one torch thread each; set",
+            "`OMP_WAIT_POLICY=PASSIVE` before starting Python if you raise torch's threads.",
             "",
-            "Median wall and CPU time (this process, all its threads) per frame of one",
-            "prediction/ground-truth pair (float32 RGB, the procedural pitch-with-players frame of",
-            "`dynaeval.bench.sample_pair`), after one warm-up run. On a machine shared with other",
-            "jobs the wall time mostly measures the wait for a core; compare CPU times. References: PSNR in float64 numpy; SSIM = scikit-image on float64 input; LPIPS =",
-            "the same network in float64. LPIPS uses AlexNet with a random backbone (the pretrained",
-            "one is not downloadable here; the cost does not depend on the weights); torchmetrics'",
-            "LPIPS is absent because it needs the pretrained backbone. torchmetrics' SSIM pads",
-            "the border instead of skipping it, hence its deviation.",
-            "",
-            table,
-            "",
-            "## Focused metrics: crop vs map",
-            "",
-            "Six expanded player boxes; the prediction is degraded a little everywhere and much",
-            "more inside the boxes (see `sample_pair`). `map - crop` is the measured difference",
-            "between the two definitions (docs/metrics.md).",
-            "",
-            gap,
-            "",
-            "On the bundled sample scene (`dynaeval/data/sample`, 256x144, one player and the ball,",
-            "generator boxes expanded with the `paper` rule; predictions are the ground truth",
-            "degraded by `reference_models.sample`):",
-            "",
-            sample_gap,
+            torch_threads_study(),
             "",
         ]
-    )
+    if args.score:
+        extra = args.score_args.split()
+        workers = tuple(int(v) for v in args.score_workers.split(","))
+        tp = score_throughput(args.score[0], args.score[1], workers, extra)
+        parts += [
+            "## Whole `dynaeval score` runs",
+            "",
+            f"`python -m dynaeval score {args.score[0]} {args.score[1]} --workers N -q -o TMP "
+            f"{args.score_args}`, each in a child process; CPU time and peak resident memory",
+            "(`ru_maxrss`) of that child from `os.wait4`.",
+            "",
+            _throughput_table(tp),
+            "",
+        ]
+    parts += [
+        "## Focused metrics: crop vs map",
+        "",
+        "Six expanded player boxes; the prediction is degraded a little everywhere and much",
+        "more inside the boxes (see `sample_pair`). `map - crop` is the measured difference",
+        "between the two definitions (docs/metrics.md).",
+        "",
+        gap,
+        "",
+        "On the bundled sample scene (`dynaeval/data/sample`, 256x144, one player and the ball,",
+        "generator boxes expanded with the `paper` rule; predictions are the ground truth",
+        "degraded by `reference_models.sample`):",
+        "",
+        sample_gap,
+        "",
+    ]
+    text = "\n".join(parts)
     print(text)
     if args.out != "-":
         Path(args.out).parent.mkdir(parents=True, exist_ok=True)

@@ -23,3 +23,34 @@ def test_bench_writes_the_table(tmp_path, capsys):
     assert "| ssim | 64x48 | dynaeval |" in text
     assert "python -m dynaeval.bench --sizes 64x48" in text
     assert "| focused_ssim | 64x48 |" in capsys.readouterr().out
+
+
+def test_bench_sequence_plot_and_peer_ratio(tmp_path):
+    out = tmp_path / "bench.md"
+    argv = ["--sizes", "96x64", "--repeats", "1", "--no-lpips", "--peers", "skimage", "--out", str(out)]
+    assert bench.main(argv) == 0
+    text = out.read_text()
+    for metric in ("motion_mask (isg)", "optical_flow", "warp", "temporal_metrics (no tLP)"):
+        assert f"| {metric} | 96x64 |" in text
+    assert "| ssim | 96x64 | dynaeval, 2 threads over bands |" in text
+    assert "| ssim | 96x64 |" in text.split("fastest peer at equal accuracy")[1]  # scikit-image within 1e-6
+    assert (tmp_path / "img" / "bench_speed_error.png").stat().st_size > 1000
+    assert "![CPU time vs deviation](img/bench_speed_error.png)" in text
+
+
+def test_sample_sequence_moves_a_patch():
+    gts, preds = bench.sample_sequence(64, 96, frames=3)
+    assert len(gts) == len(preds) == 3
+    assert gts[0].shape == (64, 96, 3) and gts[0].dtype == np.float32
+    assert not np.array_equal(gts[0], gts[1])
+    assert np.array_equal(gts[0][:, :20], gts[1][:, :20])  # the background stays
+
+
+def test_score_throughput_runs_score_in_a_child(tmp_path):
+    from pathlib import Path
+
+    sample = Path(bench.__file__).parent / "data" / "sample"
+    rows = bench.score_throughput(str(sample / "pred"), str(sample / "gt"), (1,),
+                                  ["--no-lpips", "--no-temporal", "--focus", "none", "--no-masked"])
+    assert rows[0]["workers"] == 1 and rows[0]["frames"] == 16
+    assert rows[0]["max_rss_mb"] > 10 and rows[0]["cpu_s"] > 0 and rows[0]["fps"] > 0
