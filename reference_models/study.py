@@ -1,0 +1,192 @@
+"""Validation study: the toolkit against the reference models, reproducible with one command.
+
+    python -m reference_models.study [--preset tiny|small] --out STUDY [--scenes ...]
+        [--models kplanes nerfplayer] [--sampling uniform isg] [--docs docs/validation.md]
+
+For every scene x model x ray sampling it renders the scene (once per scene), trains the model,
+renders the evaluation cameras, scores them with ``dynaeval.score`` against the ground truth
+(focused metrics on the generator's exact boxes, masked metrics on the motion masks, temporal
+terms) and combines the results into a leaderboard. Every step writes its output atomically and
+is skipped when that output exists, so an interrupted study resumes where it stopped.
+
+``--docs FILE`` writes the report (tables, crops, times, findings computed from the numbers).
+Layout of STUDY::
+
+    data/<scene>/                       generator output (images, boxes.json, transforms.json)
+    runs/<scene>/<model>-<sampling>/    checkpoint, log.jsonl, pred/, train.json, render.json
+    results/<scene>__<model>-<sampling>.json
+    leaderboard.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from dynaeval.errors import InputError
+
+SCENES = ("single-player-closeup", "single-player-broadcast", "players-stadium")
+MODELS = ("kplanes", "nerfplayer")
+SAMPLINGS = ("uniform", "isg")
+
+
+@dataclass(frozen=True)
+class StudyPreset:
+    """Sizes of one study preset."""
+
+    scene_size: str
+    """Generator size (``tiny`` / ``small``)."""
+    model_size: str
+    """Model preset (``tiny`` / ``small``)."""
+    iters: int | None
+    """Training steps (None: the model preset's)."""
+    frames: int | None = None
+    """Frames per camera (None: the generator size's)."""
+
+
+PRESETS = {
+    "tiny": StudyPreset(scene_size="tiny", model_size="tiny", iters=150),
+    "small": StudyPreset(scene_size="small", model_size="small", iters=None, frames=24),
+}
+
+
+def _spec(model: str):
+    if model == "kplanes":
+        from reference_models.kplanes import SPEC
+    elif model == "nerfplayer":
+        from reference_models.nerfplayer import SPEC
+    else:
+        raise InputError(f"unknown model {model!r}; expected one of {', '.join(MODELS)}")
+    return SPEC
+
+
+def _write_json(path: Path, obj: Any) -> None:
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(json.dumps(obj, indent=1) + "\n")
+    os.replace(tmp, path)
+
+
+def scene_data(study: Path, scene: str, preset: StudyPreset) -> Path:
+    """Render ``scene`` into ``study/data/<scene>`` unless it is there already."""
+    from reference_models.scenes import render_scene
+
+    out = study / "data" / scene
+    if (out / "transforms.json").is_file() and (out / "boxes.json").is_file():
+        return out
+    tmp = out.with_name(out.name + ".partial")
+    if tmp.exists():
+        import shutil
+
+        shutil.rmtree(tmp)
+    kwargs = {"frames": preset.frames} if preset.frames else {}
+    render_scene(scene, tmp, size=preset.scene_size, seed=0, **kwargs)
+    tmp.rename(out)
+    return out
+
+
+def train_and_render(study: Path, scene: str, model: str, sampling: str, preset: StudyPreset,
+                     data: Path, progress: bool) -> Path:
+    """Train and render one run unless done; the run folder holds ``train.json`` and
+    ``render.json`` (times) when each step finished."""
+    from reference_models.common.train import render_run, train
+
+    spec = _spec(model)
+    run = study / "runs" / scene / f"{model}-{sampling}"
+    if not (run / "train.json").is_file():
+        resume = (run / "checkpoint.pt").is_file()
+        t0 = time.perf_counter()
+        record = train(spec, data if not resume else None, run, size=preset.model_size,
+                       iters=preset.iters, sampling=sampling, resume=resume, progress=progress)
+        _write_json(run / "train.json", {"wall_s": time.perf_counter() - t0, **record})
+    if not (run / "render.json").is_file():
+        import shutil
+
+        shutil.rmtree(run / "pred", ignore_errors=True)
+        t0 = time.perf_counter()
+        files = render_run(spec, run, data, progress=progress)
+        _write_json(run / "render.json", {"wall_s": time.perf_counter() - t0,
+                                          "views": len(files)})
+    return run
+
+
+def score_run(study: Path, scene: str, model: str, sampling: str, run: Path, data: Path,
+              progress: bool) -> Path:
+    """Score a run's renders against the ground truth unless already scored."""
+    import dynaeval
+    from dynaeval.regions.focus import FocusConfig
+    from dynaeval.report import write_json_atomic
+
+    out = study / "results" / f"{scene}__{model}-{sampling}.json"
+    if out.is_file():
+        return out
+    out.parent.mkdir(parents=True, exist_ok=True)
+    results = dynaeval.score(
+        run / "pred", data / "images", method=f"{model}-{sampling}", scene=scene,
+        focus=FocusConfig(source="boxes", boxes_file=str(data / "boxes.json")),
+        progress=progress,
+    )
+    write_json_atomic(out, results, overwrite=True)
+    return out
+
+
+def run_study(study: Path, preset: str = "tiny", scenes=SCENES, models=MODELS,
+              samplings=SAMPLINGS, progress: bool = True) -> dict[str, Any]:
+    """Run (or resume) the whole study; returns the leaderboard document."""
+    from dynaeval.report.leaderboard import build_leaderboard
+
+    if preset not in PRESETS:
+        raise InputError(f"unknown study preset {preset!r}; expected one of {', '.join(PRESETS)}")
+    p = PRESETS[preset]
+    study.mkdir(parents=True, exist_ok=True)
+    result_files = []
+    jobs = [(s, m, x) for s in scenes for m in models for x in samplings]
+    for k, (scene, model, sampling) in enumerate(jobs, 1):
+        print(f"[{k}/{len(jobs)}] {scene} {model} {sampling}", file=sys.stderr)
+        data = scene_data(study, scene, p)
+        run = train_and_render(study, scene, model, sampling, p, data, progress)
+        result_files.append(score_run(study, scene, model, sampling, run, data, progress))
+    board = build_leaderboard(result_files)
+    _write_json(study / "leaderboard.json", board)
+    return board
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m reference_models.study",
+                                     description=__doc__.split("\n\n")[0])
+    parser.add_argument("--preset", choices=sorted(PRESETS), default="tiny")
+    parser.add_argument("--out", required=True, type=Path, help="study folder (resumable)")
+    parser.add_argument("--scenes", nargs="+", default=list(SCENES), choices=SCENES)
+    parser.add_argument("--models", nargs="+", default=list(MODELS), choices=MODELS)
+    parser.add_argument("--sampling", nargs="+", default=list(SAMPLINGS),
+                        choices=("uniform", "isg", "ist"))
+    parser.add_argument("--docs", type=Path, help="write the study report (Markdown) here")
+    parser.add_argument("--threads", type=int, default=1, help="torch CPU threads (default 1)")
+    parser.add_argument("-q", "--quiet", action="store_true")
+    args = parser.parse_args(argv)
+    import torch
+
+    torch.set_num_threads(args.threads)
+    t0 = time.perf_counter()
+    try:
+        run_study(args.out, args.preset, args.scenes, args.models, args.sampling,
+                  progress=not args.quiet)
+        if args.docs:
+            from reference_models.study_report import write_report
+
+            write_report(args.out, args.docs, preset=args.preset,
+                         command=" ".join(["python -m reference_models.study", *(argv or sys.argv[1:])]))
+    except InputError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    print(f"study done in {time.perf_counter() - t0:.0f} s: {args.out}", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,58 @@
+"""The tiny validation study end to end: train, render, score, leaderboard, report; resumable."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from dynaeval.errors import InputError
+from reference_models.study import MODELS, SCENES, main, run_study
+
+
+@pytest.fixture(scope="module")
+def study(tmp_path_factory):
+    import torch
+
+    torch.set_num_threads(1)
+    root = tmp_path_factory.mktemp("study")
+    docs = root / "docs" / "validation.md"
+    assert main(["--preset", "tiny", "--out", str(root / "s"), "--docs", str(docs), "-q"]) == 0
+    return root / "s", docs
+
+
+def test_every_scene_model_and_sampling_is_scored(study):
+    out, _ = study
+    board = json.loads((out / "leaderboard.json").read_text())
+    results = sorted(p.name for p in (out / "results").glob("*.json"))
+    assert len(results) == len(SCENES) * len(MODELS) * 2
+    for path in (out / "results").glob("*.json"):
+        doc = json.loads(path.read_text())
+        assert doc["summary"]["n_frames"] > 0
+        assert doc["summary"]["focused_psnr"] is not None
+        assert doc["inputs"]["unscored_cameras"]  # training cameras are not scored
+        assert all(c.startswith("eval") for c in doc["inputs"]["cameras"])
+    assert board["schema"] == "dynaeval/leaderboard/v1"
+
+
+def test_report_is_generated_with_its_images(study):
+    _, docs = study
+    text = docs.read_text()
+    for scene in SCENES:
+        assert f"## {scene}" in text
+    images = [line.split("](")[1].rstrip(")") for line in text.splitlines()
+              if line.startswith("![")]
+    assert images and all((docs.parent / i).is_file() for i in images)
+    assert "The seed study's findings, checked" in text
+
+
+def test_finished_runs_are_not_redone(study):
+    out, _ = study
+    stamps = {p: p.stat().st_mtime_ns for p in (out / "runs").rglob("train.json")}
+    run_study(out, "tiny", progress=False)
+    assert {p: p.stat().st_mtime_ns for p in stamps} == stamps
+
+
+def test_unknown_preset():
+    with pytest.raises(InputError, match="unknown study preset 'huge'"):
+        run_study(__import__("pathlib").Path("/nonexistent"), "huge")
