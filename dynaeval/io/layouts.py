@@ -13,7 +13,8 @@ Rules (docs/integration.md repeats them with examples):
    Several matches (e.g. ``test/`` and ``train/`` splits) are an error listing them: point at one.
 2. ``score PRED GT`` (two folders): used as given, so ``score RUN/color RUN/gt-color`` works too.
    If PRED is itself a render folder (holds ``color/`` + ``gt-color/`` or ``rgb/`` + ``gt-rgb/``)
-   and GT is the same folder, rule 1 applies.
+   and GT is the same folder, rule 1 applies; the same ordinary folder twice is scored as given
+   (the ground truth against itself: a sanity check that gives the ideal values).
 3. nerfstudio ``ns-eval --render-output-path`` writes ``NNNNNN-img.jpg`` files that hold the ground
    truth and the prediction side by side in one 8-bit JPEG: they are refused with a message
    (JPEG loss and the shared file make them unfit for scoring); render with ``ns-render`` instead.
@@ -100,6 +101,8 @@ def detect_layout(pred: str | Path, gt: str | Path | None = None) -> RenderLayou
             found += _pairs_in(sub)
     if len(found) == 1:
         return found[0]
+    if same and not found:  # PRED and GT are one ordinary folder: a self-check, scored as given
+        return RenderLayout("folders", pred, pred)
     known = "; ".join(f"{n}: {p}/ + {g}/" for n, (p, g) in LAYOUTS.items())
     if not found:
         raise InputError(

@@ -76,3 +76,11 @@ def test_cli_scores_a_render_folder_with_one_argument(tmp_path, rng, capsys):
     assert a["method"] == a["scene"] == "myrun"
     assert main(["score", str(tmp_path / "nothing"), "--no-lpips", "-q"]) == 2
     assert "render folder not found" in capsys.readouterr().err
+
+
+def test_same_ordinary_folder_twice_is_scored_as_given(tmp_path):
+    from dynaeval.io.layouts import detect_layout
+
+    (tmp_path / "gt" / "cam00").mkdir(parents=True)
+    layout = detect_layout(tmp_path / "gt", tmp_path / "gt")
+    assert layout.name == "folders" and layout.pred == layout.gt == tmp_path / "gt"
