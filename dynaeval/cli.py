@@ -52,6 +52,9 @@ def _add_score_options(p: argparse.ArgumentParser) -> None:
                         "(default), margin, or none; boxes are then clipped and merged")
     p.add_argument("--no-masked", action="store_true",
                    help="skip motion masks and the masked_* metrics")
+    p.add_argument("--no-presence", action="store_true",
+                   help="skip the per-object presence check (presence_person, presence_ball, "
+                        "tight_psnr_*)")
     p.add_argument("--no-temporal", action="store_true",
                    help="skip the temporal metrics (warp_error, tof, tlp, flicker)")
     p.add_argument("--flow", choices=["dis", "farneback", "tvl1"], default="dis",
@@ -188,6 +191,7 @@ def _run_score(pred: str, gt: str | None, args: argparse.Namespace, *, overwrite
             device=getattr(args, "device", "cpu"),
         ),
         temporal=not getattr(args, "no_temporal", False),
+        presence=not getattr(args, "no_presence", False),
         flow=getattr(args, "flow", "dis"),
         protocol=getattr(args, "protocol", "dynaeval"),
     )

@@ -3,6 +3,7 @@
 Importing this package does not import torch: LPIPS imports it on first call.
 """
 
+from dynaeval.metrics.accumulate import ImageMetrics
 from dynaeval.metrics.focused import (
     focused_lpips,
     focused_psnr,
@@ -26,17 +27,20 @@ from dynaeval.metrics.pixel import (
     quantize,
     squared_error_stats,
 )
+from dynaeval.metrics.presence import frame_presence
 from dynaeval.metrics.registry import METRICS, MetricInfo
 from dynaeval.metrics.structural import ssim, ssim_map, ssim_reference
 
 __all__ = [
     "LPIPS_BACKENDS",
+    "ImageMetrics",
     "METRICS",
     "MetricInfo",
     "SquaredErrorStats",
     "backbone_weights_file",
     "focused_lpips",
     "focused_psnr",
+    "frame_presence",
     "focused_ssim",
     "load_lpips",
     "load_lpips_onnx",

@@ -5,12 +5,14 @@ from __future__ import annotations
 from typing import Any
 
 REGIONS = (("", "whole"), ("focused_", "focused"), ("masked_", "masked"))
+OBJECT_PREFIXES = ("presence_", "tight_psnr_")
+"""Per-object metrics (``dynaeval.metrics.presence``): shown in a table of their own."""
 
 
 def _fmt(base: str, value: Any) -> str:
     if value is None:
         return "n/a"
-    return f"{value:.3f}" if base == "psnr" else f"{value:.4f}"
+    return f"{value:.3f}" if "psnr" in base else f"{value:.4f}"
 
 
 def _base(name: str) -> str:
@@ -42,6 +44,8 @@ def summary_table(results: dict[str, Any]) -> str:
     for name in metrics:
         if _base(name) not in bases:
             bases.append(_base(name))
+    objects = [b for b in bases if b.startswith(OBJECT_PREFIXES)]
+    bases = [b for b in bases if b not in objects]
     regions = [(p, label) for p, label in REGIONS if any(p + b in metrics for b in bases)]
     rows = []
     for b in bases:
@@ -57,6 +61,13 @@ def summary_table(results: dict[str, Any]) -> str:
         f"{n_cams} camera{'s' if n_cams != 1 else ''} (means over frames)",
         *_render(["metric"] + [label for _, label in regions], rows),
     ]
+    if objects:
+        obj_rows = []
+        for b in objects:
+            arrow = "↑" if metrics[b]["higher_is_better"] else "↓"
+            unit = f" ({metrics[b]['unit']})" if metrics[b]["unit"] else ""
+            obj_rows.append([f"{b} {arrow}{unit}", _fmt(b, summary.get(b))])
+        out += ["", *_render(["per object (tight boxes)", "mean"], obj_rows)]
     whole = [b for b in bases if b in metrics and b in ("psnr", "ssim", "lpips")]
     if n_cams > 1 and whole:
         cam_rows = [
