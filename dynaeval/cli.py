@@ -246,7 +246,8 @@ def _run_detect(args: argparse.Namespace) -> int:
 
 
 def _run_leaderboard(args: argparse.Namespace) -> int:
-    from dynaeval.report.leaderboard import build_leaderboard, render, write_text_atomic
+    from dynaeval.io.atomic import write_text_atomic
+    from dynaeval.report.leaderboard import build_leaderboard, render
 
     if args.output and Path(args.output).exists() and not args.overwrite:
         raise InputError("output file exists; pass --overwrite or choose another -o",

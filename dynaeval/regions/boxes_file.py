@@ -28,8 +28,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -38,6 +36,7 @@ from typing import Any
 import numpy as np
 
 from dynaeval.errors import InputError
+from dynaeval.io.atomic import write_text_atomic
 from dynaeval.regions.boxes import as_boxes
 
 BOXES_SCHEMA = "dynaeval/boxes/v1"
@@ -205,7 +204,7 @@ def write_boxes_file(
     boxes: Mapping[str, Iterable[Mapping[str, Any]]],
     source: Mapping[str, Any] | None = None,
 ) -> Path:
-    """Write ``boxes`` in the wrapper layout, atomically (temp file + ``os.replace``).
+    """Write ``boxes`` in the wrapper layout, atomically (``dynaeval.io.atomic``).
 
     The records are validated first (same rules as reading), so a written file always reads back.
     A failed write leaves any existing file at ``path`` untouched. Returns the path.
@@ -215,15 +214,7 @@ def write_boxes_file(
     doc = {"schema": BOXES_SCHEMA, "source": _plain(dict(source or {})), "boxes": _plain(clean)}
     text = json.dumps(doc, indent=1, allow_nan=False)  # before opening: a bad value leaves no file
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-            f.write("\n")
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    write_text_atomic(path, text + "\n", overwrite=True, what="boxes file")
     return path
 
 

@@ -219,7 +219,8 @@ def write_report(
         InputError: ``index.html`` exists and not ``overwrite``, ``out_dir`` is a file, or a frame
             listed in the results is gone.
     """
-    from dynaeval.report.leaderboard import TABLE_CSS, write_text_atomic
+    from dynaeval.io.atomic import write_text_atomic
+    from dynaeval.report.leaderboard import TABLE_CSS
 
     out_dir = Path(out_dir)
     index = out_dir / "index.html"

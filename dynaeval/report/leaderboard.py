@@ -25,8 +25,6 @@ from __future__ import annotations
 import csv
 import io
 import math
-import os
-import tempfile
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
@@ -445,25 +443,3 @@ def render(board: dict[str, Any], fmt: str = "md", by: str = "method") -> str:
         _ordered_rows(board, by)  # validates ``by``
         return json.dumps(board, indent=1, allow_nan=False, ensure_ascii=False) + "\n"
     raise InputError(f"format must be one of {', '.join(FORMATS)}, got {fmt!r}")
-
-
-def write_text_atomic(path: str | Path, text: str, *, overwrite: bool = False) -> Path:
-    """Write ``text`` (UTF-8) to ``path`` through a temporary file renamed into place.
-
-    Raises:
-        InputError: ``path`` exists and not ``overwrite``, or its folder is missing.
-    """
-    path = Path(path)
-    if path.exists() and not overwrite:
-        raise InputError("output file exists; pass --overwrite or choose another -o", path=path)
-    if not path.parent.is_dir():
-        raise InputError("folder for the output file does not exist", path=path.parent)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path

@@ -27,13 +27,12 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
 from dynaeval.errors import InputError
+from dynaeval.io.atomic import write_text_atomic
 
 SCHEMA = "dynaeval/results/v1"
 
@@ -211,29 +210,15 @@ def strict(obj: Any) -> Any:
 
 
 def write_json_atomic(path: str | Path, doc: Any, *, overwrite: bool = False) -> Path:
-    """Write ``doc`` as strict JSON to ``path`` atomically (temp file in the same folder, then
-    rename): a failed run never leaves a half-written file.
+    """Write ``doc`` as strict JSON to ``path`` atomically (``dynaeval.io.atomic``): a failed
+    run never leaves a half-written file.
 
     Raises:
         InputError: ``path`` exists and ``overwrite`` is False, or its folder is missing.
+        ValueError: ``doc`` holds NaN or infinity (nothing is written).
     """
-    path = Path(path)
-    if path.exists() and not overwrite:
-        raise InputError("results file exists; pass --overwrite or choose another -o", path=path)
-    if not path.parent.is_dir():
-        raise InputError("folder for the results file does not exist", path=path.parent)
-    text = json.dumps(doc, indent=1, allow_nan=False, ensure_ascii=False)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text + "\n")
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
+    text = json.dumps(doc, indent=1, allow_nan=False, ensure_ascii=False) + "\n"
+    return write_text_atomic(path, text, overwrite=overwrite, what="results file")
 
 
 def schema_path() -> Path:
