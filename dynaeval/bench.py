@@ -382,6 +382,28 @@ def score_throughput(pred: str, gt: str, workers: tuple[int, ...], extra: list[s
     return rows
 
 
+def degrade_folder(src: str | Path, dst: str | Path, seed: int = 0) -> int:
+    """Write a stand-in prediction for every PNG under ``src`` to the same relative path under
+    ``dst``: Gaussian blur (5x5, sigma 1.2) plus Gaussian noise (sigma 3 of 255), 8-bit PNG.
+
+    For throughput runs only (the cost of scoring does not depend on what the method did).
+    Returns the number of frames written.
+    """
+    import cv2
+
+    rng = np.random.default_rng(seed)
+    src, dst = Path(src), Path(dst)
+    count = 0
+    for f in sorted(src.rglob("*.png")):
+        img = cv2.imread(str(f), cv2.IMREAD_COLOR).astype(np.float32)
+        out = cv2.GaussianBlur(img, (5, 5), 1.2) + rng.normal(0.0, 3.0, img.shape)
+        target = dst / f.relative_to(src)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        cv2.imwrite(str(target), np.clip(out, 0, 255).astype(np.uint8))
+        count += 1
+    return count
+
+
 def sample_scene_crop_vs_map(with_lpips: bool = True) -> str:
     """Markdown table: focused SSIM/LPIPS by crop and by map on the bundled sample scene.
 
@@ -584,11 +606,19 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--threads-study", action="store_true",
                         help="also time LPIPS with torch threads 1 / 2 / 2 without OpenMP spinning")
     parser.add_argument("--peers", default=",".join(PEERS), help="comma-separated peers to compare")
-    parser.add_argument("--score", nargs=2, metavar=("PRED", "GT"),
-                        help="also time whole `dynaeval score PRED GT` runs (frames/s, peak RSS)")
+    parser.add_argument("--score", nargs=2, metavar=("PRED", "GT"), action="append",
+                        help="also time whole `dynaeval score PRED GT` runs (frames/s, peak RSS); "
+                        "repeatable")
+    parser.add_argument("--degrade", nargs=2, metavar=("SRC", "DST"),
+                        help="only write blurred+noised stand-in predictions of the PNGs in SRC to "
+                        "DST (for --score) and exit")
     parser.add_argument("--score-workers", default="1,2", help="worker counts for --score")
     parser.add_argument("--score-args", default="", help="extra arguments for --score (one string)")
     args = parser.parse_args(argv)
+    if args.degrade:
+        n = degrade_folder(*args.degrade)
+        print(f"{n} frames written to {args.degrade[1]}")
+        return 0
     if args.torch_threads > 0 and not args.no_lpips:
         import torch
 
@@ -657,14 +687,14 @@ def main(argv: list[str] | None = None) -> int:
             torch_threads_study(),
             "",
         ]
-    if args.score:
+    for pred_dir, gt_dir in args.score or []:
         extra = args.score_args.split()
         workers = tuple(int(v) for v in args.score_workers.split(","))
-        tp = score_throughput(args.score[0], args.score[1], workers, extra)
+        tp = score_throughput(pred_dir, gt_dir, workers, extra)
         parts += [
-            "## Whole `dynaeval score` runs",
+            f"## Whole `dynaeval score` runs: {gt_dir}",
             "",
-            f"`python -m dynaeval score {args.score[0]} {args.score[1]} --workers N -q -o TMP "
+            f"`python -m dynaeval score {pred_dir} {gt_dir} --workers N -q -o TMP "
             f"{args.score_args}`, each in a child process; CPU time and peak resident memory",
             "(`ru_maxrss`) of that child from `os.wait4`.",
             "",

@@ -54,3 +54,15 @@ def test_score_throughput_runs_score_in_a_child(tmp_path):
                                   ["--no-lpips", "--no-temporal", "--focus", "none", "--no-masked"])
     assert rows[0]["workers"] == 1 and rows[0]["frames"] == 16
     assert rows[0]["max_rss_mb"] > 10 and rows[0]["cpu_s"] > 0 and rows[0]["fps"] > 0
+
+
+def test_degrade_writes_one_frame_per_png(tmp_path):
+    import cv2
+
+    src = tmp_path / "gt" / "cam0"
+    src.mkdir(parents=True)
+    img = (np.random.default_rng(0).random((20, 30, 3)) * 255).astype(np.uint8)
+    cv2.imwrite(str(src / "0000.png"), img)
+    assert bench.main(["--degrade", str(tmp_path / "gt"), str(tmp_path / "pred")]) == 0
+    out = cv2.imread(str(tmp_path / "pred" / "cam0" / "0000.png"))
+    assert out.shape == img.shape and not np.array_equal(out, img)
