@@ -199,12 +199,13 @@ def _warning(pair: FramePair, metric: str, reason: str) -> dict:
     return {"camera": pair.camera, "frame": pair.frame, "metric": metric, "reason": reason}
 
 
-PresenceStep = Callable[[FramePair, np.ndarray, np.ndarray],
+PresenceStep = Callable[[FramePair, np.ndarray, np.ndarray, FrameRegions],
                         tuple[dict[str, float | None], dict[str, str], list[dict]]]
 
 
 def _presence_step(config: ScoreConfig, sources: Any, settings: dict) -> PresenceStep | None:
-    """The per-frame presence step, ``(pair, pred, gt) -> (values, reasons, objects)``, or None
+    """The per-frame presence step, ``(pair, pred, gt, regions) -> (values, reasons, objects)``
+    (the ground-truth objects are ``regions.records``), or None
     when it does not run (``settings["presence"]`` says why)."""
     src = config.focus.source
     if not config.presence or src not in ("detector", "boxes"):
@@ -221,16 +222,12 @@ def _presence_step(config: ScoreConfig, sources: Any, settings: dict) -> Presenc
         "objects": "the boxes file's records" if src == "boxes" else "the detector on the ground truth",
     }
 
-    def step(pair: FramePair, pred: np.ndarray, gt: np.ndarray):
-        detections = None
-        if src == "boxes":
-            records = sources.boxes.get(frame_key(pair.camera, pair.frame))
-            if records is None:
-                why = f"frame {frame_key(pair.camera, pair.frame)!r} is not in the boxes file"
-                return dict.fromkeys(PRESENCE_METRICS), dict.fromkeys(PRESENCE_METRICS, why), []
-        else:  # the detector again on the ground truth: FrameRegions keeps boxes, not classes
-            records = sources.detector(gt).records()
-            detections = sources.detector(pred)
+    def step(pair: FramePair, pred: np.ndarray, gt: np.ndarray, regions: FrameRegions):
+        records = regions.records
+        if records is None:
+            why = f"frame {frame_key(pair.camera, pair.frame)!r} is not in the boxes file"
+            return dict.fromkeys(PRESENCE_METRICS), dict.fromkeys(PRESENCE_METRICS, why), []
+        detections = sources.detector(pred) if src == "detector" else None
         fp = frame_presence(pred, gt, records, detections=detections, config=pcfg)
         return fp.values, fp.reasons, fp.objects
 
@@ -278,7 +275,7 @@ def _score_frame(
         values.append((name, value, reason))
     if presence is not None:
         t0 = time.perf_counter()
-        found, reasons, row["objects"] = presence(pair, pred, gt)
+        found, reasons, row["objects"] = presence(pair, pred, gt, regions)
         values.extend((name, v, reasons.get(name)) for name, v in found.items())
         elapsed["presence"] = time.perf_counter() - t0
     for name, value, reason in values:

@@ -73,6 +73,9 @@ class FrameRegions:
     """Why ``mask`` is None."""
     raw_boxes: np.ndarray | None = None
     """(N, 4) boxes as found, before expansion (for reports)."""
+    records: list[dict] | None = None
+    """The objects behind ``raw_boxes`` with their classes (boxes-file or detector records
+    ``{class, id, box, ...}``); None for motion boxes, which have no class."""
 
 
 @dataclass
@@ -173,8 +176,11 @@ def camera_regions(
                 r.boxes_reason = f"frame {frame_key(camera, name)!r} is not in the boxes file"
                 continue
             raw = records_to_boxes(records)
+            r.records = list(records)
         elif cfg.source == "detector":
-            raw = sources.detector(load_gt(i)).boxes
+            detections = sources.detector(load_gt(i))
+            raw = detections.boxes
+            r.records = detections.records()
         else:  # motion
             if r.mask is None:
                 r.boxes_reason = r.mask_reason
