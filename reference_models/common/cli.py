@@ -1,7 +1,7 @@
 """The command line every reference model shares (exit 0 done, 2 bad input)::
 
     python -m reference_models.<model> train DATA --out RUN [--size tiny|small] [--iters N]
-        [--sampling uniform|isg|ist] [--resume] [--threads 2]
+        [--minutes M] [--sampling uniform|isg|ist] [--resume] [--threads 1]
     python -m reference_models.<model> render RUN [--data DATA] [--every N]
 """
 
@@ -25,6 +25,8 @@ def _parser(spec: ModelSpec) -> argparse.ArgumentParser:
     t.add_argument("--out", required=True, help="run folder (config, checkpoint, log)")
     t.add_argument("--size", default="small", help=f"preset: {', '.join(spec.presets)} (default small)")
     t.add_argument("--iters", type=int, help="optimisation steps (default: the preset's)")
+    t.add_argument("--minutes", type=float,
+                   help="training-time budget: stop (and anneal) by then even before --iters")
     t.add_argument("--sampling", choices=SAMPLING, help="ray sampling (default: the preset's, uniform)")
     t.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
     t.add_argument("--threads", type=int, default=1, help="torch CPU threads (default 1: faster than 2 on a shared machine)")
@@ -47,8 +49,10 @@ def main(spec: ModelSpec, argv: list[str] | None = None) -> int:
     torch.set_num_threads(max(1, args.threads))
     try:
         if args.command == "train":
+            over = {} if args.minutes is None else {"minutes": args.minutes}
             rec = train(spec, args.data, args.out, size=args.size, iters=args.iters,
-                        sampling=args.sampling, resume=args.resume, progress=not args.quiet)
+                        sampling=args.sampling, resume=args.resume, progress=not args.quiet,
+                        overrides=over)
             msg = ", ".join(f"{k} {rec[k]:.4g}" for k in ("step", "psnr", "eval_psnr", "train_seconds")
                             if k in rec)
             print(f"trained {spec.name}: {msg}; checkpoint in {args.out}", file=sys.stderr)

@@ -122,21 +122,25 @@ class DynamicRadianceModel(nn.Module):
         self.sky_net = _mlp(16, 32, 3, 1)
         half = 0.5 * (self.box[1] - self.box[0])
         self.t_lin = float(2.0 * half.max())
+        self.unit = float(half.max())
+        """Length (m) of one density unit: densities are per half box size, not per metre, so the
+        initial density (about exp(-1)) is a light haze over the box, not a wall in front of the
+        camera (an 18 m box at 0.37 / m is opaque after a few metres: nothing can be learnt)."""
 
     def _points(self, rays: RayBatch, edges: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """Grid coordinates (R*S, 4) of the bin midpoints and bin lengths (R, S) in metres."""
+        """Grid coordinates (R*S, 4) of the bin midpoints and bin lengths (R, S) in ``unit``s."""
         cfg = self.config
         dist = spacing_to_distance(edges, cfg.near, self.t_lin, cfg.far)
         mid = 0.5 * (dist[:, 1:] + dist[:, :-1])
         xyz = rays.origins[:, None, :] + rays.directions[:, None, :] * mid[..., None]
         t = (2.0 * rays.times - 1.0)[:, None, None].expand(-1, mid.shape[1], 1)
         coords = torch.cat([contract(xyz, self.box), t], dim=-1).reshape(-1, 4)
-        return coords, dist[:, 1:] - dist[:, :-1]
+        return coords, (dist[:, 1:] - dist[:, :-1]) / self.unit
 
     def density_and_color(self, coords: torch.Tensor, dirs: torch.Tensor
                           ) -> tuple[torch.Tensor, torch.Tensor]:
         """The radiance field at (N, 4) grid coordinates seen along (N, 3) unit directions:
-        density (N,) in 1/m and colour (N, 3) in [0, 1]."""
+        density (N,) per ``unit`` of length and colour (N, 3) in [0, 1]."""
         h = self.density_net(self.encoding(coords))
         density = trunc_exp(h[:, 0] - 1.0)
         color = torch.sigmoid(self.color_net(torch.cat([h[:, 1:], spherical_harmonics(dirs)], -1)))

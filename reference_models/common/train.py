@@ -37,6 +37,10 @@ class TrainConfig:
 
     iters: int = 2000
     """Optimisation steps (K-Planes DyNeRF: 90,000 on a GPU)."""
+    minutes: float | None = None
+    """Training-time budget: stop after this many minutes of training even before ``iters``;
+    the cosine schedule and the ISG->IST switch then follow whichever of steps and time is
+    further along (robust to a shared machine's changing load). None: steps only."""
     batch_rays: int = 1024
     """Rays per step (K-Planes: 4,096)."""
     lr: float = 1e-2
@@ -96,14 +100,14 @@ class ModelSpec:
 def standard_presets(tiny: Any, small: Any) -> dict[str, tuple[Any, RenderConfig, TrainConfig]]:
     """The sizes every model offers, given its model configs for each: ``tiny`` for tests
     (seconds: 256 rays x (32 + 16) samples, 80 steps) and ``small`` for the documented runs
-    (512 rays x (64 + 32) samples, 300 steps: ~15 minutes on the shared 2-core machine)."""
+    (512 rays x (64 + 32) samples, 1,500 steps or 12 training minutes, whichever comes first)."""
     return {
         "tiny": (tiny, RenderConfig(proposal_samples=(32,), final_samples=16,
                                     proposal_resolution=(16,), hidden=32),
                  TrainConfig(iters=80, batch_rays=256, warmup=10, log_every=10, eval_every=0,
                              eval_views=2, checkpoint_every=1000)),
-        "small": (small, RenderConfig(), TrainConfig(iters=300, batch_rays=512, eval_every=50,
-                                                     eval_views=2, eval_stride=2)),
+        "small": (small, RenderConfig(), TrainConfig(iters=1500, minutes=12.0, batch_rays=512,
+                                                     eval_every=100, eval_views=2, eval_stride=2)),
     }
 
 
@@ -119,11 +123,20 @@ def build_model(spec: ModelSpec, model_cfg: Any, render_cfg: RenderConfig, scene
     return DynamicRadianceModel(enc, torch.tensor(scene["box"]), scene["n_frames"], render_cfg)
 
 
-def _lr_factor(step: int, cfg: TrainConfig) -> float:
+def _progress(step: int, seconds: float, cfg: TrainConfig) -> float:
+    """How far the run is, in [0, 1]: steps done, or the time budget used when further along."""
+    done = step / cfg.iters
+    if cfg.minutes:
+        done = max(done, seconds / (60.0 * cfg.minutes))
+    return min(done, 1.0)
+
+
+def _lr_factor(step: int, progress: float, cfg: TrainConfig) -> float:
     if step < cfg.warmup:
         return (step + 1) / cfg.warmup
-    frac = (step - cfg.warmup) / max(cfg.iters - cfg.warmup, 1)
-    return 0.5 * (1.0 + math.cos(math.pi * min(frac, 1.0)))
+    start = cfg.warmup / cfg.iters
+    frac = (progress - start) / max(1.0 - start, 1e-9)
+    return 0.5 * (1.0 + math.cos(math.pi * min(max(frac, 0.0), 1.0)))
 
 
 def _to_uint8(img: torch.Tensor) -> np.ndarray:
@@ -186,14 +199,14 @@ def train(spec: ModelSpec, data_path: str | Path, out: str | Path, size: str = "
     """Train ``spec``'s model on the dataset at ``data_path`` into the run folder ``out``.
 
     ``size`` picks the preset; ``iters``, ``sampling`` and ``overrides`` (TrainConfig field ->
-    value) change it. ``resume`` continues a run from its checkpoint (its saved configs win,
-    except ``iters``, which may extend it). Returns the last log record. Raises InputError for a
+    value) change it. ``resume`` continues a run from its checkpoint (its saved configs, changed
+    only by ``iters``, ``sampling`` and ``overrides``). Returns the last log record. Raises InputError for a
     bad preset or sampling, a missing dataset, or an existing run without ``resume``.
     """
     out = Path(out)
     if resume:
         cfg, model, ckpt = load_run(out, spec)
-        train_cfg = _from_dict(TrainConfig, cfg["train_config"])
+        train_cfg = _from_dict(TrainConfig, {**cfg["train_config"], **(overrides or {})})
         size = cfg["size"]
         data_path = cfg["data"] if data_path is None else data_path
     else:
@@ -255,11 +268,12 @@ def _loop(model: DynamicRadianceModel, data: Dataset, cfg: TrainConfig, out: Pat
                       "train_seconds": seconds, "sampler_rng": sampler.generator.get_state(),
                       "torch_rng": torch.get_rng_state()}, out / "checkpoint.pt")
 
-    while step < cfg.iters:
+    while _progress(step, seconds, cfg) < 1.0:
         t0 = time.perf_counter()
+        progress_now = _progress(step, seconds, cfg)
         for g in optim.param_groups:
-            g["lr"] = cfg.lr * _lr_factor(step, cfg)
-        v, r, c = sampler.sample(cfg.batch_rays, step / cfg.iters)
+            g["lr"] = cfg.lr * _lr_factor(step, progress_now, cfg)
+        v, r, c = sampler.sample(cfg.batch_rays, progress_now)
         o, d = pixel_rays(c2w[v], intr[v], r, c)
         target = images[v, r, c].to(torch.float32) / 255.0
         res = model.render(RayBatch(o, d, times[v]), training=True)
@@ -276,12 +290,13 @@ def _loop(model: DynamicRadianceModel, data: Dataset, cfg: TrainConfig, out: Pat
         acc_loss += float(loss.detach())
         acc_psnr += -10.0 * math.log10(max(float(mse.detach()), 1e-10))
         bar.update(1)
-        is_eval = data.eval is not None and (step == cfg.iters or (cfg.eval_every and step % cfg.eval_every == 0))
-        if step % cfg.log_every == 0 or step == cfg.iters or is_eval:
+        last = _progress(step, seconds, cfg) >= 1.0
+        is_eval = data.eval is not None and (last or (cfg.eval_every and step % cfg.eval_every == 0))
+        if step % cfg.log_every == 0 or last or is_eval:
             record = {"step": step, "loss": acc_loss / window_n, "psnr": acc_psnr / window_n,
                       "it_per_s": window_n / window_t, "train_seconds": round(seconds, 3),
                       "lr": optim.param_groups[0]["lr"],
-                      "sampling": sampler.kind_at((step - 1) / cfg.iters) or "uniform"}
+                      "sampling": sampler.kind_at(progress_now) or "uniform"}
             if is_eval:
                 record["eval_psnr"] = eval_psnr(model, data.eval, cfg.eval_views, cfg.eval_stride)
             log_file.write(json.dumps(record) + "\n")
@@ -289,7 +304,7 @@ def _loop(model: DynamicRadianceModel, data: Dataset, cfg: TrainConfig, out: Pat
             bar.set_postfix({k: f"{record[k]:.3g}" for k in ("loss", "psnr", "it_per_s", "eval_psnr")
                              if k in record})
             window_t, window_n, acc_loss, acc_psnr = 0.0, 0, 0.0, 0.0
-        if step % cfg.checkpoint_every == 0 or step == cfg.iters:
+        if step % cfg.checkpoint_every == 0 or last:
             save()
     bar.close()
     log_file.close()
