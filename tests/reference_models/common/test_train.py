@@ -67,3 +67,18 @@ def test_cli_exit_codes(tiny_data, tmp_path, capsys):
     assert "not a training run" in capsys.readouterr().err
     assert main(SPEC, ["train", str(tmp_path / "nope"), "--out", str(tmp_path / "r"), "--quiet"]) == 2
     assert "dataset folder does not exist" in capsys.readouterr().err
+
+
+def test_time_budget_stops_and_anneals(tiny_data, tmp_path):
+    rec = train(SPEC, tiny_data, tmp_path / "r", size="tiny", iters=1000, progress=False,
+                overrides={"minutes": 1e-9, "batch_rays": 16})
+    assert rec["step"] == 1 and "eval_psnr" in rec  # over budget after the first step
+
+
+def test_schedule_warms_up_then_decays_with_steps_or_time():
+    cfg = train_mod.TrainConfig(iters=100, warmup=10, minutes=2.0)
+    assert train_mod._lr_factor(0, 0.0, cfg) == pytest.approx(0.1)
+    assert train_mod._lr_factor(10, train_mod._progress(10, 0.0, cfg), cfg) == pytest.approx(1.0)
+    assert train_mod._progress(20, 90.0, cfg) == pytest.approx(0.75)  # time is further along
+    assert train_mod._progress(50, 1e9, cfg) == 1.0
+    assert train_mod._lr_factor(99, 1.0, cfg) == pytest.approx(0.0, abs=1e-12)
