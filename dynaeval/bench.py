@@ -155,6 +155,17 @@ def bench_size(
         ref_ssim = float(peers["skimage"].structural_similarity(p64, g64, **sk_kw))
     add("ssim", "dynaeval", lambda: M.ssim(pred, gt), ref_ssim)
     add("ssim", "dynaeval, 2 threads over bands", lambda: M.ssim(pred, gt, threads=2), ref_ssim)
+
+    def gt_side_pass() -> float:
+        # one of the fast path's four filter passes: the GT-side moment a per-GT cache could reuse
+        import cv2
+
+        from dynaeval.metrics.structural import _kernel
+
+        k = _kernel()
+        return float(cv2.sepFilter2D(gt - np.float32(0.5), cv2.CV_32F, k, k).mean())
+
+    add("ssim", "GT-side filter pass alone (what caching mu_g saves per method)", gt_side_pass, None)
     if "skimage" in peers:
         add("ssim", "scikit-image (float32 in)", lambda: peers["skimage"].structural_similarity(pred, gt, **sk_kw), ref_ssim)
         add("ssim", "scikit-image (float64 in)", lambda: peers["skimage"].structural_similarity(p64, g64, **sk_kw), ref_ssim)
@@ -168,6 +179,18 @@ def bench_size(
             ),
             ref_ssim,
         )
+
+    # decoding one ground-truth frame (8-bit PNG, as renders are stored) costs about one SSIM
+    import tempfile
+
+    import cv2
+
+    from dynaeval.io.images import read_image
+
+    with tempfile.TemporaryDirectory() as tmp:
+        png = Path(tmp) / "gt.png"
+        cv2.imwrite(str(png), cv2.cvtColor((gt * 255).round().astype(np.uint8), cv2.COLOR_RGB2BGR))
+        add("decode", "dynaeval read_image (8-bit PNG -> float32)", lambda: float(read_image(png).mean()), None)
 
     # focused / masked PSNR and SSIM
     mask = boxes_to_mask(boxes, height, width)
