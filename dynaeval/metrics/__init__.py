@@ -4,6 +4,7 @@ Importing this package does not import torch: LPIPS imports it on first call.
 """
 
 from dynaeval.metrics.accumulate import ImageMetrics
+from dynaeval.metrics.flow import FlowCache, FlowConfig, optical_flow, valid_warp_mask, warp
 from dynaeval.metrics.focused import (
     focused_lpips,
     focused_psnr,
@@ -30,18 +31,30 @@ from dynaeval.metrics.pixel import (
 from dynaeval.metrics.presence import frame_presence
 from dynaeval.metrics.registry import METRICS, MetricInfo
 from dynaeval.metrics.structural import ssim, ssim_map, ssim_reference
+from dynaeval.metrics.temporal import (
+    TemporalConfig,
+    flicker,
+    temporal_metrics,
+    tlp,
+    tof,
+    warp_error,
+)
 
 __all__ = [
-    "LPIPS_BACKENDS",
+    "FlowCache",
+    "FlowConfig",
     "ImageMetrics",
+    "LPIPS_BACKENDS",
     "METRICS",
     "MetricInfo",
     "SquaredErrorStats",
+    "TemporalConfig",
     "backbone_weights_file",
+    "flicker",
     "focused_lpips",
     "focused_psnr",
-    "frame_presence",
     "focused_ssim",
+    "frame_presence",
     "load_lpips",
     "load_lpips_onnx",
     "lpips",
@@ -49,6 +62,7 @@ __all__ = [
     "masked_lpips",
     "masked_psnr",
     "masked_ssim",
+    "optical_flow",
     "psnr",
     "psnr_from_stats",
     "quantize",
@@ -56,4 +70,10 @@ __all__ = [
     "ssim",
     "ssim_map",
     "ssim_reference",
+    "temporal_metrics",
+    "tlp",
+    "tof",
+    "valid_warp_mask",
+    "warp",
+    "warp_error",
 ]

@@ -39,6 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from dynaeval.metrics.presence import PresenceConfig, crop_similarity, tight_box, visibility
+from reference_models.studies._doc import replace_block
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "presence.md"
 BEGIN, END = "<!-- BEGIN presence_study -->", "<!-- END presence_study -->"
@@ -382,9 +383,7 @@ def main() -> None:
     md = "\n".join(text)
     print(md)
     if args.write:
-        doc = DOC.read_text()
-        i, j = doc.index(BEGIN) + len(BEGIN), doc.index(END)
-        DOC.write_text(doc[:i] + "\n" + md + "\n" + doc[j:])
+        replace_block(DOC, BEGIN, END, md)
 
 
 if __name__ == "__main__":

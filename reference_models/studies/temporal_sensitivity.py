@@ -37,6 +37,7 @@ from dynaeval.metrics import psnr_from_stats, squared_error_stats, ssim
 from dynaeval.metrics.flow import FlowCache, FlowConfig, optical_flow
 from dynaeval.metrics.temporal import TemporalConfig, temporal_metrics
 from dynaeval.regions import mask_to_box
+from reference_models.studies._doc import replace_block
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "temporal-metrics.md"
 BEGIN, END = "<!-- BEGIN temporal_sensitivity -->", "<!-- END temporal_sensitivity -->"
@@ -448,9 +449,7 @@ def main() -> None:
     block = "\n".join(parts)
     print(block)
     if args.write:
-        text = DOC.read_text()
-        i, j = text.index(begin) + len(begin), text.index(end)
-        DOC.write_text(text[:i] + "\n" + block + "\n" + text[j:])
+        replace_block(DOC, begin, end, block)
 
 
 if __name__ == "__main__":
