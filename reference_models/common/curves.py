@@ -5,9 +5,9 @@
 Plots the logged eval-camera PSNR of every run against its training seconds and prints a
 Markdown table per run: steps, training minutes, iterations/s, last eval PSNR, parameters,
 checkpoint size, and — when ``RUN/results.json`` from ``dynaeval score`` exists — its whole-frame,
-focused and masked PSNR. With ``--data DATA`` (a generator dataset) it also says whether the ball
-survives: PSNR inside the ball's boxes (``DATA/boxes.json``) of the rendered frames, next to the
-same PSNR of the ground truth rendered *without* the ball (what a model that drops the ball gets).
+focused, masked and per-object (tight box) PSNR.
+Whether the ball survives is dynaeval's own ``presence_ball`` (``dynaeval.metrics.presence``),
+read from the results like the other scores.
 """
 
 from __future__ import annotations
@@ -29,9 +29,13 @@ def read_log(run: Path) -> list[dict]:
 
 
 def run_summary(run: Path) -> dict:
-    """One table row of a run (see module doc)."""
+    """One table row of a run (see module doc). A folder with ``results.json`` but no log (e.g.
+    the constant-colour baseline) gets the score columns only."""
     import torch
 
+    res = Path(run) / "results.json"
+    if not (Path(run) / "log.jsonl").is_file() and res.is_file():
+        return {"run": Path(run).name, **_scores(res)}
     log = read_log(run)
     evals = [r for r in log if "eval_psnr" in r]
     ckpt = Path(run) / "checkpoint.pt"
@@ -45,42 +49,14 @@ def run_summary(run: Path) -> dict:
         "params_M": sum(v.numel() for k, v in state.items() if v.is_floating_point()) / 1e6,
         "ckpt_MB": ckpt.stat().st_size / 1e6 if ckpt.is_file() else None,
     }
-    res = Path(run) / "results.json"
-    if res.is_file():
-        summary = json.loads(res.read_text())["summary"]
-        for key in ("psnr", "focused_psnr", "masked_psnr"):
-            row[f"score_{key}"] = summary.get(key)
-    return row
+    return {**row, **_scores(res)} if res.is_file() else row
 
 
-def ball_psnr(run: Path, data: Path) -> dict:
-    """``ball_psnr`` (dB) of ``RUN/pred`` inside the visible ball boxes vs the ground truth, and
-    ``noball_psnr``: the generator's render of the same frames with the ball hidden, scored the
-    same way. The model keeps the ball where ``ball_psnr`` clearly beats ``noball_psnr``."""
-    import numpy as np
-
-    from dynaeval.io.images import read_image
-    from dynaeval.metrics import psnr
-    from reference_models.scenes import build_scene, render_view
-
-    meta = json.loads((Path(data) / "metadata.json").read_text())
-    boxes = json.loads((Path(data) / "boxes.json").read_text())
-    scene = build_scene(meta["preset"], meta["seed"], meta["size"], meta["width"], meta["height"],
-                        meta["frames"], meta["fps"], meta["spp"])
-    got, base = [], []
-    for pred in sorted((Path(run) / "pred").glob("*/*.png")):
-        key = f"{pred.parent.name}/{pred.stem}"
-        ball = [b["box"] for b in boxes.get(key, []) if b["class"] == "ball" and b["visible"] > 0.5]
-        if not ball:
-            continue
-        gt = read_image(Path(data) / "images" / f"{key}.png")
-        noball = render_view(scene, pred.parent.name, int(pred.stem), hide=("ball",)).rgb
-        noball = np.round(np.clip(noball, 0, 1) * 255) / 255
-        got.append(psnr(read_image(pred), gt, boxes=np.array(ball)))
-        base.append(psnr(noball.astype(np.float32), gt, boxes=np.array(ball)))
-    if not got:
-        return {"ball_psnr": None, "noball_psnr": None}
-    return {"ball_psnr": float(np.mean(got)), "noball_psnr": float(np.mean(base))}
+def _scores(results: Path) -> dict:
+    summary = json.loads(results.read_text())["summary"]
+    keys = ("psnr", "focused_psnr", "masked_psnr", "tight_psnr_person", "tight_psnr_ball",
+            "presence_person", "presence_ball")
+    return {f"score_{k}": summary.get(k) for k in keys}
 
 
 def plot(runs: list[Path], out: Path) -> None:
@@ -92,13 +68,16 @@ def plot(runs: list[Path], out: Path) -> None:
 
     fig, ax = plt.subplots(figsize=(6.4, 4.0), dpi=120)
     for run in runs:
+        if not (Path(run) / "log.jsonl").is_file():
+            continue  # a baseline without training has no curve
         evals = [r for r in read_log(run) if "eval_psnr" in r]
         ax.plot([r["train_seconds"] / 60 for r in evals], [r["eval_psnr"] for r in evals],
                 marker="o", label=Path(run).name)
     ax.set_xlabel("training wall time (min, 1 thread on a shared 2-core machine)")
     ax.set_ylabel("eval-camera PSNR (dB)")
     ax.grid(alpha=0.3)
-    ax.legend()
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend()
     fig.tight_layout()
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out)
@@ -127,14 +106,10 @@ def main(argv: list[str] | None = None) -> int:
                                 description="PSNR-vs-time curves and a table from training runs.")
     p.add_argument("runs", nargs="+", type=Path, help="run folders (log.jsonl, checkpoint.pt)")
     p.add_argument("--out", type=Path, required=True, help="PNG file for the curves")
-    p.add_argument("--data", type=Path, help="generator dataset: add the ball-survival columns")
     args = p.parse_args(argv)
     try:
         plot(args.runs, args.out)
-        rows = [run_summary(r) for r in args.runs]
-        if args.data is not None:
-            rows = [{**row, **ball_psnr(r, args.data)} for row, r in zip(rows, args.runs, strict=True)]
-        print(markdown_table(rows))
+        print(markdown_table([run_summary(r) for r in args.runs]))
     except InputError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
