@@ -26,6 +26,8 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument("--steps", type=int, help="optimiser steps (default: the size's)")
     t.add_argument("--seeds", type=int, help="training scenes per preset (default: the size's)")
     t.add_argument("--threads", type=int, help="torch threads (default 1)")
+    t.add_argument("--lr", type=float, help="peak learning rate (default: the size's)")
+    t.add_argument("--init", help="start from this model.pt (a second training stage)")
     t.add_argument("--cache", default=str(DEFAULT_CACHE), help="render cache folder")
     t.add_argument("--fp16", action="store_true", help="store ONNX weights as float16")
     e = sub.add_parser("export", help="export a checkpoint (model.pt) to YOLO-convention ONNX")
@@ -57,13 +59,14 @@ def _train(args) -> int:
     if args.seeds:
         plan = replace(plan, seeds=args.seeds)
     cfg = replace(cfg, seed=args.seed, **({"steps": args.steps} if args.steps else {}),
-                  **({"threads": args.threads} if args.threads else {}))
+                  **({"threads": args.threads} if args.threads else {}),
+                  **({"lr": args.lr} if args.lr else {}))
     out = Path(args.out)
     start = time.perf_counter()
     samples = training_samples(Path(args.cache), plan, progress=_log if args.size != "tiny" else None)
     render_s = time.perf_counter() - start
     _log(f"{len(samples)} training views ready in {render_s:.0f} s")
-    net = train(samples, cfg, out, log=_log)
+    net = train(samples, cfg, out, log=_log, init=Path(args.init) if args.init else None)
     meta = {"trained_by": "python -m reference_models.detector " + shlex.join(sys.argv[1:]),
             "train_seed": str(args.seed), "render_plan": json.dumps(plan.__dict__)}
     export_onnx(net, out / "detector.onnx", meta, fp16=args.fp16)

@@ -1,14 +1,17 @@
 """A small anchor-free (CenterNet-style) detector for person and ball, and its ONNX export.
 
 Network: a plain conv backbone down to stride 32 (ReLU, batch norm), a top-down path (FPN-like)
-back to stride 4, and one head at stride 4 predicting per cell: 2 class heat-map logits, the box
-size ``log(w / 4), log(h / 4)`` and the sub-cell centre offset in [0, 1] (sigmoid). Stride 4 keeps
-a ball of 4-8 input px on its own cell.
+back to stride 4, and one head at stride 4 predicting per cell and per class: a heat-map logit,
+the box size ``log(w / 4), log(h / 4)`` and the sub-cell centre offset in [0, 1] (sigmoid). Stride 4
+keeps a ball of 4-8 input px on its own cell; sizes and offsets per class let a ball in front of a
+player's body share the player's centre cell without taking over its box.
 
 ``Decoded`` (the exported graph) turns the raw maps into the YOLO convention the runtime decodes:
-one output ``(1, 4 + 2, N)`` with ``N = (H / 4) * (W / 4)`` candidates, rows ``cx, cy, w, h`` in
-input pixels then the two class scores in [0, 1]. Scores are zero except at 3 x 3 local maxima of
-each class map (CenterNet's peak extraction), so the runtime's NMS sees one candidate per object.
+one output ``(1, 4 + C, N)`` with ``N = C * (H / 4) * (W / 4)`` candidates (class 0's cells, then
+class 1's), rows ``cx, cy, w, h`` in input pixels then the C class scores in [0, 1], of which only
+the candidate's own class is non-zero (so the runtime's arg-max over classes never hides one class
+behind another at the same cell). Scores are zero except at 3 x 3 local maxima of each class map
+(CenterNet's peak extraction), so the runtime's NMS sees about one candidate per object.
 """
 
 from __future__ import annotations
@@ -36,8 +39,8 @@ class CenterNetSmall(nn.Module):
     """Backbone widths ``(12, 16, 32, 64, 96)`` at strides 2..32, 16 channels at the head.
 
     ``forward(x)``: ``x`` ``(B, 3, H, W)`` float32 RGB in [0, 1] (H, W multiples of 32 for
-    training; any size for inference) -> ``(heat_logits (B, 2, H/4, W/4), size (B, 2, ...),
-    offset_logits (B, 2, ...))``.
+    training; any size for inference) -> ``(heat_logits (B, C, H/4, W/4), size (B, 2C, ...),
+    offset_logits (B, 2C, ...))``; channels ``2k, 2k + 1`` of size and offset are class k's x, y.
     """
 
     def __init__(self, widths: tuple[int, ...] = (12, 16, 32, 64, 96), head: int = 16) -> None:
@@ -56,8 +59,8 @@ class CenterNetSmall(nn.Module):
         self.fuse4 = _conv(w3, head)
         self.head = _conv(head, head)
         self.heat = nn.Conv2d(head, len(CLASS_NAMES), 1)
-        self.size = nn.Conv2d(head, 2, 1)
-        self.offset = nn.Conv2d(head, 2, 1)
+        self.size = nn.Conv2d(head, 2 * len(CLASS_NAMES), 1)
+        self.offset = nn.Conv2d(head, 2 * len(CLASS_NAMES), 1)
         nn.init.constant_(self.heat.bias, -4.6)  # prior 0.01 (focal-loss init)
 
     @staticmethod
@@ -88,15 +91,28 @@ class Decoded(nn.Module):
         prob = torch.sigmoid(heat)
         peak = F.max_pool2d(prob, 3, stride=1, padding=1)
         prob = prob * (prob >= peak).to(prob.dtype)
-        b, _, gh, gw = prob.shape
+        b, n_cls, gh, gw = prob.shape
         ys = torch.arange(gh, dtype=x.dtype).view(1, 1, gh, 1).expand(b, 1, gh, gw)
         xs = torch.arange(gw, dtype=x.dtype).view(1, 1, 1, gw).expand(b, 1, gh, gw)
         off = torch.sigmoid(offset)
-        cx = (xs + off[:, :1]) * STRIDE
-        cy = (ys + off[:, 1:]) * STRIDE
         wh = torch.exp(size.clamp(-4.0, 6.0)) * STRIDE
-        out = torch.cat([cx, cy, wh, prob], dim=1)
-        return out.flatten(2)
+        per_class = []
+        for k in range(n_cls):
+            cx = (xs + off[:, 2 * k : 2 * k + 1]) * STRIDE
+            cy = (ys + off[:, 2 * k + 1 : 2 * k + 2]) * STRIDE
+            scores = [prob[:, k : k + 1] if j == k else torch.zeros_like(cx) for j in range(n_cls)]
+            per_class.append(torch.cat([cx, cy, wh[:, 2 * k : 2 * k + 2], *scores], dim=1).flatten(2))
+        return torch.cat(per_class, dim=2)
+
+
+def widen_heads(state: dict) -> dict:
+    """A checkpoint whose size / offset heads are shared by the classes (2 output channels) made
+    loadable into the per-class heads (2C channels) by copying the shared head to every class."""
+    out = dict(state)
+    for name in ("size.weight", "size.bias", "offset.weight", "offset.bias"):
+        if name in out and out[name].shape[0] == 2:
+            out[name] = out[name].repeat(len(CLASS_NAMES), *([1] * (out[name].dim() - 1)))
+    return out
 
 
 def count_parameters(net: nn.Module) -> int:
@@ -106,7 +122,7 @@ def count_parameters(net: nn.Module) -> int:
 
 def export_onnx(net: CenterNetSmall, path, metadata: dict[str, str] | None = None, fp16: bool = False) -> None:
     """Write the YOLO-convention graph (input ``images`` ``(1, 3, 416, 416)`` float32 RGB in [0, 1];
-    output ``output0`` ``(1, 6, N)``, N = 104 * 104) with ``names`` metadata ``{0: 'person', 1: 'ball'}``.
+    output ``output0`` ``(1, 6, N)``, N = 2 * 104 * 104) with ``names`` metadata ``{0: 'person', 1: 'ball'}``.
 
     ``fp16`` stores the weights as float16 (half the file) with float32 compute kept by casting
     them back inside the graph.

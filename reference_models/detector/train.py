@@ -31,7 +31,7 @@ MIN_SIDE = 2.0
 class TrainConfig:
     """Optimisation and augmentation settings of one training run."""
 
-    steps: int = 2500
+    steps: int = 3500
     """Optimiser steps."""
     batch: int = 8
     """Crops per step."""
@@ -127,15 +127,15 @@ def targets(boxes: np.ndarray, cls: np.ndarray, ignore: np.ndarray, size: int) -
 
     ``heat`` (2, g, g) in [0, 1]: an elliptical Gaussian per object (sigma = 0.1 x box side in
     cells, at least 0.5) with 1 at its centre cell; ``weight`` (2, g, g): 0 inside ignored boxes,
-    else 1; ``size`` / ``offset`` (2, g, g) regression targets and ``reg_mask`` (g, g) at centre
-    cells.
+    else 1; ``size`` / ``offset`` (4, g, g) regression targets (channels ``2k, 2k + 1`` for class
+    k) and ``reg_mask`` (2, g, g) at each class's centre cells.
     """
     g = size // STRIDE
     heat = np.zeros((len(CLASS_NAMES), g, g), dtype=np.float32)
     weight = np.ones_like(heat)
-    size_t = np.zeros((2, g, g), dtype=np.float32)
-    off_t = np.zeros((2, g, g), dtype=np.float32)
-    reg = np.zeros((g, g), dtype=np.float32)
+    size_t = np.zeros((2 * len(CLASS_NAMES), g, g), dtype=np.float32)
+    off_t = np.zeros_like(size_t)
+    reg = np.zeros((len(CLASS_NAMES), g, g), dtype=np.float32)
     ys, xs = np.mgrid[0:g, 0:g].astype(np.float32)
     for b, k, ig in zip(boxes, cls, ignore, strict=True):
         if ig:
@@ -150,9 +150,9 @@ def targets(boxes: np.ndarray, cls: np.ndarray, ignore: np.ndarray, size: int) -
         gauss = np.exp(-0.5 * (((xs - ix) / sx) ** 2 + ((ys - iy) / sy) ** 2))
         heat[k] = np.maximum(heat[k], gauss)
         heat[k, iy, ix] = 1.0
-        size_t[:, iy, ix] = np.log(np.maximum([w / STRIDE, h / STRIDE], 1e-3))
-        off_t[:, iy, ix] = (cx - ix, cy - iy)
-        reg[iy, ix] = 1.0
+        size_t[2 * k : 2 * k + 2, iy, ix] = np.log(np.maximum([w / STRIDE, h / STRIDE], 1e-3))
+        off_t[2 * k : 2 * k + 2, iy, ix] = (cx - ix, cy - iy)
+        reg[k, iy, ix] = 1.0
     return {"heat": heat, "weight": weight, "size": size_t, "offset": off_t, "reg_mask": reg}
 
 
@@ -173,8 +173,8 @@ def loss_fn(outputs, batch: dict, cfg: TrainConfig):
     neg_loss = -((1 - pos) * w * (1 - t_heat) ** 4 * p**2 * log_1p).sum()
     n_pos = pos.sum().clamp(min=1.0)
     focal = (pos_loss + neg_loss) / n_pos
-    m = batch["reg_mask"].unsqueeze(1)
-    n_reg = m.sum().clamp(min=1.0)
+    m = batch["reg_mask"].repeat_interleave(2, dim=1)  # (B, C, g, g) -> (B, 2C, g, g)
+    n_reg = (m.sum() / 2).clamp(min=1.0)  # objects (each has an x and a y term)
     l_size = (torch.abs(size - batch["size"]) * m).sum() / n_reg
     l_off = (torch.abs(torch.sigmoid(offset) - batch["offset"]) * m).sum() / n_reg
     total = focal + cfg.size_weight * l_size + cfg.offset_weight * l_off
@@ -204,11 +204,12 @@ def lr_at(step: int, cfg: TrainConfig) -> float:
     return cfg.lr * (0.02 + 0.98 * 0.5 * (1 + math.cos(math.pi * t)))
 
 
-def train(samples: list[dict], cfg: TrainConfig, out: Path, log=print):
-    """Train from scratch on ``samples``; write ``out/model.pt`` and ``out/train.json``; return the net."""
+def train(samples: list[dict], cfg: TrainConfig, out: Path, log=print, init: Path | None = None):
+    """Train on ``samples`` from scratch, or from the weights in ``init`` (a ``model.pt``: a second
+    stage with its own schedule); write ``out/model.pt`` and ``out/train.json``; return the net."""
     import torch
 
-    from reference_models.detector.model import CenterNetSmall, count_parameters
+    from reference_models.detector.model import CenterNetSmall, count_parameters, widen_heads
 
     if not samples:
         raise ValueError("no training samples")
@@ -216,6 +217,8 @@ def train(samples: list[dict], cfg: TrainConfig, out: Path, log=print):
     torch.manual_seed(cfg.seed)
     rng = np.random.default_rng(cfg.seed)
     net = CenterNetSmall()
+    if init is not None:
+        net.load_state_dict(widen_heads(torch.load(init, map_location="cpu", weights_only=True)))
     opt = torch.optim.AdamW(net.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -242,7 +245,7 @@ def train(samples: list[dict], cfg: TrainConfig, out: Path, log=print):
             torch.save(net.state_dict(), out / "model.pt")
     seconds = time.perf_counter() - start
     torch.save(net.state_dict(), out / "model.pt")
-    info = {"config": asdict(cfg), "train_seconds": round(seconds, 1), "views": len(samples),
+    info = {"config": asdict(cfg), "init": None if init is None else str(init), "train_seconds": round(seconds, 1), "views": len(samples),
             "parameters": count_parameters(net), "torch": torch.__version__, "history": history}
     (out / "train.json").write_text(json.dumps(info, indent=1) + "\n")
     return net

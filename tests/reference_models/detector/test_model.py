@@ -13,6 +13,7 @@ from reference_models.detector.model import (
     Decoded,
     count_parameters,
     export_onnx,
+    widen_heads,
 )
 
 
@@ -33,23 +34,37 @@ def test_decoded_reads_cell_offset_size_and_keeps_only_peaks():
     heat[0, 0, 3, 5] = 2.0  # a person peak at row 3, col 5
     heat[0, 0, 3, 6] = 1.0  # its weaker neighbour: suppressed (not a 3x3 maximum)
     heat[0, 1, 6, 1] = 0.0  # a ball at row 6, col 1 with score 0.5
-    size = torch.zeros(1, 2, g, g)
-    size[0, :, 3, 5] = torch.tensor([np.log(2.0), np.log(5.0)])
-    offset = torch.zeros(1, 2, g, g)  # sigmoid(0) = 0.5: the cell centre
+    heat[0, 1, 3, 5] = 1.0  # and a ball on the person's centre cell (in front of the body)
+    size = torch.zeros(1, 4, g, g)
+    size[0, 0:2, 3, 5] = torch.tensor([np.log(2.0), np.log(5.0)])  # person: 8 x 20 px
+    offset = torch.zeros(1, 4, g, g)  # sigmoid(0) = 0.5: the cell centre
+    offset[0, 3, 3, 5] = 20.0  # the ball's y offset: sigmoid -> 1
     out = Decoded(_Fixed(heat, size, offset))(torch.zeros(1, 3, g * STRIDE, g * STRIDE))
-    assert out.shape == (1, 6, g * g)
+    assert out.shape == (1, 6, 2 * g * g)
     person = out[0, :, 3 * g + 5]
-    np.testing.assert_allclose(person[:4].numpy(), [5.5 * STRIDE, 3.5 * STRIDE, 2 * STRIDE, 5 * STRIDE], rtol=1e-6)
-    np.testing.assert_allclose(float(person[4]), 1 / (1 + np.exp(-2.0)), rtol=1e-6)
+    np.testing.assert_allclose(person.numpy(), [5.5 * STRIDE, 3.5 * STRIDE, 2 * STRIDE, 5 * STRIDE,
+                                                1 / (1 + np.exp(-2.0)), 0.0], rtol=1e-6)
     assert float(out[0, 4, 3 * g + 6]) == 0.0
-    np.testing.assert_allclose(float(out[0, 5, 6 * g + 1]), 0.5, rtol=1e-6)
-    assert int((out[0, 4:] > 0.01).sum()) == 2
+    ball = out[0, :, g * g + 3 * g + 5]  # same cell, its own candidate, box and score
+    np.testing.assert_allclose(ball.numpy(), [5.5 * STRIDE, 4 * STRIDE, STRIDE, STRIDE, 0.0,
+                                              1 / (1 + np.exp(-1.0))], rtol=1e-6)
+    np.testing.assert_allclose(float(out[0, 5, g * g + 6 * g + 1]), 0.5, rtol=1e-6)
+    assert int((out[0, 4:] > 0.01).sum()) == 3
+
+
+def test_shared_head_checkpoint_widens_to_per_class_heads():
+    old = CenterNetSmall().state_dict()
+    old["size.weight"], old["size.bias"] = old["size.weight"][:2], old["size.bias"][:2]
+    new = widen_heads(old)
+    assert new["size.weight"].shape == (4, *old["size.weight"].shape[1:])
+    assert torch.equal(new["size.weight"][2:], old["size.weight"])
+    CenterNetSmall().load_state_dict(new)  # loads without a shape error
 
 
 def test_network_shapes_and_size():
     net = CenterNetSmall().eval()
     heat, size, offset = net(torch.zeros(1, 3, 64, 96))
-    assert heat.shape == (1, len(CLASS_NAMES), 16, 24) and size.shape == offset.shape == (1, 2, 16, 24)
+    assert heat.shape == (1, len(CLASS_NAMES), 16, 24) and size.shape == offset.shape == (1, 4, 16, 24)
     assert 100_000 < count_parameters(net) < 750_000  # a few hundred K: a file of ~1.5 MB
 
 
@@ -77,7 +92,7 @@ def test_export_matches_torch_and_carries_names(exported):
     (got,) = sess.run(None, {inp.name: x})
     with torch.no_grad():
         want = Decoded(net)(torch.from_numpy(x)).numpy()
-    assert got.shape == (1, 6, (INPUT_SIZE // STRIDE) ** 2)
+    assert got.shape == (1, 6, 2 * (INPUT_SIZE // STRIDE) ** 2)
     np.testing.assert_allclose(got[0, :4], want[0, :4], rtol=1e-4, atol=1e-3)  # px
     both = (got[0, 4:] > 0) & (want[0, 4:] > 0)
     np.testing.assert_allclose(got[0, 4:][both], want[0, 4:][both], rtol=1e-4, atol=1e-5)

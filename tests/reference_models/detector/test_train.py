@@ -43,10 +43,18 @@ def test_targets_peak_size_offset_and_ignore():
     assert t["heat"].shape == (2, g, g)
     cx, cy = 16 / STRIDE, 28 / STRIDE
     assert t["heat"][0, int(cy), int(cx)] == 1.0 and (t["heat"][0] == 1.0).sum() == 1
-    np.testing.assert_allclose(t["size"][:, int(cy), int(cx)], np.log([16 / STRIDE, 32 / STRIDE]), rtol=1e-6)
-    np.testing.assert_allclose(t["offset"][:, int(cy), int(cx)], [cx - int(cx), cy - int(cy)], atol=1e-6)
+    np.testing.assert_allclose(t["size"][0:2, int(cy), int(cx)], np.log([16 / STRIDE, 32 / STRIDE]), rtol=1e-6)
+    np.testing.assert_allclose(t["offset"][0:2, int(cy), int(cx)], [cx - int(cx), cy - int(cy)], atol=1e-6)
     assert t["heat"][1].max() == 0.0 and t["weight"][1, 10:12, 10:12].max() == 0.0
-    assert t["weight"][0].min() == 1.0 and t["reg_mask"].sum() == 1
+    assert t["weight"][0].min() == 1.0 and t["reg_mask"].sum() == 1 and t["reg_mask"][0].sum() == 1
+
+
+def test_a_ball_in_front_of_the_body_keeps_the_players_size_target():
+    boxes = np.array([[8.0, 12.0, 24.0, 44.0], [14.0, 26.0, 18.0, 30.0]])  # same centre cell
+    t = targets(boxes, np.array([0, 1]), np.array([False, False]), 64)
+    iy, ix = int(28 / STRIDE), int(16 / STRIDE)
+    assert t["reg_mask"][:, iy, ix].tolist() == [1.0, 1.0]
+    np.testing.assert_allclose(t["size"][:, iy, ix], np.log([4, 8, 1, 1]), rtol=1e-6)
 
 
 @settings(max_examples=20, deadline=None)
