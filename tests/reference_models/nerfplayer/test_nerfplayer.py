@@ -73,6 +73,6 @@ def test_window_regulariser_and_size():
                                                 max_resolution=8), 4)
     with torch.no_grad():
         enc.table.fill_(1.0)
-    enc(torch.zeros(5, 4))
-    assert float(enc.regularizers()["window_l1"]) == 0.0  # constant in time: no penalty
+        enc(torch.zeros(5, 4))
+        assert float(enc.regularizers()["window_l1"]) == 0.0  # constant in time: no penalty
     assert enc.table.shape == (27 + 256, 2 + 4 - 1)  # level 0 dense (3^3), level 1 hashed
