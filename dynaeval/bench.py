@@ -375,11 +375,21 @@ def speed_error_plot(rows: list[dict[str, Any]], path: Path) -> None:
     plt.close(fig)
 
 
+_RUSAGE_WRAPPER = """
+import resource, subprocess, sys
+code = subprocess.run(sys.argv[1:], stdout=subprocess.DEVNULL).returncode
+u = resource.getrusage(resource.RUSAGE_CHILDREN)
+print(code, u.ru_utime + u.ru_stime, u.ru_maxrss)
+"""
+
+
 def score_throughput(pred: str, gt: str, workers: tuple[int, ...], extra: list[str]) -> list[dict[str, Any]]:
     """Run ``python -m dynaeval score PRED GT --workers N`` in a child process for each N.
 
-    Returns rows ``{workers, frames, wall_s, cpu_s, fps, max_rss_mb}``; CPU time and peak RSS
-    (``ru_maxrss``) come from ``os.wait4`` on that child alone.
+    Returns rows ``{workers, frames, wall_s, cpu_s, fps, max_rss_mb}``. CPU time and peak RSS
+    come from ``getrusage(RUSAGE_CHILDREN)`` in a small wrapper process that starts the score:
+    a process exec'd straight from this (large) one inherits this one's resident size as its
+    ``ru_maxrss`` on Linux, which would hide the score's own peak.
     """
     import json
     import subprocess
@@ -392,16 +402,15 @@ def score_throughput(pred: str, gt: str, workers: tuple[int, ...], extra: list[s
             cmd = [sys.executable, "-m", "dynaeval", "score", pred, gt, "--workers", str(n), "-q",
                    "-o", str(out), *extra]
             t0 = time.perf_counter()
-            proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-            _, status, usage = os.wait4(proc.pid, 0)
+            proc = subprocess.run([sys.executable, "-c", _RUSAGE_WRAPPER, *cmd], capture_output=True,
+                                  text=True, check=False)
             wall = time.perf_counter() - t0
-            err = proc.stderr.read().decode() if proc.stderr else ""
-            proc.returncode = os.waitstatus_to_exitcode(status)
-            if proc.returncode != 0:
-                raise RuntimeError(f"{' '.join(cmd)} failed ({proc.returncode}): {err[-2000:]}")
+            code, cpu, rss = proc.stdout.split()[-3:] if proc.stdout.strip() else ("1", "0", "0")
+            if proc.returncode != 0 or code != "0":
+                raise RuntimeError(f"{' '.join(cmd)} failed ({code}): {proc.stderr[-2000:]}")
             frames = len(json.loads(out.read_text())["frames"])
-        rows.append({"workers": n, "frames": frames, "wall_s": wall, "cpu_s": usage.ru_utime + usage.ru_stime,
-                     "fps": frames / wall, "max_rss_mb": usage.ru_maxrss / 1024, "command": " ".join(cmd[1:])})
+        rows.append({"workers": n, "frames": frames, "wall_s": wall, "cpu_s": float(cpu),
+                     "fps": frames / wall, "max_rss_mb": int(rss) / 1024, "command": " ".join(cmd[1:])})
     return rows
 
 
@@ -505,7 +514,7 @@ def format_table(rows: list[dict[str, Any]]) -> str:
     """Markdown table of the rows, with each implementation's CPU time relative to dynaeval's."""
     base: dict[tuple[str, str], float] = {}
     for r in rows:  # the first dynaeval row of each metric and size is the default path
-        if r["impl"].startswith("dynaeval") and "map" not in r["impl"]:
+        if r["impl"].startswith("dynaeval") and "map" not in r["impl"].split():
             base.setdefault((r["metric"], r["size"]), r["cpu_ms"])
     lines = [
         "| metric | size | implementation | wall ms / frame | CPU ms / frame | CPU time x dynaeval | abs. deviation from float64 reference | value |",
@@ -660,7 +669,9 @@ def main(argv: list[str] | None = None) -> int:
     table = format_table(rows)
     gap = crop_vs_map(rows)
     sample_gap = sample_scene_crop_vs_map(not args.no_lpips)
-    command = "python -m dynaeval.bench" + (" " + " ".join(argv if argv is not None else sys.argv[1:])).rstrip()
+    import shlex
+
+    command = "python -m dynaeval.bench" + (" " + shlex.join(argv if argv is not None else sys.argv[1:])).rstrip()
     parts = [
         "# Benchmarks",
         "",
