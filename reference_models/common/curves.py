@@ -84,6 +84,29 @@ def plot(runs: list[Path], out: Path) -> None:
     plt.close(fig)
 
 
+def strip(runs: list[Path], gt_images: Path, view: str, out: Path) -> None:
+    """Ground truth then each run's prediction of ``view`` (``camera/frame``) side by side, with
+    the folder names written on them, saved to ``out`` (PNG)."""
+    import cv2
+    import numpy as np
+
+    tiles = [("ground truth", Path(gt_images) / f"{view}.png")]
+    tiles += [(Path(r).name, Path(r) / "pred" / f"{view}.png") for r in runs]
+    imgs = []
+    for name, path in tiles:
+        img = cv2.imread(str(path))
+        if img is None:
+            raise InputError(f"no image for {view}", path=path)
+        cv2.putText(img, name, (4, 14), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (255, 255, 255), 1, cv2.LINE_AA)
+        imgs.append(img)
+    cols = 3
+    while len(imgs) % cols:
+        imgs.append(np.zeros_like(imgs[0]))
+    rows = [np.concatenate(imgs[i:i + cols], 1) for i in range(0, len(imgs), cols)]
+    out.parent.mkdir(parents=True, exist_ok=True)
+    cv2.imwrite(str(out), np.concatenate(rows, 0))
+
+
 def _fmt(v: object) -> str:
     if v is None:
         return "n/a"
@@ -106,8 +129,12 @@ def main(argv: list[str] | None = None) -> int:
                                 description="PSNR-vs-time curves and a table from training runs.")
     p.add_argument("runs", nargs="+", type=Path, help="run folders (log.jsonl, checkpoint.pt)")
     p.add_argument("--out", type=Path, required=True, help="PNG file for the curves")
+    p.add_argument("--strip", nargs=3, metavar=("GT_IMAGES", "CAMERA/FRAME", "PNG"),
+                   help="also write the ground truth and every run's prediction of one view")
     args = p.parse_args(argv)
     try:
+        if args.strip:
+            strip(args.runs, Path(args.strip[0]), args.strip[1], Path(args.strip[2]))
         plot(args.runs, args.out)
         print(markdown_table([run_summary(r) for r in args.runs]))
     except InputError as err:

@@ -5,7 +5,7 @@ import json
 import pytest
 
 from dynaeval.errors import InputError
-from reference_models.common.curves import main, markdown_table, run_summary
+from reference_models.common.curves import main, markdown_table, run_summary, strip
 
 
 def _run(path, evals):
@@ -40,3 +40,17 @@ def test_missing_log(tmp_path, capsys):
         run_summary(tmp_path)
     assert main([str(tmp_path), "--out", str(tmp_path / "c.png")]) == 2
     assert "not a training run" in capsys.readouterr().err
+
+
+def test_strip_of_one_view(tmp_path):
+    import cv2
+    import numpy as np
+
+    for path in ("gt/cam/0001.png", "a/pred/cam/0001.png", "b/pred/cam/0001.png"):
+        (tmp_path / path).parent.mkdir(parents=True, exist_ok=True)
+        cv2.imwrite(str(tmp_path / path), np.zeros((10, 20, 3), np.uint8))
+    out = tmp_path / "s.png"
+    strip([tmp_path / "a", tmp_path / "b"], tmp_path / "gt", "cam/0001", out)
+    assert cv2.imread(str(out)).shape == (10, 60, 3)
+    with pytest.raises(InputError, match="no image for cam/0002"):
+        strip([tmp_path / "a"], tmp_path / "gt", "cam/0002", out)
