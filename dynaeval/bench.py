@@ -729,8 +729,8 @@ def main(argv: list[str] | None = None) -> int:
             f"## Whole `dynaeval score` runs: {gt_dir}",
             "",
             f"`python -m dynaeval score {pred_dir} {gt_dir} --workers N -q -o TMP "
-            f"{args.score_args}`, each in a child process; CPU time and peak resident memory",
-            "(`ru_maxrss`) of that child from `os.wait4`.",
+            f"{args.score_args}`, each in a child process; its CPU time and peak resident memory",
+            "(`ru_maxrss`) from `getrusage(RUSAGE_CHILDREN)` in a small wrapper process.",
             "",
             _throughput_table(tp),
             "",
