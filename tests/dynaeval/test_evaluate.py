@@ -185,3 +185,23 @@ def test_default_config_scores_whole_frame_only(scene):
     res = dynaeval.score(pred_dir, gt_dir, ScoreConfig(lpips=False, temporal=False,
                                                        progress=False))
     assert set(res["metrics"]) == {"psnr", "ssim"}
+
+
+def test_temporal_pass_on_the_pool_keeps_numbers_and_order(tmp_path):
+    """With workers > 1 each camera's temporal pass runs on the pool (at most `workers` pending):
+    3 cameras make the 2-worker run wait for a pending pass; numbers and camera order unchanged."""
+    cams = ("cam0", "cam1", "cam2")
+    gt, frames = moving_square_scene(tmp_path / "gt", cameras=cams)
+    rng = np.random.default_rng(5)
+    for cam, seq in frames.items():
+        write_frames(tmp_path / "pred", cam, [
+            np.clip(f.astype(int) + rng.integers(-9, 10, f.shape), 0, 255).astype(np.uint8) for f in seq])
+    kw = {"lpips": False, "focus": FocusConfig(source="motion"), "progress": False}
+    runs = [json.loads(json.dumps(dict(dynaeval.score(tmp_path / "pred", gt, workers=w, **kw))))
+            for w in (1, 2, 3)]
+    assert list(runs[0]["cameras"]) == list(cams)
+    assert runs[0]["summary"]["warp_error"] is not None
+    for other in runs[1:]:
+        for key in ("frames", "cameras", "summary"):
+            assert other[key] == runs[0][key], key
+        assert list(other["cameras"]) == list(cams)
