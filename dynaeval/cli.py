@@ -29,6 +29,9 @@ def _add_score_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-lpips", action="store_true", help="skip LPIPS (no torch needed)")
     p.add_argument("--lpips-net", choices=["alex", "vgg"], default="alex",
                    help="LPIPS backbone (default: alex)")
+    p.add_argument("--lpips-backend", choices=["torch", "onnxruntime"], default="torch",
+                   help="run the LPIPS network with torch (the lpips package, default) or the same "
+                        "network exported to onnxruntime (faster on CPU, equal to 1e-6)")
     p.add_argument("--quantize", choices=["none", "round", "truncate"], default="none",
                    help="quantise both images to 8 bit before scoring, as some evaluators do "
                         "(default: none, or the protocol's)")
@@ -176,6 +179,7 @@ def _run_score(pred: str, gt: str | None, args: argparse.Namespace, *, overwrite
         scene=getattr(args, "scene", None) or ("sample" if args.command == "demo" else run_name),
         lpips=not args.no_lpips,
         lpips_net=getattr(args, "lpips_net", "alex"),
+        lpips_backend=getattr(args, "lpips_backend", "torch"),
         quantize=getattr(args, "quantize", "none"),
         background=getattr(args, "background", "white"),
         allow_missing=getattr(args, "allow_missing", False),

@@ -42,6 +42,7 @@ IGNORED_SETTINGS = (
     "allow_missing",
     "lpips.enabled",
     "lpips.device",
+    "lpips.backend",
     "lpips.unavailable",
     "focus.boxes_file.path",
     "focus.detector.model",

@@ -205,3 +205,20 @@ def test_temporal_pass_on_the_pool_keeps_numbers_and_order(tmp_path):
         for key in ("frames", "cameras", "summary"):
             assert other[key] == runs[0][key], key
         assert list(other["cameras"]) == list(cams)
+
+
+def test_onnxruntime_lpips_backend_gives_the_same_numbers(scene, random_lpips, monkeypatch):
+    pytest.importorskip("onnxruntime")
+    load_onnx = M.load_lpips_onnx
+    monkeypatch.setattr(M, "load_lpips_onnx",
+                        lambda net, **kw: load_onnx(net, pretrained_backbone=False, **kw))
+    pred_dir, gt_dir, _, _ = scene
+    kw = {"temporal": False, "focus": FocusConfig(source="motion"), "progress": False}
+    torch_run = dynaeval.score(pred_dir, gt_dir, **kw)
+    onnx_run = dynaeval.score(pred_dir, gt_dir, lpips_backend="onnxruntime", **kw)
+    assert onnx_run["settings"]["lpips"]["backend"] == "onnxruntime"
+    for name in ("lpips", "focused_lpips", "masked_lpips"):
+        np.testing.assert_allclose([f[name] for f in onnx_run["frames"]],
+                                   [f[name] for f in torch_run["frames"]], rtol=0, atol=1e-6)
+    with pytest.raises(InputError, match="lpips_backend must be torch or onnxruntime"):
+        dynaeval.score(pred_dir, gt_dir, lpips_backend="tensorrt", **kw)

@@ -1,0 +1,48 @@
+"""Decoded frames kept for reuse, so one scoring run decodes each file once where memory allows.
+
+A camera's ground truth is read by several passes (motion masks, detector, per-frame metrics,
+temporal terms) and its predictions by two; PNG decoding of a 1080p frame costs about as much as
+its SSIM. ``FrameCache`` keeps decoded frames up to a byte budget. It never evicts: once full, the
+frames already kept keep hitting and the rest are decoded on each read, so a sequential pass over
+more frames than fit degrades to the uncached cost instead of thrashing as an LRU would.
+"""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+
+from dynaeval.io.frames import FrameRef
+
+
+class FrameCache:
+    """Thread-safe store of decoded frames (read-only arrays), up to ``max_bytes``."""
+
+    def __init__(self, max_bytes: int) -> None:
+        self.max_bytes = int(max_bytes)
+        self.bytes = 0
+        self.hits = 0
+        self.misses = 0
+        self._frames: dict[tuple, np.ndarray] = {}
+        self._lock = threading.Lock()
+
+    def read(self, ref: FrameRef, background: str | float = "white") -> np.ndarray:
+        """``ref.read(background)``, from the cache when it was read before.
+
+        Returns a read-only (H, W, C) float32 array: callers must not modify it in place.
+        """
+        key = (ref.path, ref.index, background)
+        with self._lock:
+            frame = self._frames.get(key)
+            if frame is not None:
+                self.hits += 1
+                return frame
+            self.misses += 1
+        frame = ref.read(background)
+        frame.flags.writeable = False
+        with self._lock:
+            if key not in self._frames and self.bytes + frame.nbytes <= self.max_bytes:
+                self._frames[key] = frame
+                self.bytes += frame.nbytes
+        return frame
