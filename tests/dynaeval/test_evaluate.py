@@ -222,3 +222,26 @@ def test_onnxruntime_lpips_backend_gives_the_same_numbers(scene, random_lpips, m
                                    [f[name] for f in torch_run["frames"]], rtol=0, atol=1e-6)
     with pytest.raises(InputError, match="lpips_backend must be torch or onnxruntime"):
         dynaeval.score(pred_dir, gt_dir, lpips_backend="tensorrt", **kw)
+
+
+def test_focused_metrics_drop_when_only_the_inside_changes(tmp_path, scene):
+    _, gt_dir, gt, _ = scene
+    boxes = {}
+    for cam, seq in gt.items():
+        changed = []
+        for t, f in enumerate(seq):
+            boxes[f"{cam}/{t:04d}"] = [{"class": "person", "id": 1,
+                                         "box": [8 + 4 * t, 20, 18 + 4 * t, 30], "visible": 1.0}]
+            g = f.copy()
+            g[20:30, 8 + 4 * t: 18 + 4 * t] = 0  # the moving square goes black
+            changed.append(g)
+        write_frames(tmp_path / "inside", cam, changed)
+    write_boxes_file(tmp_path / "boxes.json", boxes)
+    focus = FocusConfig(source="boxes", boxes_file=str(tmp_path / "boxes.json"), expand="none",
+                        masked=False)
+    res = dynaeval.score(tmp_path / "inside", gt_dir, lpips=False, temporal=False, focus=focus,
+                         progress=False)
+    s = res["summary"]
+    assert s["focused_psnr"] < s["psnr"] - 10  # the box is ~3 % of the frame: 10 log10(1/0.03)
+    assert s["focused_ssim"] < s["ssim"]
+    assert s["presence_person"] == 0.0  # and the object check says it is gone
