@@ -194,6 +194,39 @@ def _frame_figure(row: dict[str, Any], metric: str, results: dict[str, Any],
     plt.close(fig)
 
 
+def missing_objects(results: dict[str, Any], n: int = 8) -> list[tuple[dict, dict]]:
+    """Up to ``n`` (frame row, object) pairs whose object the presence check found missing, in
+    frame order (``objects`` in the frame rows, written when presence ran)."""
+    out = []
+    for row in results["frames"]:
+        for obj in row.get("objects") or []:
+            if obj.get("present") is False and len(out) < n:
+                out.append((row, obj))
+    return out
+
+
+def _object_crops(row: dict[str, Any], obj: dict[str, Any], background: str, path: Path) -> None:
+    """Ground-truth and predicted crop of one object side by side (its tight box, 50 % margin,
+    at least 48 px), magnified to 160 px high with nearest-neighbour sampling."""
+    import cv2
+
+    gt, pred = _read_frame(row["gt"], background), _read_frame(row["pred"], background)
+    h, w = gt.shape[:2]
+    x0, y0, x1, y1 = obj["box"]
+    half = max(24.0, 0.75 * max(x1 - x0, y1 - y0))
+    cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
+    a, b = int(max(0, cx - half)), int(min(w, cx + half))
+    c, d = int(max(0, cy - half)), int(min(h, cy + half))
+    scale = 160 / max(1, d - c)
+    tiles = [cv2.resize(np.ascontiguousarray(img[c:d, a:b]), None, fx=scale, fy=scale,
+                        interpolation=cv2.INTER_NEAREST) for img in (gt, pred)]
+    gap = np.ones((tiles[0].shape[0], 6, tiles[0].shape[2]), np.float32)
+    both = np.concatenate([tiles[0], gap, tiles[1]], axis=1)
+    if both.shape[2] == 1:
+        both = np.repeat(both, 3, axis=2)
+    cv2.imwrite(str(path), np.round(np.clip(both, 0, 1) * 255).astype(np.uint8)[..., ::-1])
+
+
 def write_report(
     results: dict[str, Any],
     out_dir: str | Path,
@@ -266,6 +299,19 @@ def write_report(
         cap = ", ".join(f"{m} {row[m]:.4g}" for m in results["metrics"] if row.get(m) is not None)
         parts.append(f"<img src='{escape(src)}' alt='camera {escape(row['camera'])} frame "
                      f"{escape(row['frame'])}'><p>{escape(cap)}</p>")
+    missing = missing_objects(results)
+    if missing:
+        background = results["settings"].get("background", "white")
+        parts.append("<h2>Objects missing from the prediction</h2><p>Ground truth (left) and "
+                     "prediction (right) around each object the presence check did not find "
+                     "(first frames in order).</p>")
+        for i, (row, obj) in enumerate(missing):
+            file = img_dir / f"missing_{i:02d}.png"
+            _object_crops(row, obj, background, file)
+            cap = (f"camera {row['camera']} frame {row['frame']}: {obj['class']} {obj['id']} "
+                   + ", ".join(f"{k} {obj[k]:.3g}" for k in ("ncc", "psnr", "visibility")
+                               if isinstance(obj.get(k), float)))
+            parts.append(f"<img src='img/{file.name}' alt='{escape(cap)}'><p>{escape(cap)}</p>")
     if results["warnings"]:
         items = "".join(f"<li>{escape(json.dumps(w, ensure_ascii=False))}</li>"
                         for w in results["warnings"][:200])

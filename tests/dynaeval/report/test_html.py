@@ -39,7 +39,9 @@ def test_report_for_sample_scene_references_only_present_local_images(tmp_path, 
     html = index.read_text()
     srcs = _sources(html)
     per_frame = [m for m in results["metrics"] if m in results["frames"][0]]
-    assert len(srcs) == len(per_frame) + 3
+    from dynaeval.report.html import missing_objects
+
+    assert len(srcs) == len(per_frame) + 3 + len(missing_objects(results))
     for src in srcs:
         assert not src.startswith(("/", "http", "data:")) and (index.parent / src).is_file()
     on_disk = sorted(p.relative_to(index.parent).as_posix() for p in (index.parent / "img").iterdir())
@@ -104,3 +106,17 @@ def test_new_modules_import_no_heavy_dependency():
             "print(sorted(m for m in ('torch', 'matplotlib', 'onnxruntime', 'pandas') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+def test_report_shows_the_objects_missing_from_the_prediction(tmp_path):
+    from dynaeval.cli import main, sample_dir
+
+    out = tmp_path / "report"
+    assert main(["demo", "-q", "--no-lpips", "-o", str(tmp_path / "r.json"),
+                 "--report", str(out)]) == 0
+    html = (out / "index.html").read_text()
+    assert "Objects missing from the prediction" in html
+    crops = sorted((out / "img").glob("missing_*.png"))
+    # the sample's ball is erased on odd frames: those and only those are shown
+    assert crops and all(f"img/{c.name}" in html for c in crops)
+    assert "ball" in html.split("Objects missing")[1] and sample_dir().is_dir()
