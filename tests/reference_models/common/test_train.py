@@ -82,3 +82,35 @@ def test_schedule_warms_up_then_decays_with_steps_or_time():
     assert train_mod._progress(20, 90.0, cfg) == pytest.approx(0.75)  # time is further along
     assert train_mod._progress(50, 1e9, cfg) == 1.0
     assert train_mod._lr_factor(99, 1.0, cfg) == pytest.approx(0.0, abs=1e-12)
+
+
+def test_nothing_to_render_without_eval_views(tmp_path):
+    import cv2
+    import numpy as np
+
+    from reference_models.common.baseline import write_constant_baseline
+
+    frames = []
+    for i in range(2):
+        cv2.imwrite(str(tmp_path / f"f{i}.png"), np.full((6, 8, 3), 40 * i, np.uint8))
+        c2w = np.eye(4)
+        c2w[0, 3] = i
+        frames.append({"file_path": f"f{i}.png", "transform_matrix": c2w.tolist(), "time": float(i)})
+    (tmp_path / "transforms.json").write_text(json.dumps({"fl_x": 8.0, "frames": frames}))
+    train(SPEC, tmp_path, tmp_path / "run", size="tiny", iters=1, progress=False,
+          overrides={"batch_rays": 8})
+    with pytest.raises(InputError, match="names no evaluation views"):
+        render_run(SPEC, tmp_path / "run")
+    with pytest.raises(InputError, match="names no evaluation views"):
+        write_constant_baseline(tmp_path, tmp_path / "base")
+
+
+def test_bad_model_settings():
+    from reference_models.common.encodings import PlaneEncoding
+    from reference_models.common.model import DynamicRadianceModel, RenderConfig
+
+    with pytest.raises(ValueError, match="planes must be one of"):
+        PlaneEncoding(4, 3, (1,), 2, planes="diagonal")
+    with pytest.raises(ValueError, match="one proposal resolution per proposal level"):
+        DynamicRadianceModel(PlaneEncoding(4, 3, (1,), 2), torch.tensor([[-1.0] * 3, [1.0] * 3]), 3,
+                             RenderConfig(proposal_samples=(8, 4), proposal_resolution=(8,)))

@@ -1,6 +1,7 @@
 """K-Planes end to end on the tiny scene (train, render, `dynaeval score`) and its field."""
 
 import numpy as np
+import pytest
 import torch
 
 from reference_models.kplanes import SPEC, KPlanesConfig
@@ -54,3 +55,16 @@ def test_dynamic_box_encoding_is_static_outside_and_starts_static_inside():
         assert not torch.allclose(f[0], f[1])  # inside the moving box time matters ...
         np.testing.assert_allclose(f[2], enc.static(x)[2], rtol=1e-6)  # ... outside it does not
     assert set(enc.regularizers()) == {"tv", "time_smooth", "time_l1"}
+
+
+def test_moving_box_needs_something_that_moves(tmp_path):
+    from dynaeval.errors import InputError
+    from reference_models.common.data import Dataset
+    from reference_models.kplanes.field import find_moving_box
+    from tests.reference_models.common.test_importance import _views
+
+    views = _views()
+    views.images[:] = 90  # nothing moves any more
+    data = Dataset(tmp_path, views, None, 6, np.array([[-1.0] * 3, [1.0] * 3], np.float32))
+    with pytest.raises(InputError, match="found nothing that moves"):
+        find_moving_box(KPlanesConfig(dynamic_box=True), data)
