@@ -200,8 +200,9 @@ def train(spec: ModelSpec, data_path: str | Path, out: str | Path, size: str = "
 
     ``size`` picks the preset; ``iters``, ``sampling`` and ``overrides`` (TrainConfig field ->
     value) change it. ``resume`` continues a run from its checkpoint (its saved configs, changed
-    only by ``iters``, ``sampling`` and ``overrides``). Returns the last log record. Raises InputError for a
-    bad preset or sampling, a missing dataset, or an existing run without ``resume``.
+    only by ``iters``, ``sampling`` and ``overrides``). Returns the last log record. Raises
+    InputError for a bad preset or sampling, a missing dataset, or an existing run without
+    ``resume``.
     """
     out = Path(out)
     if resume:
@@ -279,7 +280,7 @@ def _loop(model: DynamicRadianceModel, data: Dataset, cfg: TrainConfig, out: Pat
         res = model.render(RayBatch(o, d, times[v]), training=True)
         mse = torch.mean((res.rgb - target) ** 2)
         terms = {**res.losses, **model.regularizers()}
-        loss = mse + sum(weights.get(k, 0.0) * val for k, val in terms.items())
+        loss = mse + sum(weights[k] * val for k, val in terms.items())  # a new term needs a weight
         optim.zero_grad(set_to_none=True)
         loss.backward()
         optim.step()
