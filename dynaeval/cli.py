@@ -207,7 +207,8 @@ def _run_score(pred: str, gt: str | None, args: argparse.Namespace, *, overwrite
     results = score(pred, gt, config, on_regions=recorder)
     for w in results["warnings"]:
         if "camera" not in w:  # run-level warnings; per-frame ones are in the JSON
-            print(f"dynaeval: warning: {w['reason']}", file=sys.stderr)
+            metric = f"{w['metric']}: " if w.get("metric") and not w["reason"].lower().startswith(w["metric"]) else ""
+            print(f"dynaeval: warning: {metric}{w['reason']}", file=sys.stderr)
     n_frame_warnings = sum("camera" in w for w in results["warnings"])  # per frame or camera
     if n_frame_warnings:
         print(f"dynaeval: {n_frame_warnings} warning(s) about single frames or cameras, listed in "
