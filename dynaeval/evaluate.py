@@ -429,7 +429,9 @@ def score(
         from dynaeval.metrics.temporal import TemporalConfig
 
         temporal_config = TemporalConfig(flow=FlowConfig(method=config.flow),
-                                         lpips_net=config.lpips_net)
+                                         lpips_net=config.lpips_net,
+                                         lpips_device=_resolve_device(config.device),
+                                         lpips_backend=config.lpips_backend)
         settings["temporal"] = temporal_config.describe()
     timing: dict[str, float] = defaultdict(float)
     lock = threading.Lock()

@@ -61,6 +61,13 @@ class TemporalConfig:
     """Backbone of the default LPIPS (``dynaeval.metrics.lpips``): ``"alex"`` or ``"vgg"``.
     Ignored when a ``lpips_fn`` is passed to :func:`temporal_metrics`."""
 
+    lpips_device: str | None = None
+    """Torch device of the default LPIPS (``cpu``, ``cuda``; None: cpu). Never changes a number
+    beyond the device's rounding (1e-4 tested by the LPIPS tests)."""
+
+    lpips_backend: str = "torch"
+    """Runtime of the default LPIPS: ``torch`` or ``onnxruntime`` (the same network)."""
+
     tlp_min_crop: int = 32
     """focused_tlp: the tight box of the region is grown to at least this many pixels per side
     (centred, kept inside the frame) so that LPIPS's five pooling stages have something left."""
@@ -162,8 +169,9 @@ def tof(flow_pred: np.ndarray, flow_gt: np.ndarray, region: np.ndarray | None = 
     return float(epe[r].mean())
 
 
-def default_lpips(net: str = "alex") -> LpipsFn:
-    """``(a, b) -> float`` calling ``dynaeval.metrics.lpips(a, b, net=net)`` (imported lazily).
+def default_lpips(net: str = "alex", device: str | None = None, backend: str = "torch") -> LpipsFn:
+    """``(a, b) -> float`` calling ``dynaeval.metrics.lpips(a, b, net=net, device=device,
+    backend=backend)`` (imported lazily).
 
     That function wants frames in ``[0, 1]`` (it raises InputError outside) and raises
     WeightsUnavailableError on its first call when the pretrained backbone is not on disk.
@@ -175,7 +183,7 @@ def default_lpips(net: str = "alex") -> LpipsFn:
         _lpips = _lpips.lpips
 
     def fn(a: np.ndarray, b: np.ndarray) -> float:
-        return float(np.asarray(_lpips(a, b, net=net)))
+        return float(np.asarray(_lpips(a, b, net=net, device=device, backend=backend)))
 
     return fn
 
@@ -400,7 +408,7 @@ def temporal_metrics(
         lpips_reason = "tLP disabled in the configuration (no LPIPS)"
     elif lpips_fn is None:
         try:
-            lpips_fn = default_lpips(config.lpips_net)
+            lpips_fn = default_lpips(config.lpips_net, config.lpips_device, config.lpips_backend)
         except (ImportError, AttributeError) as exc:  # no LPIPS in this install: recorded
             lpips_reason = f"LPIPS unavailable: {type(exc).__name__}: {exc}"
 

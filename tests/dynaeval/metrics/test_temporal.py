@@ -437,7 +437,7 @@ def test_tlp_is_null_with_the_reason_when_lpips_is_off_or_missing(rng, monkeypat
 
     import dynaeval.metrics.temporal as temporal
 
-    def missing(net="alex"):
+    def missing(net="alex", device=None, backend="torch"):
         raise ImportError("no module named lpips")
 
     monkeypatch.setattr(temporal, "default_lpips", missing)
