@@ -13,6 +13,7 @@ from pathlib import Path
 
 from dynaeval import __version__
 from dynaeval.errors import InputError
+from dynaeval.io.atomic import refuse_existing
 from dynaeval.io.frames import parse_shard
 
 EXIT_OK, EXIT_BUG, EXIT_INPUT = 0, 1, 2
@@ -156,9 +157,7 @@ def _run_score(pred: str, gt: str | None, args: argparse.Namespace, *, overwrite
     from dynaeval.report import summary_table, write_json_atomic
 
     output = getattr(args, "output", None)
-    if output and Path(output).exists() and not overwrite:
-        # checked before scoring so a long run is not lost at the end
-        raise InputError("results file exists; pass --overwrite or choose another -o", path=output)
+    refuse_existing(output, overwrite=overwrite, what="results file")  # before the long run
     report = getattr(args, "report", None)
     if report and (Path(report) / "index.html").exists() and not overwrite:
         raise InputError("report exists; pass --overwrite or choose another --report folder",
@@ -236,9 +235,7 @@ def _run_detect(args: argparse.Namespace) -> int:
     from dynaeval.regions import write_boxes_file
     from dynaeval.regions.focus import detect_ground_truth
 
-    if Path(args.output).exists() and not args.overwrite:
-        raise InputError("boxes file exists; pass --overwrite or choose another -o",
-                         path=args.output)
+    refuse_existing(args.output, overwrite=args.overwrite, what="boxes file")
     mapping, source = detect_ground_truth(args.gt, source=args.source,
                                           detector_model=args.detector, device=args.device,
                                           progress=not args.quiet)
@@ -254,9 +251,7 @@ def _run_leaderboard(args: argparse.Namespace) -> int:
     from dynaeval.io.atomic import write_text_atomic
     from dynaeval.report.leaderboard import build_leaderboard, render
 
-    if args.output and Path(args.output).exists() and not args.overwrite:
-        raise InputError("output file exists; pass --overwrite or choose another -o",
-                         path=args.output)
+    refuse_existing(args.output, overwrite=args.overwrite)
     board = build_leaderboard(args.results, force=args.force, metrics=args.metrics)
     text = render(board, args.format, args.by)
     for f in sorted({f["field"] for f in board["forced"]}):
@@ -280,9 +275,7 @@ def main(argv: list[str] | None = None) -> int:
             from dynaeval.report import write_json_atomic
             from dynaeval.report.merge import merge_results
 
-            if Path(args.output).exists() and not args.overwrite:
-                raise InputError("results file exists; pass --overwrite or choose another -o",
-                                 path=args.output)
+            refuse_existing(args.output, overwrite=args.overwrite, what="results file")
             merged = merge_results(args.parts)
             write_json_atomic(args.output, merged, overwrite=args.overwrite)
             print(f"{len(args.parts)} shards, {merged['summary']['n_frames']} frames merged into "

@@ -9,6 +9,16 @@ from pathlib import Path
 from dynaeval.errors import InputError
 
 
+def refuse_existing(path: str | Path | None, *, overwrite: bool, what: str = "output file") -> None:
+    """Raise InputError when ``path`` exists and ``overwrite`` is False (None: nothing to check).
+
+    Callers that run long before writing check this first, so a finished run is never refused
+    at the end; ``write_text_atomic`` checks it again when it writes.
+    """
+    if path is not None and Path(path).exists() and not overwrite:
+        raise InputError(f"{what} exists; pass --overwrite or choose another -o", path=path)
+
+
 def write_text_atomic(
     path: str | Path, text: str, *, overwrite: bool = False, what: str = "output file"
 ) -> Path:
@@ -25,8 +35,7 @@ def write_text_atomic(
         InputError: ``path`` exists and not ``overwrite``, or its folder is missing.
     """
     path = Path(path)
-    if path.exists() and not overwrite:
-        raise InputError(f"{what} exists; pass --overwrite or choose another -o", path=path)
+    refuse_existing(path, overwrite=overwrite, what=what)
     if not path.parent.is_dir():
         raise InputError(f"folder for the {what} does not exist", path=path.parent)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
