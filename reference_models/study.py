@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 import time
 from dataclasses import dataclass
@@ -30,6 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from dynaeval.errors import InputError
+from dynaeval.io.atomic import write_text_atomic
 
 SCENES = ("single-player-closeup", "single-player-broadcast", "players-stadium")
 MODELS = ("kplanes", "nerfplayer")
@@ -67,9 +67,7 @@ def _spec(model: str):
 
 
 def _write_json(path: Path, obj: Any) -> None:
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(json.dumps(obj, indent=1) + "\n")
-    os.replace(tmp, path)
+    write_text_atomic(path, json.dumps(obj, indent=1) + "\n", overwrite=True)
 
 
 def scene_data(study: Path, scene: str, preset: StudyPreset) -> Path:

@@ -15,6 +15,8 @@ from typing import Any
 
 import numpy as np
 
+from dynaeval.io.atomic import write_text_atomic
+
 TABLE_METRICS = (
     ("psnr", "PSNR"), ("focused_psnr", "f-PSNR"), ("masked_psnr", "m-PSNR"),
     ("ssim", "SSIM"), ("focused_ssim", "f-SSIM"), ("masked_ssim", "m-SSIM"),
@@ -241,7 +243,5 @@ def write_report(study: Path, path: Path, *, preset: str, command: str) -> Path:
         lines += disagreements(sdocs, study / "data" / scene, img_dir, scene, rel) + [""]
     lines += ["## The seed study's findings, checked", "", *findings(by_scene), ""]
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text("\n".join(lines) + "\n")
-    os.replace(tmp, path)
+    write_text_atomic(path, "\n".join(lines) + "\n", overwrite=True)
     return path
