@@ -333,18 +333,9 @@ def _temporal_for_camera(
         return {n: {"value": None, "reason": reason}
                 for base in TEMPORAL_METRICS for n in (base, f"focused_{base}")}
     static = None
-    masks = [r.mask for r in regions]
-    if config.focus.masked:
-        shape = None
-        for m in masks:
-            if m is not None:
-                shape = m.shape
-        if shape is not None:
-            moving = np.zeros(shape, bool)
-            for m in masks:
-                if m is not None:
-                    moving |= m
-            static = ~moving
+    masks = [r.mask for r in regions if r.mask is not None]
+    if config.focus.masked and masks:
+        static = ~np.logical_or.reduce(masks)  # static: never moving in any frame
     region_masks = None
     if config.focus.source != "none" and all(r.boxes is not None for r in regions):
         region_masks = [r.boxes for r in regions]

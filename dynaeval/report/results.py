@@ -139,9 +139,9 @@ def build_results(
         for k, v in row.items():
             if k not in FRAME_FIELDS and k not in names and (v is None or isinstance(v, float)):
                 names.append(k)
-    camera_only = [n for vals in camera_values.values() for n in vals]
-    camera_only = [n for i, n in enumerate(camera_only)
-                   if n not in camera_only[:i] and not any(n in r for r in rows)]
+    in_rows = {k for r in rows for k in r}
+    camera_only = [n for n in dict.fromkeys(n for vals in camera_values.values() for n in vals)
+                   if n not in in_rows]
     cameras: dict[str, dict[str, Any]] = {}
     by_camera: dict[str, list[dict]] = {}
     for row in rows:
