@@ -225,6 +225,7 @@ def detect_ground_truth(
     from tqdm.auto import tqdm
 
     from dynaeval.io import find_frames
+    from dynaeval.io.cache import FrameCache
     from dynaeval.regions.boxes_file import frame_key
 
     if source not in ("detector", "motion"):
@@ -240,14 +241,14 @@ def detect_ground_truth(
         for cam in cameras.values():
             refs = [ref for _, ref in cam.frames]
             names = [name for name, _ in cam.frames]
-            first = refs[0].read()
             if source == "detector":
                 for name, ref in zip(names, refs, strict=True):
                     mapping[frame_key(cam.name, name)] = sources.detector(ref.read()).records()
                     bar.update(1)
                 continue
-            regions = camera_regions(cam.name, names, lambda i, r=refs: r[i].read(),
-                                     first.shape[:2], sources)
+            cache = FrameCache(2**30)  # the motion pass reads every frame twice
+            regions = camera_regions(cam.name, names, lambda i, r=refs, c=cache: c.read(r[i]),
+                                     cache.read(refs[0]).shape[:2], sources)
             for name, reg in zip(names, regions, strict=True):
                 boxes = reg.raw_boxes if reg.raw_boxes is not None else np.zeros((0, 4), int)
                 mapping[frame_key(cam.name, name)] = [
