@@ -30,6 +30,7 @@ from dynaeval.errors import EmptyRegionError, InputError, WeightsUnavailableErro
 from dynaeval.io import FramePair, pair_frames
 from dynaeval.io.cache import FrameCache
 from dynaeval.io.frames import select_shard
+from dynaeval.metrics.perceptual import resolve_device
 from dynaeval.regions.focus import FocusConfig, FrameRegions
 
 BASE_METRICS = ("psnr", "ssim", "lpips")
@@ -103,17 +104,6 @@ class Results(dict):
         raise ValueError(f"level must be 'frames' or 'cameras', got {level!r}")
 
 
-def _resolve_device(device: str) -> str:
-    if device == "auto":
-        try:
-            import torch
-
-            return "cuda" if torch.cuda.is_available() else "cpu"
-        except ImportError:
-            return "cpu"
-    return device
-
-
 def _load_gt(pair: FramePair, config: ScoreConfig, cache: FrameCache) -> np.ndarray:
     """The ground truth of ``pair`` as the metrics see it (quantised when asked)."""
     from dynaeval.metrics import quantize
@@ -168,7 +158,7 @@ def _build_metric_fns(
     }
     lpips_setting: dict[str, Any] = {"enabled": False, "net": config.lpips_net}
     if config.lpips:
-        device = _resolve_device(config.device)
+        device = resolve_device(config.device)
         try:
             if config.lpips_backend == "onnxruntime":
                 M.load_lpips_onnx(config.lpips_net, device=device)
@@ -421,7 +411,7 @@ def score(
 
         temporal_config = TemporalConfig(flow=FlowConfig(method=config.flow),
                                          lpips_net=config.lpips_net,
-                                         lpips_device=_resolve_device(config.device),
+                                         lpips_device=resolve_device(config.device),
                                          lpips_backend=config.lpips_backend)
         settings["temporal"] = temporal_config.describe()
     timing: dict[str, float] = defaultdict(float)

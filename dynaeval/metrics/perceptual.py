@@ -134,7 +134,8 @@ def load_lpips(
 
 
 def resolve_device(device: object = None) -> str:
-    """``None``/``"cpu"`` -> ``"cpu"``; ``"auto"`` -> ``"cuda"`` when torch sees a GPU, else ``"cpu"``.
+    """``None``/``"cpu"`` -> ``"cpu"``; ``"auto"`` -> ``"cuda"`` when torch sees a GPU, else ``"cpu"``
+    (also without torch).
 
     Other strings (``"cuda"``, ``"cuda:1"``) and torch devices are returned as strings unchanged.
     """
@@ -142,8 +143,10 @@ def resolve_device(device: object = None) -> str:
         return "cpu"
     text = str(device)
     if text == "auto":
-        import torch
-
+        try:
+            import torch
+        except ImportError:  # no torch: nothing could run on a GPU anyway
+            return "cpu"
         return "cuda" if torch.cuda.is_available() else "cpu"
     return text
 
