@@ -79,7 +79,7 @@ class ScoreConfig:
     progress: bool = True
     """Show a progress bar on stderr."""
     cache_mb: int = 1024
-    """Decoded frames kept for reuse (MiB, shared by the cameras in flight), so the passes over a
+    """Decoded frames kept for reuse (MiB; one camera is scored at a time), so the passes over a
     camera (regions, metrics, temporal) decode each file once where it fits. Never changes a number."""
     shard: tuple[int, int] | None = None
     """Score only slice ``(I, N)`` of the cameras (``dynaeval.io.frames.select_shard``); the
@@ -312,6 +312,7 @@ def _temporal_for_camera(
     temporal_config: Any,
     lpips_ok: bool,
     cache: FrameCache,
+    pool: ThreadPoolExecutor | None = None,
 ) -> dict[str, dict]:
     from dynaeval.metrics.temporal import temporal_metrics
 
@@ -336,13 +337,15 @@ def _temporal_for_camera(
         static_mask=static,
         region_masks=region_masks,
         config=tcfg,
+        executor=pool,
+        window=2 * config.workers,
     )
 
 
-def _timed_temporal(pairs, regions, config, temporal_config, lpips_ok, timing, lock, cache) -> dict[str, dict]:  # noqa: ANN001
+def _timed_temporal(pairs, regions, config, temporal_config, lpips_ok, timing, lock, cache, pool) -> dict[str, dict]:  # noqa: ANN001
     """``_temporal_for_camera`` adding its wall time to ``timing["temporal"]`` (thread-safe)."""
     t0 = time.perf_counter()
-    out = _temporal_for_camera(pairs, regions, config, temporal_config, lpips_ok, cache)
+    out = _temporal_for_camera(pairs, regions, config, temporal_config, lpips_ok, cache, pool)
     with lock:
         timing["temporal"] += time.perf_counter() - t0
     return out
@@ -425,13 +428,11 @@ def score(
     rows: list[dict] = []
     temporal: dict[str, dict[str, dict]] = {}
     pool = ThreadPoolExecutor(max_workers=config.workers) if config.workers > 1 else None
-    temporal_futures: dict[str, Any] = {}
     try:
         for cam, pairs in by_camera.items():
             t0 = time.perf_counter()
-            # one cache per camera, dropped with the camera's temporal pass; up to `workers`
-            # passes may be pending next to the current camera, so the budget is shared
-            cache = FrameCache(config.cache_mb * 2**20 // (config.workers + 1))
+            # one cache per camera, dropped after the camera's temporal pass
+            cache = FrameCache(config.cache_mb * 2**20)
             first_gt = _load_gt(pairs[0], config, cache)
             regions = camera_regions(
                 cam, [p.frame for p in pairs],
@@ -454,20 +455,10 @@ def score(
                 rows.append(row)
                 warnings.extend(w)
             if temporal_config is not None:
-                args = (pairs, regions, config, temporal_config, "lpips" in metric_fns, timing,
-                        lock, cache)
-                if pool is None:
-                    temporal[cam] = _timed_temporal(*args)
-                else:
-                    # the camera's temporal pass (sequential, ~2/3 of the time with flow at hd)
-                    # runs on the pool next to the following camera's frames; at most `workers`
-                    # are pending, so the regions they hold stay bounded
-                    pending = [f for f in temporal_futures.values() if not f.done()]
-                    if len(pending) >= config.workers:
-                        pending[0].result()
-                    temporal_futures[cam] = pool.submit(_timed_temporal, *args)
-        for cam, future in temporal_futures.items():
-            temporal[cam] = future.result()
+                # the camera's pairs run on the pool (flows dominate: 3 per pair); the frames
+                # are decoded here meanwhile, and the next camera starts when they are done
+                temporal[cam] = _timed_temporal(pairs, regions, config, temporal_config,
+                                                "lpips" in metric_fns, timing, lock, cache, pool)
     finally:
         bar.close()
         if pool:

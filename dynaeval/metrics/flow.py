@@ -15,6 +15,7 @@ OpenCV (``cv2``, opencv-contrib for TV-L1) is imported lazily inside the functio
 from __future__ import annotations
 
 import hashlib
+import threading
 from collections import OrderedDict
 from dataclasses import astuple, dataclass
 from pathlib import Path
@@ -191,6 +192,8 @@ class FlowCache:
     Memory: a flow is ``8 * H * W`` bytes (16.6 MB at 1920x1080, 4.1 MB at 960x540). The
     in-memory part is an LRU bounded by ``max_bytes``; with ``directory`` set, every flow is also
     written there as ``<key>.npy`` and read back on a later miss (unbounded: you choose the disk).
+    Thread-safe: flows are computed outside the lock, so threads computing different pairs run
+    in parallel (two threads asking for one new pair may both compute it; the numbers agree).
     """
 
     def __init__(self, max_bytes: int = 1 << 30, directory: str | Path | None = None) -> None:
@@ -201,6 +204,7 @@ class FlowCache:
         if self.directory is not None:
             self.directory.mkdir(parents=True, exist_ok=True)
         self._items: OrderedDict[str, np.ndarray] = OrderedDict()
+        self._lock = threading.Lock()
         self._bytes = 0
         self.hits = 0
         self.misses = 0
@@ -225,23 +229,31 @@ class FlowCache:
         if ga.shape != gb.shape:
             raise InputError(f"flow needs two frames of one size, got {ga.shape} and {gb.shape}")
         k = self.key(ga, gb, config)
-        if k in self._items:
-            self._items.move_to_end(k)
-            self.hits += 1
-            return self._items[k]
+        with self._lock:
+            if k in self._items:
+                self._items.move_to_end(k)
+                self.hits += 1
+                return self._items[k]
         path = None if self.directory is None else self.directory / f"{k}.npy"
         if path is not None and path.exists():
             flow = np.load(path)
-            self.hits += 1
+            hit = True
         else:
             flow = _flow_from_gray(ga, gb, config)
-            self.misses += 1
+            hit = False
             if path is not None:
-                tmp = path.with_suffix(".tmp.npy")
+                tmp = path.with_name(f"{k}.{threading.get_ident()}.tmp.npy")
                 np.save(tmp, flow)
                 tmp.replace(path)
         flow.setflags(write=False)
-        self._put(k, flow)
+        with self._lock:
+            if hit:
+                self.hits += 1
+            else:
+                self.misses += 1
+            if k in self._items:  # another thread computed it meanwhile: share one array
+                return self._items[k]
+            self._put(k, flow)
         return flow
 
     def _put(self, k: str, flow: np.ndarray) -> None:

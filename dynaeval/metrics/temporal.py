@@ -24,7 +24,9 @@ Frames are ``(H, W, 3)`` RGB, float32 in ``[0, 1]`` (uint8 is divided by 255). T
 
 from __future__ import annotations
 
+from collections import deque
 from collections.abc import Callable, Iterable
+from concurrent.futures import Executor
 from dataclasses import dataclass, field
 from itertools import repeat
 
@@ -363,6 +365,64 @@ def _mean_or_reason(values: list, empty_reason: str) -> tuple[float | None, str 
     return float(np.mean(got)), None
 
 
+def _pair_terms(
+    pp: np.ndarray,
+    gp: np.ndarray,
+    rp: np.ndarray | None,
+    p: np.ndarray,
+    g: np.ndarray,
+    reg: np.ndarray | None,
+    cache: FlowCache,
+    config: TemporalConfig,
+    lpips_fn: LpipsFn | None,
+) -> dict:
+    """Every per-pair term of frames ``(t-1, t)``: prediction ``pp -> p``, ground truth ``gp -> g``,
+    regions ``rp`` / ``reg`` (bool masks or None). ``lpips_fn`` None: no tLP. Pure given the cache
+    (which only saves work), so pairs can be computed on several threads and folded in order.
+
+    Returns ``{"per_pair": {name: float | None}, "parts": {warp name: {pred, gt, signed}},
+    "lpips_error": str | None}``.
+    """
+    fcfg = config.flow
+    values: dict[str, float | None] = {}
+    parts: dict[str, dict[str, float | None]] = {}
+    pair_region = None if reg is None or rp is None else (reg | rp)
+    fw = cache.flow(gp, g, fcfg)  # gt t-1 -> t, on t-1's grid
+    bw = cache.flow(g, gp, fcfg)  # gt t -> t-1, on t's grid: warps t-1 onto t
+    valid = valid_warp_mask(bw, fw)
+    for name, region in (("warp_error", None), ("focused_warp_error", pair_region)):
+        if name.startswith("focused") and region is None:
+            ep = eg = None
+        else:
+            try:
+                ep = warp_error(pp, p, bw, valid, region)
+                eg = warp_error(gp, g, bw, valid, region)
+            except EmptyRegionError:
+                ep = eg = None
+        parts[name] = {"pred": ep, "gt": eg, "signed": None if ep is None else ep - eg}
+        values[name] = None if ep is None else abs(ep - eg)
+
+    fp = cache.flow(pp, p, fcfg)
+    values["tof"] = tof(fp, fw)
+    values["focused_tof"] = (
+        None if pair_region is None or not pair_region.any() else tof(fp, fw, pair_region)
+    )
+
+    lpips_error = None
+    if lpips_fn is not None:
+        try:
+            values["tlp"] = tlp(pp, p, gp, g, lpips_fn)
+            values["focused_tlp"] = (
+                None
+                if pair_region is None or not pair_region.any()
+                else tlp(pp, p, gp, g, lpips_fn, pair_region, config.tlp_min_crop)
+            )
+        except WeightsUnavailableError as exc:  # raised by the first LPIPS call
+            lpips_error = f"LPIPS unavailable: WeightsUnavailableError: {exc}"
+            values.pop("tlp", None)
+    return {"per_pair": values, "parts": parts, "lpips_error": lpips_error}
+
+
 def temporal_metrics(
     pred_frames: Iterable[np.ndarray],
     gt_frames: Iterable[np.ndarray],
@@ -372,6 +432,8 @@ def temporal_metrics(
     config: TemporalConfig | None = None,
     lpips_fn: LpipsFn | None = None,
     flow_cache: FlowCache | None = None,
+    executor: Executor | None = None,
+    window: int = 4,
 ) -> dict[str, dict]:
     """All temporal metrics of one camera's sequence, streaming over consecutive pairs.
 
@@ -382,6 +444,10 @@ def temporal_metrics(
     are null. ``lpips_fn``: ``(a, b) -> float`` (default :func:`default_lpips`; if LPIPS cannot be
     loaded ``tlp`` is null with the reason). ``flow_cache``: share one across the methods scored
     on one ground truth so its flows are computed once (default: a private 64 MiB cache).
+    ``executor``: a ``concurrent.futures`` executor (threads) to compute the pairs on, up to
+    ``window`` pairs in flight (each holds its four frames); the numbers are those of the
+    sequential run, which is what happens with None. ``lpips_fn`` must then be thread-safe
+    (``default_lpips`` is).
 
     Returns ``{name: {"value": float | None, "reason": str | None, "per_pair": [float | None]}}``
     for ``warp_error, tof, tlp, flicker`` and their ``focused_`` variants. ``value`` is the mean of
@@ -396,7 +462,6 @@ def temporal_metrics(
     """
     config = config or TemporalConfig()
     cache = flow_cache if flow_cache is not None else FlowCache(max_bytes=1 << 26)
-    fcfg = config.flow
     names = [*TEMPORAL_METRICS, *(f"focused_{n}" for n in TEMPORAL_METRICS)]
     per_pair: dict[str, list] = {n: [] for n in names}
     parts: dict[str, dict[str, list]] = {
@@ -418,6 +483,23 @@ def temporal_metrics(
     region_union = None
     prev = None  # (pred, gt, region)
     n_frames = 0
+    pending: deque = deque()  # pair terms in frame order: futures (executor) or dicts
+
+    def fold(terms: dict) -> None:
+        nonlocal lpips_reason
+        for name, value in terms["per_pair"].items():
+            per_pair[name].append(value)
+        for name, got in terms["parts"].items():
+            for part, value in got.items():
+                parts[name][part].append(value)
+        if terms["lpips_error"] is not None and lpips_reason is None:
+            lpips_reason = terms["lpips_error"]
+
+    def drain(keep: int) -> None:
+        while len(pending) > keep:
+            item = pending.popleft()
+            fold(item.result() if executor is not None else item)
+
     for i, (p, g) in enumerate(_zip_frames(pred_frames, gt_frames)):
         n_frames = i + 1
         hw = p.shape[:2]
@@ -442,41 +524,14 @@ def temporal_metrics(
             pp, gp, rp = prev
             if pp.shape != p.shape:
                 raise InputError(f"frame {i} has shape {p.shape}, frame {i - 1} had {pp.shape}")
-            pair_region = None if reg is None or rp is None else (reg | rp)
-            fw = cache.flow(gp, g, fcfg)  # gt t-1 -> t, on t-1's grid
-            bw = cache.flow(g, gp, fcfg)  # gt t -> t-1, on t's grid: warps t-1 onto t
-            valid = valid_warp_mask(bw, fw)
-            for name, region in (("warp_error", None), ("focused_warp_error", pair_region)):
-                if name.startswith("focused") and region is None:
-                    ep = eg = None
-                else:
-                    try:
-                        ep = warp_error(pp, p, bw, valid, region)
-                        eg = warp_error(gp, g, bw, valid, region)
-                    except EmptyRegionError:
-                        ep = eg = None
-                parts[name]["pred"].append(ep)
-                parts[name]["gt"].append(eg)
-                per_pair[name].append(None if ep is None else abs(ep - eg))
-                parts[name]["signed"].append(None if ep is None else ep - eg)
-
-            fp = cache.flow(pp, p, fcfg)
-            per_pair["tof"].append(tof(fp, fw))
-            per_pair["focused_tof"].append(
-                None if pair_region is None or not pair_region.any() else tof(fp, fw, pair_region)
-            )
-
-            if lpips_reason is None:
-                try:
-                    per_pair["tlp"].append(tlp(pp, p, gp, g, lpips_fn))
-                    per_pair["focused_tlp"].append(
-                        None
-                        if pair_region is None or not pair_region.any()
-                        else tlp(pp, p, gp, g, lpips_fn, pair_region, config.tlp_min_crop)
-                    )
-                except WeightsUnavailableError as exc:  # raised by the first LPIPS call
-                    lpips_reason = f"LPIPS unavailable: WeightsUnavailableError: {exc}"
+            args = (pp, gp, rp, p, g, reg, cache, config, lpips_fn if lpips_reason is None else None)
+            if executor is None:
+                pending.append(_pair_terms(*args))
+            else:
+                pending.append(executor.submit(_pair_terms, *args))
+            drain(max(1, window) if executor is not None else 0)
         prev = (p, g, reg)
+    drain(0)
 
     out: dict[str, dict] = {}
     short = f"needs at least 2 frames, got {n_frames}"

@@ -188,8 +188,8 @@ def test_default_config_scores_whole_frame_only(scene):
 
 
 def test_temporal_pass_on_the_pool_keeps_numbers_and_order(tmp_path):
-    """With workers > 1 each camera's temporal pass runs on the pool (at most `workers` pending):
-    3 cameras make the 2-worker run wait for a pending pass; numbers and camera order unchanged."""
+    """With workers > 1 each camera's frame pairs run on the pool (up to 2 x workers in flight,
+    more than the 3 pairs of a camera for 2 and 3 workers): numbers and camera order unchanged."""
     cams = ("cam0", "cam1", "cam2")
     gt, frames = moving_square_scene(tmp_path / "gt", cameras=cams)
     rng = np.random.default_rng(5)
