@@ -197,6 +197,17 @@ def disagreements(docs: list[dict], data: Path, img_dir: Path, scene: str,
     return lines
 
 
+def study_elapsed_s(study: Path) -> float:
+    """Seconds from the start of the first scene render to the last results file written
+    (file times; scene render start = ``timing.json``'s time minus its ``render_seconds``)."""
+    starts = [f.stat().st_mtime - json.loads(f.read_text())["render_seconds"]
+              for f in (study / "data").glob("*/timing.json")]
+    ends = [f.stat().st_mtime for f in (study / "results").glob("*.json")]
+    if not starts or not ends:
+        return 0.0
+    return max(ends) - min(starts)
+
+
 def write_report(study: Path, path: Path, *, preset: str, command: str) -> Path:
     """Write the Markdown report of ``study`` to ``path`` (images next to it in img/)."""
     docs = _load(study)
@@ -212,6 +223,7 @@ def write_report(study: Path, path: Path, *, preset: str, command: str) -> Path:
     total_train = sum(d["_train"]["wall_s"] for d in docs)
     total_render = sum(d["_render"]["wall_s"] for d in docs)
     total_score = sum(d["timing"]["total_s"] for d in docs)
+    elapsed = study_elapsed_s(study)
     lines = [
         f"# Validation study ({preset} preset)",
         "",
@@ -222,7 +234,9 @@ def write_report(study: Path, path: Path, *, preset: str, command: str) -> Path:
         "",
         f"Machine: {os.cpu_count()} CPU cores (shared); wall time: training "
         f"{total_train / 60:.1f} min, rendering {total_render / 60:.1f} min, scoring "
-        f"{total_score / 60:.1f} min over {len(docs)} runs.",
+        f"{total_score / 60:.1f} min over {len(docs)} runs (summed over runs; with `--jobs 2` "
+        f"two run at once). From the first scene render to the last result "
+        f"{elapsed / 60:.1f} min elapsed (including any pause before a resume).",
         "",
         "Runs are `<model>-<sampling>`: `uniform` samples training rays uniformly, `isg` uses ray "
         "importance sampling (ISG weights from dynaeval's motion masks). Metrics: whole frame, "

@@ -17,7 +17,9 @@ def study(tmp_path_factory):
     torch.set_num_threads(1)
     root = tmp_path_factory.mktemp("study")
     docs = root / "docs" / "validation.md"
-    assert main(["--preset", "tiny", "--out", str(root / "s"), "--docs", str(docs), "-q"]) == 0
+    # two runs at once in worker processes (what the small study uses on 2 cores)
+    assert main(["--preset", "tiny", "--out", str(root / "s"), "--docs", str(docs), "-q",
+                 "--jobs", "2"]) == 0
     return root / "s", docs
 
 
@@ -44,6 +46,7 @@ def test_report_is_generated_with_its_images(study):
               if line.startswith("![")]
     assert images and all((docs.parent / i).is_file() for i in images)
     assert "The seed study's findings, checked" in text
+    assert "From the first scene render to the last result" in text
 
 
 def test_finished_runs_are_not_redone(study):
@@ -53,6 +56,8 @@ def test_finished_runs_are_not_redone(study):
     assert {p: p.stat().st_mtime_ns for p in stamps} == stamps
 
 
-def test_unknown_preset():
+def test_unknown_preset_and_bad_jobs():
     with pytest.raises(InputError, match="unknown study preset 'huge'"):
         run_study(__import__("pathlib").Path("/nonexistent"), "huge")
+    with pytest.raises(InputError, match="jobs must be >= 1"):
+        run_study(__import__("pathlib").Path("/nonexistent"), "tiny", jobs=0)
