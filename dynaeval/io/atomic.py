@@ -19,11 +19,21 @@ def refuse_existing(path: str | Path | None, *, overwrite: bool, what: str = "ou
         raise InputError(f"{what} exists; pass --overwrite or choose another -o", path=path)
 
 
+def _read_umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+_UMASK = _read_umask()  # read once: os.umask sets it process-wide, which races with threads
+
+
 def write_text_atomic(
     path: str | Path, text: str, *, overwrite: bool = False, what: str = "output file"
 ) -> Path:
     """Write ``text`` (UTF-8) to ``path`` through a temporary file in the same folder, flushed to
-    disk and renamed into place (``os.replace`` is atomic on POSIX and Windows).
+    disk and renamed into place (``os.replace`` is atomic on POSIX and Windows). The file gets
+    the permissions a plain ``open(path, "w")`` would give (0666 minus the umask).
 
     Args:
         path: file to write; its folder must exist.
@@ -44,6 +54,7 @@ def write_text_atomic(
             f.write(text)
             f.flush()
             os.fsync(f.fileno())
+        os.chmod(tmp, 0o666 & ~_UMASK)  # mkstemp makes 0600; give the usual permissions
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
