@@ -240,10 +240,20 @@ def _bench_lpips(pred, gt, boxes, mask, size, repeats) -> list[dict[str, Any]]: 
         with torch.no_grad():
             return float(model_cl(tpc, tgc).item())
 
+    with torch.no_grad(), warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        small = (tp[..., :128, :128], tg[..., :128, :128])
+        frozen = torch.jit.optimize_for_inference(torch.jit.freeze(torch.jit.trace(model, small)))
+
+    def package_frozen() -> float:
+        with torch.no_grad():
+            return float(frozen(tp, tg).item())
+
     add("lpips", "dynaeval (alex, random backbone)", lambda: M.lpips(pred, gt, **kw), ref)
     add("lpips", "dynaeval backend=onnxruntime", lambda: M.lpips(pred, gt, backend="onnxruntime", **kw), ref)
     add("lpips", "lpips package, same network", package, ref)
     add("lpips", "lpips package, channels_last", package_channels_last, ref)
+    add("lpips", "lpips package, TorchScript frozen (oneDNN)", package_frozen, ref)
     add("lpips_map", "dynaeval", lambda: float(M.lpips_map(pred, gt, **kw).mean()), None)
     add(
         "lpips_map",
@@ -261,6 +271,65 @@ def _bench_lpips(pred, gt, boxes, mask, size, repeats) -> list[dict[str, Any]]: 
     add("focused_lpips", "dynaeval map", lambda: M.focused_lpips(pred, gt, boxes, region_mode="map", **kw), None)
     add("masked_lpips", "dynaeval (box union as mask)", lambda: M.masked_lpips(pred, gt, mask, **kw), None)
     return rows
+
+
+def backbone_macs(net: str, height: int, width: int) -> int:
+    """Multiply-accumulates of the LPIPS backbone's convolutions on one (height, width) image
+    (counted by forward hooks on the package's network; the lin layers add < 0.1 %)."""
+    import torch
+
+    from dynaeval import metrics as M
+
+    model = M.load_lpips(net, pretrained_backbone=False)
+    total = 0
+
+    def hook(mod, inp, out) -> None:  # noqa: ANN001
+        nonlocal total
+        k = mod.kernel_size[0] * mod.kernel_size[1] * mod.in_channels // mod.groups
+        total += out.numel() * k
+
+    handles = [m.register_forward_hook(hook) for m in model.net.modules()
+               if isinstance(m, torch.nn.Conv2d)]
+    try:
+        with torch.no_grad():
+            model.net(torch.zeros(1, 3, height, width))
+    finally:
+        for h in handles:
+            h.remove()
+    return total
+
+
+def sgemm_gflops(n: int = 2048, repeats: int = 5) -> float:
+    """Single-precision matrix multiply rate of this process (GFLOP per CPU second, torch's
+    current threads), best of ``repeats``: the rate no convolution of the same FLOPs beats."""
+    import torch
+
+    a, b = torch.randn(n, n), torch.randn(n, n)
+    a @ b
+    best = _time(lambda: a @ b, repeats)[1]
+    return 2 * n**3 / best / 1e9
+
+
+def lpips_floor(rows: list[dict[str, Any]]) -> str:
+    """Markdown table: per size, the LPIPS pair's backbone FLOPs at this run's SGEMM rate (the
+    arithmetic floor) against the measured LPIPS rows (CPU time)."""
+    rate = sgemm_gflops()
+    lines = [f"SGEMM 2048x2048 in this process: **{rate:.0f} GFLOP/s** (CPU time, torch threads as "
+             "above).", "",
+             "| size | backbone GFLOP per pair | floor CPU ms | implementation | CPU ms | / floor "
+             "| package / it | package / floor |",
+             "|---|---:|---:|---|---:|---:|---:|---:|"]
+    for size in dict.fromkeys(r["size"] for r in rows if r["metric"] == "lpips"):
+        w, h = (int(v) for v in size.split("x"))
+        gflop = 2 * 2 * backbone_macs("alex", h, w) / 1e9  # two images, 2 FLOP per MAC
+        floor = 1e3 * gflop / rate
+        group = [r for r in rows if r["metric"] == "lpips" and r["size"] == size]
+        package = next(r for r in group if r["impl"] == "lpips package, same network")
+        for r in group:
+            lines.append(f"| {size} | {gflop:.1f} | {floor:.0f} | {r['impl']} | {r['cpu_ms']:.0f} "
+                         f"| {r['cpu_ms'] / floor:.2f} | {package['cpu_ms'] / r['cpu_ms']:.2f} "
+                         f"| {package['cpu_ms'] / floor:.2f} |")
+    return "\n".join(lines)
 
 
 def sample_sequence(height: int, width: int, frames: int = 4, seed: int = 0) -> tuple[list[np.ndarray], list[np.ndarray]]:
@@ -572,38 +641,51 @@ def peer_ratios(rows: list[dict[str, Any]], tol: float = 1e-6) -> str:
 
 
 _THREADS_CHILD = """
-import sys, time, warnings
+import copy, sys, time, warnings
 import numpy as np, torch
 warnings.simplefilter("ignore")
-torch.set_num_threads(int(sys.argv[1]))
+threads = int(sys.argv[1])
+torch.set_num_threads(threads)
 from dynaeval import metrics as M
-from dynaeval.bench import sample_pair
-p, g, _ = sample_pair(540, 960)
-M.lpips(p, g, pretrained_backbone=False)
-walls, cpus = [], []
-for _ in range(3):
-    w, c = time.perf_counter(), time.process_time()
-    M.lpips(p, g, pretrained_backbone=False)
-    walls.append(time.perf_counter() - w); cpus.append(time.process_time() - c)
-print(min(walls), min(cpus))
+from dynaeval.bench import _nchw, _time, sample_pair
+p, g, _ = sample_pair(1080, 1920)
+model = M.load_lpips("alex", pretrained_backbone=False)
+mcl = copy.deepcopy(model).to(memory_format=torch.channels_last)
+tp = (_nchw(p) * 2 - 1).contiguous(memory_format=torch.channels_last)
+tg = (_nchw(g) * 2 - 1).contiguous(memory_format=torch.channels_last)
+def cl():
+    with torch.no_grad():
+        return float(mcl(tp, tg).item())
+paths = {
+    "dynaeval (lpips package module)": lambda: M.lpips(p, g, pretrained_backbone=False),
+    "lpips package, channels_last": cl,
+    "dynaeval backend=onnxruntime": lambda: M.lpips(p, g, pretrained_backbone=False,
+                                                    backend="onnxruntime", threads=threads),
+}
+for name, fn in paths.items():
+    wall, cpu, _ = _time(fn, 3)
+    print(name, "|", wall, cpu)
 """
 
 
 def torch_threads_study() -> str:
-    """Markdown table: LPIPS (960x540) with torch intra-op threads 1 and 2, OpenMP spinning on
-    (the default) and off (``OMP_WAIT_POLICY=PASSIVE``), each in a fresh child process."""
+    """Markdown table: LPIPS (1920x1080) with intra-op threads 1 and 2, OpenMP spinning on (the
+    default) and off (``OMP_WAIT_POLICY=PASSIVE``), each setting in a fresh child process."""
     import subprocess
 
-    lines = ["| torch threads | OMP_WAIT_POLICY | wall ms | CPU ms |", "|---:|---|---:|---:|"]
+    lines = ["| threads | OMP_WAIT_POLICY | path | wall ms | CPU ms |", "|---:|---|---|---:|---:|"]
     for threads, policy in ((1, None), (2, None), (2, "PASSIVE")):
         env = dict(os.environ)
         env.pop("OMP_WAIT_POLICY", None)
         if policy:
             env["OMP_WAIT_POLICY"] = policy
         out = subprocess.run([sys.executable, "-c", _THREADS_CHILD, str(threads)], env=env,
-                             capture_output=True, text=True, check=True).stdout.split()
-        wall, cpu = float(out[-2]), float(out[-1])
-        lines.append(f"| {threads} | {policy or '(unset: spinning)'} | {1e3 * wall:.0f} | {1e3 * cpu:.0f} |")
+                             capture_output=True, text=True, check=True).stdout
+        for line in out.strip().splitlines():
+            name, times = line.rsplit("|", 1)
+            wall, cpu = (float(v) for v in times.split())
+            lines.append(f"| {threads} | {policy or '(unset: spinning)'} | {name.strip()} "
+                         f"| {1e3 * wall:.0f} | {1e3 * cpu:.0f} |")
     return "\n".join(lines)
 
 
@@ -701,6 +783,19 @@ def main(argv: list[str] | None = None) -> int:
         peer_ratios(rows),
         "",
     ]
+    if not args.no_lpips:
+        parts += [
+            "## LPIPS against its arithmetic floor",
+            "",
+            "The pair's cost is the AlexNet backbone run on both images (conv FLOPs counted by",
+            "`backbone_macs`); no implementation of the same float32 network can run it faster",
+            "than a large matrix multiply of the same FLOPs (`sgemm_gflops`, measured in this",
+            "process). `package / floor` is therefore the largest speed-up over the package any",
+            "equal-precision fast path could show here.",
+            "",
+            lpips_floor(rows),
+            "",
+        ]
     plot = args.plot
     if plot is None:
         plot = "-" if args.out == "-" else str(Path(args.out).parent / "img" / "bench_speed_error.png")
@@ -712,7 +807,8 @@ def main(argv: list[str] | None = None) -> int:
         parts += [
             "## Torch threads on a shared machine",
             "",
-            "LPIPS at 960x540, each setting in a fresh process (`--threads-study`). With two",
+            "LPIPS of one 1920x1080 pair, each setting in a fresh process (`--threads-study`;",
+            "onnxruntime gets the same number of intra-op threads, never spinning). With two",
             "intra-op threads OpenMP's waiting threads spin: when the other thread waits for a core",
             "that other jobs hold, the spinning burns CPU for nothing. Scoring therefore",
             "parallelises over frames (`--workers`) with one torch thread each; set",

@@ -66,3 +66,32 @@ def test_degrade_writes_one_frame_per_png(tmp_path):
     assert bench.main(["--degrade", str(tmp_path / "gt"), str(tmp_path / "pred")]) == 0
     out = cv2.imread(str(tmp_path / "pred" / "cam0" / "0000.png"))
     assert out.shape == img.shape and not np.array_equal(out, img)
+
+
+def _alexnet_macs(h: int, w: int) -> int:
+    """AlexNet features' conv MACs by hand: (c_in, c_out, kernel, stride, pad, pool after)."""
+    layers = [(3, 64, 11, 4, 2, True), (64, 192, 5, 1, 2, True), (192, 384, 3, 1, 1, False),
+              (384, 256, 3, 1, 1, False), (256, 256, 3, 1, 1, False)]
+    total = 0
+    for cin, cout, k, s, p, pool in layers:
+        h, w = (h + 2 * p - k) // s + 1, (w + 2 * p - k) // s + 1
+        total += h * w * cout * cin * k * k
+        if pool:
+            h, w = (h - 3) // 2 + 1, (w - 3) // 2 + 1
+    return total
+
+
+def test_backbone_macs_match_the_layer_arithmetic():
+    for h, w in ((64, 64), (540, 960), (1080, 1920)):
+        assert bench.backbone_macs("alex", h, w) == _alexnet_macs(h, w)
+
+
+def test_lpips_floor_table_divides_by_the_measured_rate(monkeypatch):
+    monkeypatch.setattr(bench, "sgemm_gflops", lambda: 100.0)
+    rows = [{"metric": "lpips", "size": "96x64", "impl": "lpips package, same network", "cpu_ms": 20.0},
+            {"metric": "lpips", "size": "96x64", "impl": "dynaeval backend=onnxruntime", "cpu_ms": 10.0}]
+    text = bench.lpips_floor(rows)
+    floor = 1e3 * 4 * _alexnet_macs(64, 96) / 1e9 / 100.0
+    assert "**100 GFLOP/s**" in text
+    assert f"| 96x64 | {4 * _alexnet_macs(64, 96) / 1e9:.1f} | {floor:.0f} | dynaeval backend=onnxruntime | 10 |" in text
+    assert f"| {20.0 / 10.0:.2f} | {20.0 / floor:.2f} |" in text
