@@ -437,7 +437,7 @@ def score(
             regions = camera_regions(
                 cam, [p.frame for p in pairs],
                 lambda i, ps=pairs, c=cache: _load_gt(ps[i], config, c),
-                first_gt.shape[:2], sources,
+                first_gt.shape[:2], sources, pool,
             )
             timing["regions"] += time.perf_counter() - t0
             if on_regions is not None:

@@ -8,6 +8,7 @@ no box (or no moving pixel) carries the reason instead, and its focused (masked)
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from concurrent.futures import Executor
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -131,6 +132,7 @@ def camera_regions(
     load_gt: Callable[[int], np.ndarray],
     shape: tuple[int, int],
     sources: RegionSources,
+    executor: Executor | None = None,
 ) -> list[FrameRegions]:
     """Regions of every frame of one camera, computed from its ground truth.
 
@@ -140,6 +142,9 @@ def camera_regions(
         load_gt: ``i -> (H, W, C) float32`` ground truth of frame ``i`` in [0, 1].
         shape: (H, W) of the frames.
         sources: from ``open_sources``.
+        executor: optional thread executor: ISG motion masks and detector runs of the frames are
+            computed on it (``load_gt`` and the detector must be thread-safe; the regions are
+            those of the sequential run).
 
     Returns:
         One ``FrameRegions`` per frame.
@@ -158,13 +163,20 @@ def camera_regions(
                 )
         else:
             lazy = LazyFrames(list(range(len(frames))), load_gt)
-            for r, m in zip(out, iter_motion_masks(lazy, MotionConfig(kind=cfg.motion_kind)),
-                            strict=True):
+            masks = iter_motion_masks(lazy, MotionConfig(kind=cfg.motion_kind), executor)
+            for r, m in zip(out, masks, strict=True):
                 if m.any():
                     r.mask = m
                 else:
                     r.mask_reason = "no moving pixel in the ground truth"
-    for i, (name, r) in enumerate(zip(frames, out, strict=True)):
+    detections = None
+    if cfg.source == "detector":
+        def detect(i: int):  # noqa: ANN202
+            return sources.detector(load_gt(i))
+
+        indices = range(len(frames))
+        detections = executor.map(detect, indices) if executor else map(detect, indices)
+    for name, r in zip(frames, out, strict=True):
         if cfg.source == "none":
             r.boxes_reason = "no focus regions requested (--focus none)"
             continue
@@ -178,9 +190,9 @@ def camera_regions(
             raw = records_to_boxes(records)
             r.records = list(records)
         elif cfg.source == "detector":
-            detections = sources.detector(load_gt(i))
-            raw = detections.boxes
-            r.records = detections.records()
+            found = next(detections)
+            raw = found.boxes
+            r.records = found.records()
         else:  # motion
             if r.mask is None:
                 r.boxes_reason = r.mask_reason

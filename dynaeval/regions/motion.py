@@ -38,6 +38,7 @@ from __future__ import annotations
 
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator, Sequence
+from concurrent.futures import Executor
 from dataclasses import dataclass
 from typing import Any
 
@@ -330,10 +331,27 @@ def clean_mask(mask: np.ndarray, config: MotionConfig | None = None) -> np.ndarr
     return out
 
 
-def iter_motion_masks(frames: object, config: MotionConfig | None = None) -> Iterator[np.ndarray]:
-    """Yield one cleaned ``(H, W)`` bool motion mask per frame (bounded memory; see module doc)."""
+def iter_motion_masks(
+    frames: object, config: MotionConfig | None = None, executor: Executor | None = None
+) -> Iterator[np.ndarray]:
+    """Yield one cleaned ``(H, W)`` bool motion mask per frame (bounded memory; see module doc).
+
+    ``executor``: a ``concurrent.futures`` executor (threads) for ISG, whose frames are
+    independent once the median is known: each frame is loaded, weighted, thresholded and
+    cleaned on it, in order; the masks equal the sequential ones. IST ignores it (sliding window).
+    """
     cfg = config or MotionConfig()
     thr = np.float32(cfg.effective_threshold)
+    if executor is not None and cfg.kind == "isg":
+        seq = _as_sequence(frames)
+        median = temporal_median(seq, cfg.median_frames)
+
+        def one(t: int) -> np.ndarray:
+            w = isg_weight(_frame(seq[t], t, median.shape), median, cfg.gamma)
+            return clean_mask(w > thr, cfg)
+
+        yield from executor.map(one, range(len(seq)))
+        return
     weights = iter_importance_weights(
         frames, cfg.kind, gamma=cfg.gamma, window=cfg.window, alpha=cfg.alpha, median_frames=cfg.median_frames
     )

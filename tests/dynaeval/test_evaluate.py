@@ -245,3 +245,17 @@ def test_focused_metrics_drop_when_only_the_inside_changes(tmp_path, scene):
     assert s["focused_psnr"] < s["psnr"] - 10  # the box is ~3 % of the frame: 10 log10(1/0.03)
     assert s["focused_ssim"] < s["ssim"]
     assert s["presence_person"] == 0.0  # and the object check says it is gone
+
+
+def test_detector_regions_on_the_pool_equal_the_sequential_ones():
+    """With workers > 1 the shipped detector runs over a camera's frames on the pool; the boxes,
+    records and numbers are those of one worker."""
+    from importlib.resources import files
+
+    sample = files("dynaeval") / "data" / "sample"
+    kw = {"lpips": False, "temporal": False, "presence": False, "progress": False,
+          "focus": FocusConfig(source="detector")}
+    runs = [json.loads(json.dumps(dict(dynaeval.score(sample / "pred", sample / "gt", workers=w, **kw))))
+            for w in (1, 2)]
+    assert runs[0]["frames"] == runs[1]["frames"] and runs[0]["summary"] == runs[1]["summary"]
+    assert runs[0]["summary"]["focused_psnr"] is not None  # the detector found the player

@@ -13,6 +13,7 @@ from dynaeval.regions.motion import (
     clean_mask,
     importance_weights,
     iter_importance_weights,
+    iter_motion_masks,
     mask_boxes,
     motion_mask,
     subsample_indices,
@@ -162,6 +163,21 @@ def test_isg_mask_finds_the_moving_square(noise):
         assert boxes.shape == (1, 4)
         want = np.array(square_box(t)) + [-2, -2, 2, 2]
         assert np.all(np.abs(boxes[0] - want) <= tol), (boxes, want)
+
+
+@pytest.mark.parametrize("kind", ["isg", "ist"])
+def test_masks_on_an_executor_equal_the_sequential_masks(kind):
+    """ISG frames run on the executor's threads (IST stays sequential): same masks, same order."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    frames, _ = scene(noise=0.01)
+    cfg = MotionConfig(kind=kind, window=2)
+    seq = list(iter_motion_masks(frames, cfg))
+    lazy = LazyFrames(list(range(T)), lambda i: frames[i])
+    with ThreadPoolExecutor(max_workers=3) as pool:
+        par = list(iter_motion_masks(lazy, cfg, pool))
+    assert len(par) == T and all(np.array_equal(a, b) for a, b in zip(seq, par, strict=True))
+    assert sum(m.sum() for m in par) > 0
 
 
 def test_ist_mask_contains_the_square():
