@@ -393,16 +393,21 @@ def bench_sequence(height: int, width: int, repeats: int, with_lpips: bool) -> l
     static = np.ones((height, width), bool)
     static[height // 2 - 20 :, :] = False
     tcfg = TemporalConfig(tlp=with_lpips)
-    kw: dict[str, Any] = {}
+    variants: list[tuple[str, dict[str, Any]]] = [("dynaeval, per frame of 4", {})]
     if with_lpips:
         from dynaeval import metrics as M
 
-        kw["lpips_fn"] = lambda a, b: M.lpips(a, b, pretrained_backbone=False, seed=0)
-    add("temporal_metrics" + (" (with tLP)" if with_lpips else " (no tLP)"),
-        "dynaeval, per frame of 4",
-        lambda: temporal_metrics(iter(preds), iter(gts), static_mask=static, region_masks=region,
-                                 config=tcfg, **kw),
-        frames, value_of=lambda r: float(r["warp_error"]["value"]))
+        variants = [
+            ("dynaeval, per frame of 4 (LpipsFeatures: each frame's features once)",
+             {"lpips_fn": M.perceptual.LpipsFeatures(pretrained_backbone=False, seed=0)}),
+            ("dynaeval, per frame of 4 (LPIPS per pair: 4 backbone runs per pair)",
+             {"lpips_fn": lambda a, b: M.lpips(a, b, pretrained_backbone=False, seed=0)}),
+        ]
+    for impl, kw in variants:
+        add("temporal_metrics" + (" (with tLP)" if with_lpips else " (no tLP)"), impl,
+            lambda kw=kw: temporal_metrics(iter(preds), iter(gts), static_mask=static,
+                                           region_masks=region, config=tcfg, **kw),
+            frames, value_of=lambda r: float(r["warp_error"]["value"]))
     try:
         from dynaeval.regions.detector import DEFAULT_DETECTOR, Detector
 

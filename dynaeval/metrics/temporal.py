@@ -26,9 +26,10 @@ from __future__ import annotations
 
 from collections import deque
 from collections.abc import Callable, Iterable
-from concurrent.futures import Executor
+from concurrent.futures import Executor, Future
 from dataclasses import dataclass, field
 from itertools import repeat
+from typing import Any
 
 import numpy as np
 
@@ -172,14 +173,17 @@ def tof(flow_pred: np.ndarray, flow_gt: np.ndarray, region: np.ndarray | None = 
 
 
 def default_lpips(net: str = "alex", device: str | None = None, backend: str = "torch") -> LpipsFn:
-    """``(a, b) -> float`` calling ``dynaeval.metrics.lpips(a, b, net=net, device=device,
-    backend=backend)`` (imported lazily).
+    """``(a, b) -> float``: ``dynaeval.metrics.lpips(a, b, net=net, device=device, backend=backend)``.
 
-    That function wants frames in ``[0, 1]`` (it raises InputError outside) and raises
-    WeightsUnavailableError on its first call when the pretrained backbone is not on disk.
+    With the torch backend it is a ``LpipsFeatures`` (same numbers bit for bit), which also has
+    ``features`` / ``distance``: :func:`temporal_metrics` then computes each frame's features once
+    for tLP instead of once per pair it belongs to. Frames must be in ``[0, 1]`` (InputError
+    outside); WeightsUnavailableError on the first call when the pretrained backbone is missing.
     """
     import dynaeval.metrics as _metrics  # lazy: pulls in torch
 
+    if backend == "torch":
+        return _metrics.perceptual.LpipsFeatures(net, device=device)
     _lpips = _metrics.lpips
     if not callable(_lpips):  # the submodule, not the function
         _lpips = _lpips.lpips
@@ -188,6 +192,36 @@ def default_lpips(net: str = "alex", device: str | None = None, backend: str = "
         return float(np.asarray(_lpips(a, b, net=net, device=device, backend=backend)))
 
     return fn
+
+
+class _FeatureMemo:
+    """Whole-frame LPIPS features of the frames in flight, keyed by (frame index, side), computed
+    once even when two threads ask at the same time (the second waits for the first)."""
+
+    def __init__(self, fn: Any) -> None:
+        import threading
+
+        self.fn = fn
+        self._items: dict[tuple[int, str], Future] = {}
+        self._lock = threading.Lock()
+
+    def get(self, index: int, side: str, frame: np.ndarray) -> Any:
+        with self._lock:
+            fut = self._items.get((index, side))
+            owner = fut is None
+            if owner:
+                fut = self._items[(index, side)] = Future()
+        if owner:
+            try:
+                fut.set_result(self.fn.features(frame))
+            except BaseException as exc:
+                fut.set_exception(exc)
+        return fut.result()
+
+    def drop(self, index: int) -> None:
+        with self._lock:
+            for side in ("pred", "gt"):
+                self._items.pop((index, side), None)
 
 
 def _crop_box(region: np.ndarray, min_side: int) -> np.ndarray:
@@ -375,10 +409,13 @@ def _pair_terms(
     cache: FlowCache,
     config: TemporalConfig,
     lpips_fn: LpipsFn | None,
+    memo: _FeatureMemo | None = None,
+    index: int = 0,
 ) -> dict:
     """Every per-pair term of frames ``(t-1, t)``: prediction ``pp -> p``, ground truth ``gp -> g``,
-    regions ``rp`` / ``reg`` (bool masks or None). ``lpips_fn`` None: no tLP. Pure given the cache
-    (which only saves work), so pairs can be computed on several threads and folded in order.
+    regions ``rp`` / ``reg`` (bool masks or None). ``lpips_fn`` None: no tLP. ``memo``: whole-frame
+    LPIPS features by frame (``index`` is frame t's). Pure given the caches (which only save
+    work), so pairs can be computed on several threads and folded in order.
 
     Returns ``{"per_pair": {name: float | None}, "parts": {warp name: {pred, gt, signed}},
     "lpips_error": str | None}``.
@@ -411,7 +448,12 @@ def _pair_terms(
     lpips_error = None
     if lpips_fn is not None:
         try:
-            values["tlp"] = tlp(pp, p, gp, g, lpips_fn)
+            if memo is not None:  # = tlp(pp, p, gp, g, lpips_fn), each frame's features once
+                d_pred = lpips_fn.distance(memo.get(index - 1, "pred", pp), memo.get(index, "pred", p))
+                d_gt = lpips_fn.distance(memo.get(index - 1, "gt", gp), memo.get(index, "gt", g))
+                values["tlp"] = abs(d_pred - d_gt)
+            else:
+                values["tlp"] = tlp(pp, p, gp, g, lpips_fn)
             values["focused_tlp"] = (
                 None
                 if pair_region is None or not pair_region.any()
@@ -447,7 +489,9 @@ def temporal_metrics(
     ``executor``: a ``concurrent.futures`` executor (threads) to compute the pairs on, up to
     ``window`` pairs in flight (each holds its four frames); the numbers are those of the
     sequential run, which is what happens with None. ``lpips_fn`` must then be thread-safe
-    (``default_lpips`` is).
+    (``default_lpips`` is). An ``lpips_fn`` with ``features`` / ``distance`` (``LpipsFeatures``,
+    the torch default) gets each frame's whole-frame features computed once for tLP and kept
+    while a pair in flight needs them (86 MB per frame and side at 1080p with AlexNet).
 
     Returns ``{name: {"value": float | None, "reason": str | None, "per_pair": [float | None]}}``
     for ``warp_error, tof, tlp, flicker`` and their ``focused_`` variants. ``value`` is the mean of
@@ -484,9 +528,14 @@ def temporal_metrics(
     prev = None  # (pred, gt, region)
     n_frames = 0
     pending: deque = deque()  # pair terms in frame order: futures (executor) or dicts
+    memo = _FeatureMemo(lpips_fn) if hasattr(lpips_fn, "features") else None
+    folded = 0
 
     def fold(terms: dict) -> None:
-        nonlocal lpips_reason
+        nonlocal lpips_reason, folded
+        if memo is not None:
+            memo.drop(folded)  # pair k = frames (k, k+1): later pairs never need frame k
+        folded += 1
         for name, value in terms["per_pair"].items():
             per_pair[name].append(value)
         for name, got in terms["parts"].items():
@@ -524,7 +573,8 @@ def temporal_metrics(
             pp, gp, rp = prev
             if pp.shape != p.shape:
                 raise InputError(f"frame {i} has shape {p.shape}, frame {i - 1} had {pp.shape}")
-            args = (pp, gp, rp, p, g, reg, cache, config, lpips_fn if lpips_reason is None else None)
+            args = (pp, gp, rp, p, g, reg, cache, config,
+                    lpips_fn if lpips_reason is None else None, memo, i)
             if executor is None:
                 pending.append(_pair_terms(*args))
             else:

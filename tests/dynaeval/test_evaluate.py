@@ -10,6 +10,7 @@ import pytest
 
 import dynaeval
 from dynaeval import metrics as M
+from dynaeval.metrics import perceptual
 from dynaeval.errors import InputError
 from dynaeval.evaluate import ScoreConfig
 from dynaeval.regions import write_boxes_file
@@ -37,7 +38,9 @@ def scene(tmp_path):
 def random_lpips(monkeypatch):
     """LPIPS with the package's real linear layers on a seeded random backbone (no download)."""
     load, fn = M.load_lpips, M.lpips
-    monkeypatch.setattr(M, "load_lpips", lambda net, **kw: load(net, pretrained_backbone=False, **kw))
+    monkeypatch.setattr(M, "load_lpips", lambda net, **kw: load(net, **{**kw, "pretrained_backbone": False}))
+    # LpipsFeatures (tLP) loads the module through the perceptual module itself
+    monkeypatch.setattr(perceptual, "load_lpips", M.load_lpips)
     monkeypatch.setattr(M, "lpips", lambda p, g, **kw: fn(p, g, pretrained_backbone=False, **kw))
 
 

@@ -9,6 +9,7 @@ import pytest
 
 import dynaeval
 from dynaeval import metrics as M
+from dynaeval.metrics import perceptual
 from dynaeval.cli import sample_dir
 from dynaeval.errors import InputError
 from dynaeval.io import read_image
@@ -32,6 +33,8 @@ def random_lpips(monkeypatch):
     """LPIPS with the package's linear layers on a seeded random backbone (no weights needed)."""
     load, fn = M.load_lpips, M.lpips
     monkeypatch.setattr(M, "load_lpips", lambda net, **kw: load(net, **{**kw, "pretrained_backbone": False}))
+    # LpipsFeatures (tLP) loads the module through the perceptual module itself
+    monkeypatch.setattr(perceptual, "load_lpips", M.load_lpips)
     monkeypatch.setattr(M, "lpips", lambda p, g, **kw: fn(p, g, **{**kw, "pretrained_backbone": False}))
 
 

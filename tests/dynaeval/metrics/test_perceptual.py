@@ -63,6 +63,25 @@ def test_lpips_equals_package_on_the_same_network(pair, package_alex, net):
         assert k1 == k2 and torch.equal(v1, v2)
 
 
+def test_feature_split_is_the_package_forward_bit_for_bit(pair, package_alex):
+    """LpipsFeatures: backbone per image, distance per pair = the package's forward exactly (the
+    same operations), on several sizes; features of different sizes are refused."""
+    rng = np.random.default_rng(3)
+    split = perceptual.LpipsFeatures("alex", **RANDOM)
+    for shape in [pair[0].shape, (131, 97, 3), (40, 33, 3)]:
+        a, b = rng.random(shape).astype(np.float32), rng.random(shape).astype(np.float32)
+        with torch.no_grad():
+            expected = float(package_alex(_nchw(a), _nchw(b)).double().item())
+        fa, fb = split.features(a), split.features(b)
+        assert split.distance(fa, fb) == expected == split(a, b) == lpips(a, b, **RANDOM)
+        assert split.distance(fa, fa) == 0.0
+    assert split.features_bytes(fa) == sum(f.numel() * 4 for f in fa)
+    with pytest.raises(InputError, match="different sizes"):
+        split.distance(split.features(pair[0]), fa)
+    with pytest.raises(InputError, match=r"\[0, 1\]"):
+        split.features(pair[0] * 2)
+
+
 def test_lpips_map_equals_package_spatial(pair):
     a, b = pair
     with torch.no_grad():

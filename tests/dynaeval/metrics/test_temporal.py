@@ -516,3 +516,57 @@ def test_importing_the_temporal_metrics_pulls_in_neither_torch_nor_cv2():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+class CountingFeatures:
+    """LpipsFeatures on a random backbone that counts its backbone runs."""
+
+    def __init__(self):
+        from dynaeval.metrics.perceptual import LpipsFeatures
+
+        self.inner = LpipsFeatures(pretrained_backbone=False)
+        self.calls = 0
+
+    def features(self, x):
+        self.calls += 1
+        return self.inner.features(x)
+
+    def distance(self, a, b):
+        return self.inner.distance(a, b)
+
+    def __call__(self, a, b):
+        return self.inner(a, b)
+
+
+@pytest.mark.parametrize("workers", [0, 2])
+def test_tlp_from_features_equals_pairwise_lpips_and_runs_the_backbone_once_per_frame(rng, workers):
+    """tLP through LpipsFeatures (each frame's features once, kept while a pair needs them) equals
+    tLP through plain LPIPS calls bit for bit, sequentially and on threads."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from dynaeval.metrics.perceptual import lpips
+
+    gt = panning(texture(rng), 5)
+    pred = [np.clip(g + rng.normal(0, 0.05, g.shape), 0, 1).astype(np.float32) for g in gt]
+    boxes = [np.array([[10, 10, 50, 50]])] * 5
+    plain = temporal_metrics(pred, gt, region_masks=boxes,
+                             lpips_fn=lambda a, b: lpips(a, b, pretrained_backbone=False))
+    counting = CountingFeatures()
+    pool = ThreadPoolExecutor(max_workers=workers) if workers else None
+    try:
+        got = temporal_metrics(pred, gt, region_masks=boxes, lpips_fn=counting, executor=pool)
+    finally:
+        if pool:
+            pool.shutdown()
+    for name in ("tlp", "focused_tlp"):
+        assert got[name] == plain[name], name
+    assert plain["tlp"]["value"] > 0
+    assert counting.calls == 2 * 5  # pred and gt of each frame, not 4 per pair
+
+
+def test_default_lpips_is_the_feature_split_for_torch():
+    from dynaeval.metrics.perceptual import LpipsFeatures
+    from dynaeval.metrics.temporal import default_lpips
+
+    assert isinstance(default_lpips("alex"), LpipsFeatures)
+    assert not isinstance(default_lpips("alex", backend="onnxruntime"), LpipsFeatures)
