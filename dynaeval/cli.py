@@ -67,6 +67,10 @@ def _add_score_options(p: argparse.ArgumentParser) -> None:
                    help="frames scored concurrently; never changes a number (default: 1)")
     p.add_argument("--device", choices=["cpu", "cuda", "auto"], default="cpu",
                    help="torch device for LPIPS (default: cpu)")
+    p.add_argument("--cache-mb", type=int, default=1024, metavar="MB",
+                   help="decoded frames kept per camera so each file is decoded once (default: "
+                        "1024; a 1080p frame is 25 MB, and a camera needs its ground truth and "
+                        "predictions); never changes a number")
     p.add_argument("-o", "--output", metavar="results.json",
                    help="write the results JSON here (atomically)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing -o file")
@@ -183,6 +187,7 @@ def _run_score(pred: str, gt: str | None, args: argparse.Namespace, *, overwrite
         background=getattr(args, "background", "white"),
         allow_missing=getattr(args, "allow_missing", False),
         workers=args.workers,
+        cache_mb=getattr(args, "cache_mb", 1024),
         device=getattr(args, "device", "cpu"),
         progress=not args.quiet,
         shard=parse_shard(args.shard) if getattr(args, "shard", None) else None,

@@ -398,6 +398,8 @@ def score(
         raise InputError(f"lpips_backend must be torch or onnxruntime, got {config.lpips_backend!r}")
     if config.workers < 1:
         raise InputError(f"workers must be >= 1, got {config.workers}")
+    if config.cache_mb < 0:
+        raise InputError(f"cache_mb must be >= 0 (0: no frame cache), got {config.cache_mb}")
     t_start = time.perf_counter()
     pairing = pair_frames(pred_dir, gt_dir, allow_missing=config.allow_missing)
     if config.shard is not None:

@@ -9,10 +9,10 @@ import pytest
 
 import dynaeval
 from dynaeval import metrics as M
-from dynaeval.metrics import perceptual
 from dynaeval.cli import sample_dir
 from dynaeval.errors import InputError
 from dynaeval.io import read_image
+from dynaeval.metrics import perceptual
 from dynaeval.metrics.accumulate import ImageMetrics
 
 torch = pytest.importorskip("torch")
