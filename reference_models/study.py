@@ -188,6 +188,20 @@ def run_study(study: Path, preset: str = "tiny", scenes=SCENES, models=MODELS,
     return board
 
 
+def copy_results(study: Path, dest: Path) -> list[Path]:
+    """Copy ``study/results/*.json`` and ``study/leaderboard.json`` into ``dest`` (created)."""
+    import shutil
+
+    dest.mkdir(parents=True, exist_ok=True)
+    files = sorted((study / "results").glob("*.json")) + [study / "leaderboard.json"]
+    out = []
+    for f in files:
+        if not f.is_file():
+            raise InputError(f"{f} is missing: run the study first")
+        out.append(Path(shutil.copy2(f, dest / f.name)))
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m reference_models.study",
                                      description=__doc__.split("\n\n")[0])
@@ -198,6 +212,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--sampling", nargs="+", default=list(SAMPLINGS),
                         choices=("uniform", "isg", "ist"))
     parser.add_argument("--docs", type=Path, help="write the study report (Markdown) here")
+    parser.add_argument("--results-to", type=Path, metavar="DIR",
+                        help="also copy every run's results JSON and the leaderboard here (what "
+                             "the repository keeps of a study; the report links to it)")
     parser.add_argument("--threads", type=int, default=1,
                         help="torch CPU threads per run (default 1)")
     parser.add_argument("--jobs", type=int, default=1,
@@ -212,10 +229,12 @@ def main(argv: list[str] | None = None) -> int:
     try:
         run_study(args.out, args.preset, args.scenes, args.models, args.sampling,
                   progress=not args.quiet, jobs=args.jobs, threads=args.threads)
+        if args.results_to:
+            copy_results(args.out, args.results_to)
         if args.docs:
             from reference_models.study_report import write_report
 
-            write_report(args.out, args.docs, preset=args.preset,
+            write_report(args.out, args.docs, preset=args.preset, results_dir=args.results_to,
                          command=" ".join(["python -m reference_models.study", *(argv or sys.argv[1:])]))
     except InputError as err:
         print(f"error: {err}", file=sys.stderr)

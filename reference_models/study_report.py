@@ -208,7 +208,8 @@ def study_elapsed_s(study: Path) -> float:
     return max(ends) - min(starts)
 
 
-def write_report(study: Path, path: Path, *, preset: str, command: str) -> Path:
+def write_report(study: Path, path: Path, *, preset: str, command: str,
+                 results_dir: Path | None = None) -> Path:
     """Write the Markdown report of ``study`` to ``path`` (images next to it in img/)."""
     docs = _load(study)
     from reference_models.study import SCENES
@@ -246,6 +247,10 @@ def write_report(study: Path, path: Path, *, preset: str, command: str) -> Path:
         "machine.",
         "",
     ]
+    if results_dir is not None:
+        rel_results = os.path.relpath(results_dir, path.parent)
+        lines += [f"Every run's results JSON (`dynaeval/results/v1`) and the leaderboard are in "
+                  f"[{rel_results}/]({rel_results}/).", ""]
     for scene, sdocs in by_scene.items():
         lines += [f"## {scene}", "", scene_table(sdocs), ""]
         fig = crops_figure(sdocs, study / "data" / scene, img_dir / f"{scene}-crops.png")

@@ -19,7 +19,7 @@ def study(tmp_path_factory):
     docs = root / "docs" / "validation.md"
     # two runs at once in worker processes (what the small study uses on 2 cores)
     assert main(["--preset", "tiny", "--out", str(root / "s"), "--docs", str(docs), "-q",
-                 "--jobs", "2"]) == 0
+                 "--jobs", "2", "--results-to", str(root / "docs" / "validation-tiny")]) == 0
     return root / "s", docs
 
 
@@ -47,6 +47,11 @@ def test_report_is_generated_with_its_images(study):
     assert images and all((docs.parent / i).is_file() for i in images)
     assert "The seed study's findings, checked" in text
     assert "From the first scene render to the last result" in text
+    kept = docs.parent / "validation-tiny"
+    assert "[validation-tiny/](validation-tiny/)" in text
+    assert sorted(p.name for p in kept.glob("*.json")) == sorted(
+        [f"{s}__{m}-{x}.json" for s in SCENES for m in MODELS for x in ("uniform", "isg")]
+        + ["leaderboard.json"])
 
 
 def test_finished_runs_are_not_redone(study):
