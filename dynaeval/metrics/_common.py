@@ -8,8 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from dynaeval.boxes import boxes_to_mask, clip_boxes
+from dynaeval.boxes import grow_box as grow_box  # re-export: structural.py and perceptual.py use it
 from dynaeval.errors import EmptyRegionError, InputError
-from dynaeval.regions.boxes import boxes_to_mask, clip_boxes
 
 
 def is_torch_tensor(x: object) -> bool:
@@ -127,30 +128,3 @@ def clipped_boxes(boxes: object, height: int, width: int) -> np.ndarray:
             "no box has a pixel inside the image: the metric is undefined for this frame"
         )
     return b
-
-
-def grow_box(box: np.ndarray, min_h: int, min_w: int, height: int, width: int) -> np.ndarray:
-    """Grow a box symmetrically to at least ``min_h x min_w``, shifted to stay inside the image.
-
-    The added pixels are the real neighbours of the box (never zero padding). If the image itself
-    is smaller than the minimum in a dimension, that dimension becomes the whole image.
-    """
-    x0, y0, x1, y1 = (int(v) for v in box)
-    x0, x1 = _grow_1d(x0, x1, min_w, width)
-    y0, y1 = _grow_1d(y0, y1, min_h, height)
-    return np.array([x0, y0, x1, y1], dtype=np.int64)
-
-
-def _grow_1d(lo: int, hi: int, size: int, extent: int) -> tuple[int, int]:
-    if hi - lo >= size:
-        return lo, hi
-    if size >= extent:
-        return 0, extent
-    extra = size - (hi - lo)
-    lo -= extra // 2
-    hi = lo + size
-    if lo < 0:
-        lo, hi = 0, size
-    if hi > extent:
-        lo, hi = extent - size, extent
-    return lo, hi

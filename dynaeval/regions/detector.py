@@ -37,6 +37,7 @@ from typing import Any
 
 import numpy as np
 
+from dynaeval.boxes import batched_nms, box_iou_matrix, nms  # noqa: F401  (box_iou_matrix, nms: old import path)
 from dynaeval.errors import InputError
 
 # torchvision's COCO category list (91 indices, "N/A" for ids unused by COCO 2017); checked against
@@ -216,56 +217,6 @@ def letterbox(image: np.ndarray, size_hw: tuple[int, int], pad_value: float = 11
     canvas = np.full((th, tw, 3), pad_value, dtype=np.float32)
     canvas[top : top + nh, left : left + nw] = resized
     return canvas, (nw / w, nh / h), (left, top)
-
-
-def box_iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """IoU of float boxes ``a (M, 4)`` with ``b (N, 4)`` (xyxy) as ``(M, N)``; 0 where the union is 0."""
-    iw = np.minimum(a[:, None, 2], b[None, :, 2]) - np.maximum(a[:, None, 0], b[None, :, 0])
-    ih = np.minimum(a[:, None, 3], b[None, :, 3]) - np.maximum(a[:, None, 1], b[None, :, 1])
-    inter = np.clip(iw, 0, None) * np.clip(ih, 0, None)
-    area_a = (a[:, 2] - a[:, 0]) * (a[:, 3] - a[:, 1])
-    area_b = (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])
-    union = area_a[:, None] + area_b[None, :] - inter
-    return np.divide(inter, union, out=np.zeros_like(inter), where=union > 0)
-
-
-def nms(boxes: np.ndarray, scores: np.ndarray, iou_threshold: float, block: int = 256) -> np.ndarray:
-    """Greedy non-maximum suppression (same rule as ``torchvision.ops.nms``).
-
-    ``boxes``: ``(N, 4)`` float xyxy; ``scores``: ``(N,)``. Returns int64 indices of the kept boxes
-    by decreasing score; a box is dropped when its IoU with a kept, higher-scored box is
-    ``> iou_threshold``. IoUs are computed for ``block`` boxes at a time against all lower-scored
-    ones (memory ``block x N``), then the greedy pass only ORs boolean rows. The cost is quadratic
-    in ``N`` (about N^2 / 2 IoUs): keep the score threshold above the detector's noise floor.
-    """
-    boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
-    order = np.argsort(-np.asarray(scores, dtype=np.float64), kind="stable")
-    b = boxes[order]
-    n = b.shape[0]
-    removed = np.zeros(n, dtype=bool)
-    keep: list[int] = []
-    for lo in range(0, n, block):
-        hi = min(n, lo + block)
-        suppress = box_iou_matrix(b[lo:hi], b[lo:]) > iou_threshold  # (hi - lo, n - lo)
-        for r in range(hi - lo):
-            if removed[lo + r]:
-                continue
-            keep.append(lo + r)
-            removed[lo:] |= suppress[r]  # rows before lo + r are already decided
-    return order[np.asarray(keep, dtype=np.int64)]
-
-
-def batched_nms(boxes: np.ndarray, scores: np.ndarray, class_ids: np.ndarray, iou_threshold: float) -> np.ndarray:
-    """NMS within each class independently (boxes of different classes never suppress each other).
-
-    Same contract as ``nms``; implemented by shifting each class's boxes to its own disjoint area.
-    """
-    boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
-    if boxes.shape[0] == 0:
-        return np.zeros(0, dtype=np.int64)
-    span = float(boxes.max() - min(boxes.min(), 0.0)) + 1.0
-    shifted = boxes + (np.asarray(class_ids, dtype=np.float64) * span)[:, None]
-    return nms(shifted, scores, iou_threshold)
 
 
 def _parse_names(raw: str | None) -> dict[int, str] | None:

@@ -20,7 +20,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from dynaeval.errors import InputError
-from dynaeval.regions.boxes import as_boxes, clip_boxes
+from dynaeval.boxes import as_boxes, clip_boxes
 
 EXPAND_RULES = ("paper", "margin", "none")
 """Names accepted by ``ExpandConfig.rule`` and ``ExpandConfig.preset``."""

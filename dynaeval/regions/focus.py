@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from dynaeval.errors import InputError
-from dynaeval.regions.boxes import clip_boxes
+from dynaeval.boxes import clip_boxes
 from dynaeval.regions.expand import ExpandConfig, expand_boxes
 
 FOCUS_SOURCES = ("detector", "motion", "boxes", "none")
