@@ -8,7 +8,7 @@ pixels *and* channels, accumulated in float64. Identical images have MSE 0 and P
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -215,3 +215,14 @@ def quantize(img: object, mode: str = "none") -> np.ndarray:
     scaled = np.clip(arr, 0.0, 1.0) * 255.0
     q = np.round(scaled) if mode == "round" else np.floor(scaled)
     return (q / 255.0).astype(arr.dtype)
+
+
+def build_psnr(ctx: Any) -> Any:
+    """The registry's PSNR for a run (``dynaeval.metrics.registry.FrameContext``): the protocol's
+    whole-frame PSNR, dynaeval's ``psnr`` over a region (``{"boxes": ...}`` / ``{"mask": ...}``)."""
+    whole, dr = ctx.whole().whole_psnr, ctx.data_range
+
+    def fn(pred: np.ndarray, gt: np.ndarray, region: dict[str, Any]) -> float:
+        return psnr(pred, gt, data_range=dr, **region) if region else whole(pred, gt, data_range=dr)
+
+    return fn

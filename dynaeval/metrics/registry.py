@@ -1,18 +1,87 @@
-"""One registry of every metric name dynaeval reports: direction, range, unit, meaning.
+"""The one registry of metrics: every number dynaeval reports is declared here, once.
 
-The results, tables and plots look metrics up here (e.g. to sort a leaderboard or to say "higher is
-better"); a name in the results that is not here is a bug.
+A ``MetricSpec`` says what a metric is (direction, range, unit, display precision, meaning), which
+variants it has (regions ``whole`` / ``focused`` / ``masked``, or object classes) and so which
+result keys it writes, whether it runs by default, which extra it needs and — for per-frame
+metrics — how to build its function for a run (``build``) and which settings it records
+(``settings``). ``evaluate``, ``ImageMetrics``, the results, tables, leaderboard and the CLI all
+read it: adding a per-frame metric is its module, its entry in ``SPECS``, its test and its section
+in docs/metrics.md (docs/architecture.md walks through it).
+
+Result keys are made here and nowhere else: ``result_key("ssim", "focused") == "focused_ssim"``,
+``result_key("presence", cls="ball") == "presence_ball"``. ``METRICS`` maps every result key to
+its ``MetricInfo``; a key in a results file that is not in ``METRICS`` is a bug (a test scores the
+sample with everything on and checks).
+
+Kinds:
+
+* ``frame``: a pure function of one (prediction, ground truth) image pair, per region variant;
+  ``build(ctx) -> fn(pred, gt, region)`` where ``region`` is ``{}`` (whole frame),
+  ``{"boxes": (N, 4)}`` (focused) or ``{"mask": (H, W) bool}`` (masked).
+* ``pair``: a temporal term of two consecutive frames (its value sits in the later frame's row).
+* ``camera``: one value per camera sequence (``flicker``); summaries are means over cameras.
+* ``object``: per ground-truth object class, per frame (``presence_*``, ``tight_psnr_*``).
 """
 
 from __future__ import annotations
 
+import importlib
 import math
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+REGIONS: dict[str, str] = {"whole": "", "focused": "focused_", "masked": "masked_"}
+"""Region variant -> prefix of its result key."""
+
+REGION_RULES: dict[str, str] = {
+    "focused": "SSIM/LPIPS: box-area-weighted mean over crops of the merged boxes; "
+    "PSNR: over the union of the boxes",
+    "masked": "PSNR: over the mask's pixels; SSIM/LPIPS: mean of the full-frame map over them",
+}
+"""How the region variants reduce a per-frame metric (written into the results' settings)."""
+
+KINDS = ("frame", "pair", "camera", "object")
+
+PRESENCE_CLASSES = ("person", "ball")
+"""Object classes the presence check reports (``presence_<class>``, ``tight_psnr_<class>``)."""
+
+FrameFn = Callable[[np.ndarray, np.ndarray, dict[str, Any]], float]
+"""``fn(pred, gt, region) -> value``: (H, W, C) float images, region ``{}``, ``{"boxes": ...}``
+or ``{"mask": ...}``."""
+
+
+@dataclass(frozen=True)
+class FrameContext:
+    """What a per-frame metric may need from the run to build its function."""
+
+    data_range: float = 1.0
+    """Peak value of the images (1.0 for [0, 1])."""
+    protocol: Any = None
+    """``dynaeval.metrics.protocols.Protocol`` whose whole-frame variants to use; None: dynaeval's."""
+    device: str = "cpu"
+    """Resolved torch device (``cpu``, ``cuda[:i]``) for metrics that run a network."""
+    lpips_net: str = "alex"
+    """LPIPS backbone: ``alex`` or ``vgg``."""
+    lpips_backend: str = "torch"
+    """LPIPS runtime: ``torch`` or ``onnxruntime``."""
+    pretrained_backbone: bool = True
+    """False only in tests: networks with random backbones (see ``load_lpips``)."""
+
+    def whole(self) -> Any:
+        """The protocol (dynaeval's when None)."""
+        if self.protocol is not None:
+            return self.protocol
+        from dynaeval.metrics.protocols import get_protocol
+
+        return get_protocol("dynaeval")
 
 
 @dataclass(frozen=True)
 class MetricInfo:
-    """What one reported number means."""
+    """What one reported number (one result key) means."""
 
     name: str
     """Key in the results (``frames[i][name]``, ``summary[name]``)."""
@@ -24,6 +93,14 @@ class MetricInfo:
     """Unit of the value ("dB", "" for unitless)."""
     description: str
     """One line: what is measured and over which pixels."""
+    metric: str = ""
+    """Name of the ``MetricSpec`` it comes from (``psnr`` for ``focused_psnr``)."""
+    variant: str = "whole"
+    """Region (``whole``, ``focused``, ``masked``) or object class (``person``, ``ball``)."""
+    kind: str = "frame"
+    """``frame``, ``pair``, ``camera`` or ``object`` (see the module docstring)."""
+    precision: int = 4
+    """Decimals in the terminal table."""
 
     @property
     def direction(self) -> str:
@@ -31,46 +108,263 @@ class MetricInfo:
         return "higher" if self.higher_is_better else "lower"
 
 
-def _info(name: str, higher: bool, rng: tuple[float, float], unit: str, desc: str) -> MetricInfo:
-    return MetricInfo(name, higher, rng, unit, desc)
+@dataclass(frozen=True)
+class MetricSpec:
+    """One metric, declared once: everything else reads this."""
+
+    name: str
+    """Base name (``psnr``); result keys are made by ``key``."""
+    kind: str
+    """``frame``, ``pair``, ``camera`` or ``object``."""
+    higher_is_better: bool
+    """Direction: True when a higher value is better."""
+    range: tuple[float, float]
+    """Possible values (lo, hi); ``math.inf`` where unbounded."""
+    unit: str
+    """Unit ("dB", "JOD", "" for unitless)."""
+    description: str
+    """One line: what is measured (the region is added per variant)."""
+    regions: tuple[str, ...] = ("whole",)
+    """Region variants it is reported for (keys of ``REGIONS``); empty for object metrics."""
+    classes: tuple[str, ...] = ()
+    """Object metrics: the classes it is reported for (``presence_<class>``)."""
+    precision: int = 4
+    """Decimals in the terminal table (dB values: 3)."""
+    label: str = ""
+    """Name in messages ("LPIPS"); default the upper-case name."""
+    default: bool = True
+    """Runs unless switched off (CLI ``--no-NAME``); False: only when asked for (``--NAME``)."""
+    extra: str | None = None
+    """The ``pip install 'dynaeval[EXTRA]'`` it needs, or None."""
+    build: str | None = None
+    """Frame metrics: ``"module:function"``, ``function(ctx: FrameContext) -> FrameFn``. It may
+    raise ``WeightsUnavailableError`` or ``ImportError``: the metric is then reported
+    unavailable with the message, and the run goes on."""
+    settings: str | None = None
+    """``"module:function"``, ``function(ctx, enabled: bool, unavailable: str | None) -> dict |
+    None``: what the metric records in the results' ``settings[name]`` (None: nothing)."""
+    ignored_settings: tuple[str, ...] = ()
+    """Fields of ``settings[name]`` that never change a number (device, whether it ran): the
+    leaderboard does not compare them."""
+    doc: str = ""
+    """Heading of its section in docs/metrics.md."""
+
+    def key(self, variant: str = "whole") -> str:
+        """Result key of a variant: a region (``focused`` -> ``focused_psnr``) or a class."""
+        if self.classes:
+            if variant not in self.classes:
+                raise KeyError(f"{self.name} has no class {variant!r} (classes: {self.classes})")
+            return f"{self.name}_{variant}"
+        if variant not in self.regions:
+            raise KeyError(f"{self.name} has no region variant {variant!r} ({self.regions})")
+        return REGIONS[variant] + self.name
+
+    def keys(self) -> list[str]:
+        """Every result key of the metric, in report order."""
+        return [self.key(v) for v in (self.classes or self.regions)]
+
+    def load(self, attr: str) -> Callable[..., Any] | None:
+        """The function named by ``build`` or ``settings`` (imported on first use)."""
+        target = getattr(self, attr)
+        if target is None:
+            return None
+        module, _, name = target.partition(":")
+        return getattr(importlib.import_module(module), name)
+
+    @property
+    def title(self) -> str:
+        return self.label or self.name.upper()
 
 
-_BASE = {
-    "psnr": (True, (0.0, math.inf), "dB", "peak signal-to-noise ratio, 10 log10(L^2 / MSE), float64 MSE"),
-    "ssim": (True, (-1.0, 1.0), "", "SSIM (Wang et al. 2004), Gaussian window 11, sigma 1.5, valid windows"),
-    "lpips": (False, (0.0, math.inf), "", "LPIPS v0.1 of the lpips package, AlexNet backbone"),
-}
-_REGIONS = {
-    "": "whole frame",
-    "focused_": "boxes around players and ball (PSNR: union of boxes; SSIM/LPIPS: area-weighted crops)",
-    "masked_": "moving pixels of the motion mask (PSNR: those pixels; SSIM/LPIPS: map mean over them)",
-}
+_UNBOUNDED = (0.0, math.inf)
+_FRAME_REGIONS = ("whole", "focused", "masked")
 
-METRICS: dict[str, MetricInfo] = {}
-for _prefix, _where in _REGIONS.items():
-    for _base, (_higher, _rng, _unit, _desc) in _BASE.items():
-        _name = _prefix + _base
-        METRICS[_name] = _info(_name, _higher, _rng, _unit, f"{_desc}; over the {_where}")
-for _net, _netname in (("alex", "AlexNet"), ("vgg", "VGG16")):
-    METRICS[f"lpips_{_net}"] = _info(
-        f"lpips_{_net}", False, (0.0, math.inf), "", f"LPIPS v0.1 of the lpips package, {_netname} backbone; whole frame"
+SPECS: dict[str, MetricSpec] = {
+    s.name: s
+    for s in (
+        MetricSpec(
+            "psnr", "frame", True, _UNBOUNDED, "dB",
+            "peak signal-to-noise ratio, 10 log10(L^2 / MSE), float64 MSE",
+            regions=_FRAME_REGIONS, precision=3,
+            build="dynaeval.metrics.pixel:build_psnr", doc="PSNR",
+        ),
+        MetricSpec(
+            "ssim", "frame", True, (-1.0, 1.0), "",
+            "SSIM (Wang et al. 2004), Gaussian window 11, sigma 1.5, valid windows",
+            regions=_FRAME_REGIONS,
+            build="dynaeval.metrics.structural:build_ssim",
+            settings="dynaeval.metrics.structural:ssim_settings", doc="SSIM",
+        ),
+        MetricSpec(
+            "lpips", "frame", False, _UNBOUNDED, "",
+            "LPIPS v0.1 of the lpips package (AlexNet backbone unless lpips_net = vgg)",
+            regions=_FRAME_REGIONS, extra="lpips",
+            build="dynaeval.metrics.perceptual:build_lpips",
+            settings="dynaeval.metrics.perceptual:lpips_settings",
+            ignored_settings=("enabled", "device", "backend", "unavailable"), doc="LPIPS",
+        ),
+        MetricSpec(
+            "presence", "object", True, (0.0, 1.0), "",
+            "fraction of the frame's ground-truth objects of the class the prediction shows "
+            "(tight-box NCC and PSNR against calibrated thresholds, plus the detector when it "
+            "made the boxes)",
+            regions=(), classes=PRESENCE_CLASSES, doc="Presence",
+        ),
+        MetricSpec(
+            "tight_psnr", "object", True, _UNBOUNDED, "dB",
+            "PSNR over the union of the class's objects' tight boxes (raw boxes grown by the "
+            "presence margin, not the expanded focus boxes)",
+            regions=(), classes=PRESENCE_CLASSES, precision=3, doc="Presence",
+        ),
+        MetricSpec(
+            "warp_error", "pair", False, _UNBOUNDED, "",
+            "|E(pred) - E(gt)|, E the error between a frame and the previous one warped by the "
+            "ground truth's optical flow",
+            regions=("whole", "focused"), doc="Temporal",
+        ),
+        MetricSpec(
+            "tof", "pair", False, _UNBOUNDED, "",
+            "tOF: difference of the optical flow of prediction and ground truth, pixels",
+            regions=("whole", "focused"), doc="Temporal",
+        ),
+        MetricSpec(
+            "tlp", "pair", False, _UNBOUNDED, "",
+            "tLP: difference of LPIPS between consecutive frames, prediction vs ground truth",
+            regions=("whole", "focused"), doc="Temporal",
+        ),
+        MetricSpec(
+            "flicker", "camera", False, _UNBOUNDED, "",
+            "temporal flicker of static pixels compared with the ground truth",
+            regions=("whole", "focused"), doc="Temporal",
+        ),
     )
-# Temporal terms (defined in dynaeval.metrics.temporal): all errors, lower is better.
-METRICS.update(
-    {
-        "warp_error": _info("warp_error", False, (0.0, math.inf), "", "error between a frame and the previous one warped by GT optical flow"),
-        "tof": _info("tof", False, (0.0, math.inf), "", "tOF: difference of the optical flow of prediction and ground truth"),
-        "tlp": _info("tlp", False, (0.0, math.inf), "", "tLP: difference of LPIPS between consecutive frames, prediction vs ground truth"),
-        "flicker": _info("flicker", False, (0.0, math.inf), "", "temporal flicker of static pixels compared with the ground truth"),
-    }
-)
-# Object presence (defined in dynaeval.metrics.presence): per frame, over the ground-truth objects.
-for _cls in ("person", "ball"):
-    METRICS[f"presence_{_cls}"] = _info(
-        f"presence_{_cls}", True, (0.0, 1.0), "",
-        f"fraction of the frame's ground-truth {_cls} objects the prediction shows (tight-box NCC "
-        "and PSNR against calibrated thresholds, plus the detector when it made the boxes)")
-    METRICS[f"tight_psnr_{_cls}"] = _info(
-        f"tight_psnr_{_cls}", True, (0.0, math.inf), "dB",
-        f"PSNR over the union of the {_cls} objects' tight boxes (raw boxes grown by the presence "
-        "margin, not the expanded focus boxes)")
+}
+"""Every metric, by base name, in report order."""
+
+_WHERE = {
+    "whole": "whole frame",
+    "focused": "boxes around players and ball",
+    "masked": "moving pixels of the motion mask",
+}
+
+
+def _ordered(specs: list[MetricSpec]) -> list[tuple[MetricSpec, str]]:
+    """(spec, variant) in report order: region-major (every whole-frame key, then every focused
+    one, ...), then the object metrics spec by spec."""
+    regional = [(s, r) for r in REGIONS for s in specs if r in s.regions]
+    return regional + [(s, c) for s in specs for c in s.classes]
+
+
+def _infos() -> dict[str, MetricInfo]:
+    out: dict[str, MetricInfo] = {}
+    for spec, variant in _ordered(list(SPECS.values())):
+        key = spec.key(variant)
+        where = f"class {variant}" if spec.classes else f"over the {_WHERE[variant]}"
+        if spec.kind == "frame" and variant in REGION_RULES:
+            where += f" ({REGION_RULES[variant]})"
+        out[key] = MetricInfo(key, spec.higher_is_better, spec.range, spec.unit,
+                              f"{spec.description}; {where}", spec.name, variant, spec.kind,
+                              spec.precision)
+    return out
+
+
+METRICS: dict[str, MetricInfo] = _infos()
+"""Every result key -> what it means."""
+
+
+def spec(name: str) -> MetricSpec:
+    """The spec of a base name (``psnr``) or of a result key (``focused_psnr``).
+
+    Raises:
+        KeyError: no such metric.
+    """
+    if name in SPECS:
+        return SPECS[name]
+    if name in METRICS:
+        return SPECS[METRICS[name].metric]
+    raise KeyError(f"unknown metric {name!r}; registered: {', '.join(SPECS)}")
+
+
+def result_key(metric: str, region: str = "whole", *, cls: str | None = None) -> str:
+    """The result key of a metric's variant: ``result_key("ssim", "masked") == "masked_ssim"``,
+    ``result_key("presence", cls="ball") == "presence_ball"``."""
+    return SPECS[metric].key(cls if cls is not None else region)
+
+
+def keys_of(*kinds: str, region: str | None = None) -> list[str]:
+    """Result keys of every metric of the given kinds (optionally one region variant), in report
+    order: ``keys_of("pair", "camera")`` is ``warp_error, tof, tlp, flicker, focused_warp_error,
+    ...``."""
+    bad = [k for k in kinds if k not in KINDS]
+    if bad or not kinds:
+        raise KeyError(f"kinds must be among {KINDS}, got {kinds}")
+    specs = [s for s in SPECS.values() if s.kind in kinds]
+    return [s.key(v) for s, v in _ordered(specs) if region is None or v == region]
+
+
+def frame_specs(names: tuple[str, ...] | list[str] | None = None) -> list[MetricSpec]:
+    """The per-frame metric specs, all or those named, in registry order.
+
+    Raises:
+        KeyError: a name that is not a per-frame metric.
+    """
+    frame = [s for s in SPECS.values() if s.kind == "frame"]
+    if names is None:
+        return frame
+    known = {s.name for s in frame}
+    unknown = [n for n in names if n not in known]
+    if unknown:
+        raise KeyError(f"unknown per-frame metric(s) {unknown}; registered: {sorted(known)}")
+    return [s for s in frame if s.name in names]
+
+
+def default_frame_metrics() -> tuple[str, ...]:
+    """Names of the per-frame metrics that run unless switched off."""
+    return tuple(s.name for s in SPECS.values() if s.kind == "frame" and s.default)
+
+
+@dataclass
+class BuiltMetrics:
+    """The per-frame functions of a run, by result key, and what the metrics record."""
+
+    fns: dict[str, tuple[str, FrameFn]] = field(default_factory=dict)
+    """Result key -> (region variant, ``fn(pred, gt, region)``), in report order."""
+    settings: dict[str, dict] = field(default_factory=dict)
+    """Metric name -> its settings section."""
+    unavailable: dict[str, str] = field(default_factory=dict)
+    """Metric name -> why it could not run (weights or packages absent)."""
+
+
+def build_frame_metrics(
+    ctx: FrameContext, names: tuple[str, ...] | list[str], regions: tuple[str, ...] = ("whole",)
+) -> BuiltMetrics:
+    """Build the functions of the per-frame metrics ``names`` for the region variants ``regions``.
+
+    A metric whose ``build`` raises ``WeightsUnavailableError`` or ``ImportError`` is left out
+    with the reason in ``unavailable`` (and its settings say so). Every per-frame metric's
+    settings function is called, so a default metric switched off records ``enabled: false``.
+    """
+    from dynaeval.errors import WeightsUnavailableError
+
+    out = BuiltMetrics()
+    built: dict[str, FrameFn] = {}
+    wanted = {s.name for s in frame_specs(list(names))}
+    for s in frame_specs():
+        unavailable = None
+        if s.name in wanted:
+            try:
+                built[s.name] = s.load("build")(ctx)
+            except (WeightsUnavailableError, ImportError) as err:
+                hint = f" (pip install 'dynaeval[{s.extra}]')" if isinstance(err, ImportError) and s.extra else ""
+                unavailable = f"{err}{hint}"
+                out.unavailable[s.name] = unavailable
+        settings_fn = s.load("settings")
+        if settings_fn is not None:
+            section = settings_fn(ctx, s.name in built, unavailable)
+            if section is not None:
+                out.settings[s.name] = section
+    for region in regions:
+        for name, fn in built.items():
+            if region in SPECS[name].regions:
+                out.fns[SPECS[name].key(region)] = (region, fn)
+    return out

@@ -20,6 +20,8 @@ reused buffers, and reduces in float64 (optionally over ``threads`` threads; sam
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from dynaeval.errors import EmptyRegionError, InputError
@@ -362,3 +364,28 @@ def ssim_reference(pred: object, gt: object, *, data_range: float = 1.0) -> np.n
     cov = wmean(wx * wy) - mu_x * mu_y
     s = ((2 * mu_x * mu_y + c1) * (2 * cov + c2)) / ((mu_x**2 + mu_y**2 + c1) * (var_x + var_y + c2))
     return s.mean(axis=2)
+
+
+def build_ssim(ctx: Any) -> Any:
+    """The registry's SSIM for a run (``dynaeval.metrics.registry.FrameContext``): the protocol's
+    whole-frame SSIM, dynaeval's ``ssim`` over a region (``{"boxes": ...}`` / ``{"mask": ...}``)."""
+    whole, dr = ctx.whole().whole_ssim, ctx.data_range
+
+    def fn(pred: np.ndarray, gt: np.ndarray, region: dict[str, Any]) -> float:
+        return ssim(pred, gt, data_range=dr, **region) if region else whole(pred, gt, data_range=dr)
+
+    return fn
+
+
+def ssim_settings(ctx: Any, enabled: bool, unavailable: str | None) -> dict[str, Any]:
+    """What the results record of SSIM (the dynaeval definition used over regions)."""
+    return {
+        "window": "gaussian",
+        "win_size": WIN_SIZE,
+        "sigma": SIGMA,
+        "truncate": TRUNCATE,
+        "k1": K1,
+        "k2": K2,
+        "covariance": "population",
+        "border": "valid windows only (the 5-px border is skipped, as scikit-image crops it)",
+    }
