@@ -28,6 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
+from reference_models.common.paths import repo_root
+
 SAMPLE_CAMERAS = ("eval00", "cam07")
 SIZE = {"width": 256, "height": 144, "frames": 8}
 PRESET, SEED = "single-player-closeup", 0
@@ -110,9 +112,12 @@ def make_sample(out: Path) -> dict:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m reference_models.sample",
                                      description=__doc__.split("\n\n")[0])
-    default = Path(__file__).resolve().parent.parent / "dynaeval" / "data" / "sample"
-    parser.add_argument("--out", type=Path, default=default, help="default: %(default)s")
+    parser.add_argument("--out", type=Path, default=None,
+                        help="default: dynaeval/data/sample of the repository (DYNAEVAL_REPO or the "
+                        "clone above the current directory)")
     args = parser.parse_args(argv)
+    if args.out is None:
+        args.out = repo_root() / "dynaeval" / "data" / "sample"
     info = make_sample(args.out)
     size = sum(p.stat().st_size for p in args.out.rglob("*") if p.is_file())
     print(f"sample written to {args.out} ({size / 1e6:.2f} MB): {info}")

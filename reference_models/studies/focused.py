@@ -25,9 +25,10 @@ from pathlib import Path
 
 import numpy as np
 
+from reference_models.common.paths import docs_dir
 from reference_models.studies._doc import replace_block
 
-DOC = Path(__file__).resolve().parents[2] / "docs" / "focused-metrics.md"
+DOC = "focused-metrics.md"  # in the repository's docs/ (reference_models.common.paths)
 BEGIN, END = "<!-- BEGIN focused_study -->", "<!-- END focused_study -->"
 PRESETS = ("single-player-closeup", "single-player-broadcast", "players-stadium")
 CONDITIONS = ("stands blurred", "player blurred", "player missing", "ball missing", "both blurred")
@@ -132,7 +133,7 @@ def table(rows: list[dict]) -> str:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m reference_models.studies.focused",
                                      description=__doc__.split("\n\n")[0])
-    parser.add_argument("--write", action="store_true", help=f"write the table into {DOC}")
+    parser.add_argument("--write", action="store_true", help=f"write the table into docs/{DOC}")
     parser.add_argument("--size", default="small", help="generator size (default small)")
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
@@ -142,7 +143,7 @@ def main(argv: list[str] | None = None) -> int:
              "to the ground truth in the scored pixels is +∞, shown as such.\n\n" + table(rows))
     print(block)
     if args.write:
-        replace_block(DOC, BEGIN, END, block)
+        replace_block(docs_dir() / DOC, BEGIN, END, block)
     return 0
 
 

@@ -39,9 +39,10 @@ from pathlib import Path
 import numpy as np
 
 from dynaeval.metrics.presence import PresenceConfig, crop_similarity, tight_box, visibility
+from reference_models.common.paths import docs_dir
 from reference_models.studies._doc import replace_block
 
-DOC = Path(__file__).resolve().parents[2] / "docs" / "presence.md"
+DOC = "presence.md"  # in the repository's docs/ (reference_models.common.paths)
 BEGIN, END = "<!-- BEGIN presence_study -->", "<!-- END presence_study -->"
 
 CALIBRATION_VIEWS = (("single-player-broadcast", "eval00"), ("single-player-closeup", "eval00"),
@@ -360,7 +361,7 @@ def validation_table(rows: list[dict]) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--write", action="store_true", help=f"replace the study block in {DOC}")
+    parser.add_argument("--write", action="store_true", help=f"replace the study block in docs/{DOC}")
     args = parser.parse_args()
     cfg = PresenceConfig()
     cal = calibration_rows(config=cfg)
@@ -383,7 +384,7 @@ def main() -> None:
     md = "\n".join(text)
     print(md)
     if args.write:
-        replace_block(DOC, BEGIN, END, md)
+        replace_block(docs_dir() / DOC, BEGIN, END, md)
 
 
 if __name__ == "__main__":

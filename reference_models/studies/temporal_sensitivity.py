@@ -28,7 +28,6 @@ from __future__ import annotations
 import argparse
 import time
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
@@ -37,9 +36,10 @@ from dynaeval.metrics import psnr_from_stats, squared_error_stats, ssim
 from dynaeval.metrics.flow import FlowCache, FlowConfig, optical_flow
 from dynaeval.metrics.temporal import TemporalConfig, temporal_metrics
 from dynaeval.regions import mask_to_box
+from reference_models.common.paths import docs_dir
 from reference_models.studies._doc import replace_block
 
-DOC = Path(__file__).resolve().parents[2] / "docs" / "temporal-metrics.md"
+DOC = "temporal-metrics.md"  # in the repository's docs/ (reference_models.common.paths)
 BEGIN, END = "<!-- BEGIN temporal_sensitivity -->", "<!-- END temporal_sensitivity -->"
 BEGIN_SCENES = "<!-- BEGIN temporal_sensitivity scenes -->"
 END_SCENES = "<!-- END temporal_sensitivity scenes -->"
@@ -410,7 +410,7 @@ def main() -> None:
         default="scenes",
         help="ground truth: reference_models.scenes players-stadium (default) or the 2-D sequence",
     )
-    parser.add_argument("--write", action="store_true", help=f"replace the study block in {DOC}")
+    parser.add_argument("--write", action="store_true", help=f"replace the study block in docs/{DOC}")
     parser.add_argument(
         "--no-timing", action="store_true", help="skip the (machine-dependent) timing"
     )
@@ -449,7 +449,7 @@ def main() -> None:
     block = "\n".join(parts)
     print(block)
     if args.write:
-        replace_block(DOC, begin, end, block)
+        replace_block(docs_dir() / DOC, begin, end, block)
 
 
 if __name__ == "__main__":
