@@ -19,6 +19,8 @@ import numpy as np
 
 from dynaeval.errors import InputError, WeightsUnavailableError
 from dynaeval.metrics._common import check_pair, clipped_boxes, grow_box, region_mask
+from dynaeval.runtime import new_session, onnx_providers, torch_device
+from dynaeval.runtime import resolve_device as resolve_device  # re-export: evaluate.py, temporal.py
 
 LPIPS_NETS = ("alex", "vgg")
 MIN_SIZE = {"alex": 31, "vgg": 16}
@@ -107,7 +109,7 @@ def load_lpips(
 
     Args:
         net: ``"alex"`` (default, what NeRF papers report) or ``"vgg"``.
-        device: torch device (or string); None means CPU.
+        device: torch device or string (``auto``: see ``dynaeval.runtime``); None means CPU.
         spatial: True gives the per-pixel map (the package's ``spatial=True``), False the mean.
         pretrained_backbone: True loads torchvision's ImageNet backbone from its cache
             (WeightsUnavailableError when absent); False keeps a randomly initialised backbone
@@ -119,9 +121,7 @@ def load_lpips(
         The ``torch.nn.Module`` in eval mode, parameters frozen, on ``device``.
     """
     _check_net(net)
-    import torch
-
-    dev = torch.device("cpu" if device is None else device)
+    dev = torch_device(device)
     key = (net, str(dev), bool(spatial), bool(pretrained_backbone), None if pretrained_backbone else int(seed))
     with _LOCK:
         model = _MODELS.get(key)
@@ -131,44 +131,6 @@ def load_lpips(
     if model.training:  # someone called .train() on the cached model
         model.eval()
     return model
-
-
-def resolve_device(device: object = None) -> str:
-    """``None``/``"cpu"`` -> ``"cpu"``; ``"auto"`` -> ``"cuda"`` when torch sees a GPU, else ``"cpu"``
-    (also without torch).
-
-    Other strings (``"cuda"``, ``"cuda:1"``) and torch devices are returned as strings unchanged.
-    """
-    if device is None:
-        return "cpu"
-    text = str(device)
-    if text == "auto":
-        try:
-            import torch
-        except ImportError:  # no torch: nothing could run on a GPU anyway
-            return "cpu"
-        return "cuda" if torch.cuda.is_available() else "cpu"
-    return text
-
-
-def onnx_providers(device: object = None) -> list[str]:
-    """onnxruntime execution providers for ``device``: CUDA first when asked for and installed.
-
-    Raises InputError when a CUDA device is asked for but this onnxruntime has no
-    ``CUDAExecutionProvider`` (install ``onnxruntime-gpu``, or use the torch backend / CPU).
-    """
-    import onnxruntime as ort
-
-    dev = resolve_device(device)
-    if dev.startswith("cuda"):
-        if "CUDAExecutionProvider" not in ort.get_available_providers():
-            raise InputError(
-                f"device {dev!r} asked for, but onnxruntime {ort.__version__} has no "
-                f"CUDAExecutionProvider (available: {', '.join(ort.get_available_providers())}); "
-                "install onnxruntime-gpu, or use the torch LPIPS backend, or --device cpu"
-            )
-        return ["CUDAExecutionProvider", "CPUExecutionProvider"]
-    return ["CPUExecutionProvider"]
 
 
 def export_lpips_onnx(model: Any) -> bytes:
@@ -228,8 +190,6 @@ def load_lpips_onnx(
     Returns:
         ``onnxruntime.InferenceSession`` with inputs ``pred``, ``gt`` and output ``d``.
     """
-    import onnxruntime as ort
-
     _check_net(net)
     providers = onnx_providers(device)
     key = (net, tuple(providers), bool(spatial), bool(pretrained_backbone),
@@ -240,11 +200,7 @@ def load_lpips_onnx(
         return session
     model = load_lpips(net, spatial=spatial, pretrained_backbone=pretrained_backbone, seed=seed)
     data = export_lpips_onnx(model)
-    options = ort.SessionOptions()
-    options.intra_op_num_threads = max(1, int(threads))
-    options.inter_op_num_threads = 1
-    options.add_session_config_entry("session.intra_op.allow_spinning", "0")
-    session = ort.InferenceSession(data, options, providers=providers)
+    session = new_session(data, providers, threads=threads)
     with _LOCK:
         return _SESSIONS.setdefault(key, session)
 
@@ -495,3 +451,29 @@ class LpipsFeatures:
 
     def __call__(self, a: object, b: object) -> float:
         return self.distance(self.features(a), self.features(b))
+
+
+def build_lpips(ctx: Any) -> Any:
+    """The registry's LPIPS for a run (``dynaeval.metrics.registry.FrameContext``): loads the
+    network once now, so missing weights (``WeightsUnavailableError``) or packages
+    (``ImportError``) are known before the first frame; whole frame or region as ``lpips``."""
+    net, device, backend = ctx.lpips_net, ctx.device, ctx.lpips_backend
+    pretrained = ctx.pretrained_backbone
+    loader = load_lpips_onnx if backend == "onnxruntime" else load_lpips
+    loader(net, device=device, pretrained_backbone=pretrained)
+
+    def fn(pred: np.ndarray, gt: np.ndarray, region: dict[str, Any]) -> float:
+        return lpips(pred, gt, net=net, device=device, backend=backend,
+                     pretrained_backbone=pretrained, **region)
+
+    return fn
+
+
+def lpips_settings(ctx: Any, enabled: bool, unavailable: str | None) -> dict[str, Any]:
+    """What the results record of LPIPS: whether it ran, the backbone, and where it ran."""
+    out: dict[str, Any] = {"enabled": enabled, "net": ctx.lpips_net}
+    if unavailable is not None:
+        out["unavailable"] = unavailable
+    if enabled:
+        out.update(device=ctx.device, backend=ctx.lpips_backend)
+    return out

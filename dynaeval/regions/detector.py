@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import ast
 import functools
-import hashlib
 import json
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import asdict, dataclass
@@ -39,6 +38,7 @@ import numpy as np
 
 from dynaeval.boxes import batched_nms, box_iou_matrix, nms  # noqa: F401  (box_iou_matrix, nms: old import path)
 from dynaeval.errors import InputError
+from dynaeval.runtime import file_sha256, load_session, onnx_providers
 
 # torchvision's COCO category list (91 indices, "N/A" for ids unused by COCO 2017); checked against
 # torchvision.models.detection weights' meta["categories"] in the tests.
@@ -111,16 +111,7 @@ class DetectorConfig:
 
 
 # --------------------------------------------------------------------------------------------
-# Files, sessions, providers
-
-
-def file_sha256(path: str | Path) -> str:
-    """SHA-256 hex digest of a file's bytes (recorded in results so a number names its model)."""
-    h = hashlib.sha256()
-    with Path(path).open("rb") as f:
-        for chunk in iter(lambda: f.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
+# Files
 
 
 def resolve_model_path(model: str | Path | None) -> Path:
@@ -138,42 +129,6 @@ def resolve_model_path(model: str | Path | None) -> Path:
     if not path.is_file():
         raise InputError("detector model not found: expected an .onnx file", path=path)
     return path
-
-
-def resolve_providers(device: str) -> tuple[str, ...]:
-    """onnxruntime execution providers for ``device`` (``cpu`` | ``cuda`` | ``auto``)."""
-    import onnxruntime as ort
-
-    available = ort.get_available_providers()
-    if device == "cpu":
-        return ("CPUExecutionProvider",)
-    if "CUDAExecutionProvider" in available:
-        return ("CUDAExecutionProvider", "CPUExecutionProvider")
-    if device == "cuda":
-        raise InputError(
-            f"device 'cuda' asked for, but onnxruntime offers only {available}; install "
-            "onnxruntime-gpu or use device 'cpu'/'auto'"
-        )
-    return ("CPUExecutionProvider",)
-
-
-@functools.lru_cache(maxsize=8)
-def _cached_session(path: str, mtime_ns: int, size: int, providers: tuple[str, ...]) -> Any:
-    import onnxruntime as ort
-
-    opts = ort.SessionOptions()
-    opts.log_severity_level = 3  # errors only: no warnings about unused initialisers on stderr
-    try:
-        return ort.InferenceSession(path, sess_options=opts, providers=list(providers))
-    except Exception as exc:  # onnxruntime raises its own (non-standard) exception types
-        raise InputError(f"not a valid ONNX model onnxruntime can load: {exc}", path=path) from exc
-
-
-def load_session(path: str | Path, providers: tuple[str, ...] = ("CPUExecutionProvider",)) -> Any:
-    """An ``onnxruntime.InferenceSession``, created once per (file, its mtime/size, providers)."""
-    p = Path(path).resolve()
-    st = p.stat()
-    return _cached_session(str(p), st.st_mtime_ns, st.st_size, tuple(providers))
 
 
 # --------------------------------------------------------------------------------------------
@@ -291,7 +246,7 @@ class Detector:
     def __init__(self, config: DetectorConfig | None = None) -> None:
         self.config = config or DetectorConfig()
         self.path = resolve_model_path(self.config.model)
-        self.providers = resolve_providers(self.config.device)
+        self.providers = onnx_providers(self.config.device)
         self.session = load_session(self.path, self.providers)
         inputs = self.session.get_inputs()
         if len(inputs) != 1:

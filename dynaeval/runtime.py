@@ -1,0 +1,126 @@
+"""Runtime plumbing shared by every layer: devices, onnxruntime providers and sessions, file hashes.
+
+**One meaning of** ``device="auto"``: *the GPU when the engine that will run can use one, else
+the CPU* — never an error. For torch that is ``"cuda"`` when ``torch.cuda.is_available()`` (and
+``"cpu"`` when torch is not installed); for onnxruntime it is the ``CUDAExecutionProvider`` when the
+installed onnxruntime offers it (``onnxruntime-gpu``). An explicit ``"cuda"`` that cannot be
+honoured is an :class:`~dynaeval.errors.InputError` naming the fix.
+
+Ground floor: numpy-free even; torch and onnxruntime are imported inside the functions.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+from pathlib import Path
+from typing import Any
+
+from dynaeval.errors import InputError
+
+CPU_PROVIDERS: tuple[str, ...] = ("CPUExecutionProvider",)
+CUDA_PROVIDERS: tuple[str, ...] = ("CUDAExecutionProvider", "CPUExecutionProvider")
+
+
+def resolve_device(device: object = None) -> str:
+    """The torch device name for ``device``, as a string.
+
+    ``None``/``"cpu"`` -> ``"cpu"``; ``"auto"`` -> ``"cuda"`` when torch sees a GPU, else ``"cpu"``
+    (also without torch). Other strings (``"cuda"``, ``"cuda:1"``) and torch devices are returned
+    as strings unchanged (torch itself rejects a bad one when the model is moved).
+    """
+    if device is None:
+        return "cpu"
+    text = str(device)
+    if text == "auto":
+        try:
+            import torch
+        except ImportError:  # no torch: nothing could run on a GPU anyway
+            return "cpu"
+        return "cuda" if torch.cuda.is_available() else "cpu"
+    return text
+
+
+def torch_device(device: object = None) -> Any:
+    """``torch.device`` for ``device`` (see :func:`resolve_device`; imports torch)."""
+    import torch
+
+    return torch.device(resolve_device(device))
+
+
+def onnx_providers(device: object = None) -> tuple[str, ...]:
+    """onnxruntime execution providers for ``device``: ``None``/``"cpu"``, ``"cuda[:i]"`` or ``"auto"``.
+
+    Returns ``("CPUExecutionProvider",)`` or ``("CUDAExecutionProvider", "CPUExecutionProvider")``
+    (CUDA first, the CPU for operators CUDA lacks). ``"auto"`` takes CUDA when this onnxruntime
+    offers it, else the CPU. Raises InputError when ``"cuda"`` is asked for but this onnxruntime
+    has no ``CUDAExecutionProvider``, and for a device onnxruntime cannot use (e.g. ``"mps"``).
+    """
+    import onnxruntime as ort
+
+    text = "cpu" if device is None else str(device)
+    available = ort.get_available_providers()
+    if text == "cpu":
+        return CPU_PROVIDERS
+    if text == "auto":
+        return CUDA_PROVIDERS if "CUDAExecutionProvider" in available else CPU_PROVIDERS
+    if text != "cuda" and not text.startswith("cuda:"):
+        raise InputError(
+            f"onnxruntime runs on device 'cpu', 'cuda' or 'auto', got {text!r}; "
+            "pass one of those (or use a torch backend for other devices)"
+        )
+    if "CUDAExecutionProvider" not in available:
+        raise InputError(
+            f"device {text!r} asked for, but onnxruntime {ort.__version__} has no "
+            f"CUDAExecutionProvider (available: {', '.join(available)}); install onnxruntime-gpu, "
+            "or use device 'cpu' (or 'auto', which falls back to the CPU)"
+        )
+    return CUDA_PROVIDERS
+
+
+def new_session(model: str | Path | bytes, providers: tuple[str, ...] = CPU_PROVIDERS, *,
+                threads: int | None = None) -> Any:
+    """A new (uncached) ``onnxruntime.InferenceSession`` on a model file or serialized bytes.
+
+    Only errors are logged (no warnings about unused initialisers on stderr). ``threads``: None
+    keeps onnxruntime's default thread pools; an int sets the intra-op threads, one inter-op
+    thread and no spinning (a thread waiting for a busy core sleeps instead of burning it).
+    A file onnxruntime cannot load is an InputError naming it.
+    """
+    import onnxruntime as ort
+
+    opts = ort.SessionOptions()
+    opts.log_severity_level = 3
+    if threads is not None:
+        opts.intra_op_num_threads = max(1, int(threads))
+        opts.inter_op_num_threads = 1
+        opts.add_session_config_entry("session.intra_op.allow_spinning", "0")
+    if isinstance(model, bytes):  # built by dynaeval itself: a failure is a bug, not bad input
+        return ort.InferenceSession(model, sess_options=opts, providers=list(providers))
+    try:
+        return ort.InferenceSession(str(model), sess_options=opts, providers=list(providers))
+    except Exception as exc:  # onnxruntime raises its own (non-standard) exception types
+        raise InputError(f"not a valid ONNX model onnxruntime can load: {exc}", path=model) from exc
+
+
+@functools.lru_cache(maxsize=8)
+def _cached_session(path: str, mtime_ns: int, size: int, providers: tuple[str, ...]) -> Any:
+    return new_session(path, providers)
+
+
+def load_session(path: str | Path, providers: tuple[str, ...] = CPU_PROVIDERS) -> Any:
+    """An ``onnxruntime.InferenceSession`` on a model file, created once per (file, its mtime and
+    size, providers): a file rewritten in place gets a new session."""
+    p = Path(path).resolve()
+    st = p.stat()
+    return _cached_session(str(p), st.st_mtime_ns, st.st_size, tuple(providers))
+
+
+def file_sha256(path: str | Path) -> str:
+    """SHA-256 hex digest of a file's bytes, read in 1 MiB chunks (recorded in results so a number
+    names its model or boxes file)."""
+    h = hashlib.sha256()
+    with Path(path).open("rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()

@@ -1,0 +1,142 @@
+"""Runtime plumbing: one meaning of ``device="auto"``, providers, cached sessions, file hashes."""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from dynaeval import runtime
+from dynaeval.errors import InputError
+from dynaeval.runtime import (
+    CPU_PROVIDERS,
+    CUDA_PROVIDERS,
+    file_sha256,
+    load_session,
+    new_session,
+    onnx_providers,
+    resolve_device,
+)
+
+ort = pytest.importorskip("onnxruntime")
+
+
+def test_import_runtime_loads_no_engine():
+    code = (
+        "import sys, dynaeval.runtime, dynaeval.boxes; "
+        "print(','.join(m for m in ('onnxruntime', 'torch', 'cv2', 'scipy') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == ""
+
+
+@pytest.mark.parametrize(("device", "expected"), [(None, "cpu"), ("cpu", "cpu"), ("cuda", "cuda"),
+                                                  ("cuda:1", "cuda:1")])
+def test_resolve_device_keeps_explicit_devices(device, expected):
+    assert resolve_device(device) == expected
+
+
+@pytest.mark.parametrize("gpu", [False, True])
+def test_auto_is_cuda_exactly_when_torch_sees_a_gpu(monkeypatch, gpu):
+    torch = pytest.importorskip("torch")
+    monkeypatch.setattr(torch.cuda, "is_available", lambda: gpu)
+    assert resolve_device("auto") == ("cuda" if gpu else "cpu")
+
+
+def test_auto_is_cpu_without_torch(monkeypatch):
+    monkeypatch.setitem(sys.modules, "torch", None)  # makes ``import torch`` raise ImportError
+    assert resolve_device("auto") == "cpu"
+
+
+def test_torch_device():
+    torch = pytest.importorskip("torch")
+    assert runtime.torch_device(None) == torch.device("cpu")
+    assert runtime.torch_device("cuda:1") == torch.device("cuda", 1)
+
+
+def _providers(monkeypatch, cuda: bool) -> None:
+    names = list(CUDA_PROVIDERS if cuda else CPU_PROVIDERS)
+    monkeypatch.setattr(ort, "get_available_providers", lambda: names)
+
+
+@pytest.mark.parametrize("device", [None, "cpu", "auto"])
+def test_onnx_without_cuda_runs_on_the_cpu(monkeypatch, device):
+    _providers(monkeypatch, cuda=False)
+    assert onnx_providers(device) == ("CPUExecutionProvider",)
+
+
+@pytest.mark.parametrize(("device", "expected"), [("cpu", CPU_PROVIDERS), ("auto", CUDA_PROVIDERS),
+                                                  ("cuda", CUDA_PROVIDERS), ("cuda:0", CUDA_PROVIDERS)])
+def test_onnx_with_cuda(monkeypatch, device, expected):
+    _providers(monkeypatch, cuda=True)
+    assert onnx_providers(device) == expected
+
+
+@pytest.mark.parametrize("device", ["cuda", "cuda:1"])
+def test_cuda_without_provider_names_the_fix(monkeypatch, device):
+    _providers(monkeypatch, cuda=False)
+    with pytest.raises(InputError, match=r"no CUDAExecutionProvider.*install onnxruntime-gpu"):
+        onnx_providers(device)
+
+
+def test_onnx_refuses_devices_it_cannot_use():
+    with pytest.raises(InputError, match=r"onnxruntime runs on device 'cpu', 'cuda' or 'auto', got 'mps'"):
+        onnx_providers("mps")
+
+
+def test_cuda_without_provider_on_this_machine():
+    if "CUDAExecutionProvider" in ort.get_available_providers():
+        pytest.skip("this machine has CUDA: the error path cannot happen")
+    with pytest.raises(InputError, match="onnxruntime-gpu"):
+        onnx_providers("cuda")
+    assert onnx_providers("auto") == ("CPUExecutionProvider",)
+
+
+def _identity_model() -> bytes:
+    pytest.importorskip("onnx")
+    from onnx import TensorProto, helper
+
+    x = helper.make_tensor_value_info("x", TensorProto.FLOAT, [None])
+    y = helper.make_tensor_value_info("y", TensorProto.FLOAT, [None])
+    graph = helper.make_graph([helper.make_node("Identity", ["x"], ["y"])], "id", [x], [y])
+    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)])
+    model.ir_version = 8
+    return model.SerializeToString()
+
+
+def test_session_cached_per_file_and_renewed_when_rewritten(tmp_path):
+    path = tmp_path / "id.onnx"
+    path.write_bytes(_identity_model())
+    a = load_session(path)
+    assert load_session(path) is a
+    assert load_session(str(path), ("CPUExecutionProvider",)) is a
+    st = path.stat()  # rewritten in place: same bytes, a new mtime
+    os.utime(path, ns=(st.st_atime_ns, st.st_mtime_ns + 1_000_000))
+    b = load_session(path)
+    assert b is not a
+    x = np.arange(3, dtype=np.float32)
+    np.testing.assert_array_equal(b.run(["y"], {"x": x})[0], x)
+
+
+def test_not_an_onnx_file_is_an_input_error(tmp_path):
+    path = tmp_path / "bad.onnx"
+    path.write_bytes(b"not a model")
+    with pytest.raises(InputError, match=r"bad\.onnx: not a valid ONNX model onnxruntime can load"):
+        load_session(path)
+
+
+def test_new_session_from_bytes_with_threads():
+    session = new_session(_identity_model(), threads=2)
+    x = np.ones(2, dtype=np.float32)
+    np.testing.assert_array_equal(session.run(["y"], {"x": x})[0], x)
+
+
+def test_file_sha256_streams_large_files(tmp_path):
+    data = np.random.default_rng(1).integers(0, 256, 3 * (1 << 20) + 17, dtype=np.uint8).tobytes()
+    p = tmp_path / "blob.bin"
+    p.write_bytes(data)
+    assert file_sha256(p) == hashlib.sha256(data).hexdigest()
