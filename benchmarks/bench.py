@@ -1,4 +1,4 @@
-"""Per-frame time and accuracy of dynaeval's metrics against their peers: ``python -m dynaeval.bench``.
+"""Per-frame time and accuracy of dynaeval's metrics against their peers: ``python benchmarks/bench.py``.
 
 For each frame size it times PSNR, SSIM and LPIPS (AlexNet with a *randomly initialised* backbone:
 the pretrained one cannot be downloaded here, and the cost does not depend on the weights) for
@@ -12,7 +12,9 @@ deviation from a float64 reference:
 
 It also times the focused (boxes) and masked variants and measures how far the crop and map
 definitions of focused SSIM / LPIPS are apart. The table is printed and written to
-docs/benchmarks.md (``--out``) with the command and the machine.
+docs/benchmarks.md (``--out``, relative to the current directory: run it from the repository root)
+with the command and the machine. Not part of the ``dynaeval`` wheel (it was ``python -m
+dynaeval.bench`` until the benchmark left the package).
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ import argparse
 import math
 import os
 import platform
+import shlex
 import sys
 import time
 import warnings
@@ -31,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+import dynaeval
 from dynaeval import __version__
 
 DEFAULT_SIZES = ("1920x1080", "960x540")
@@ -522,7 +526,7 @@ def sample_scene_crop_vs_map(with_lpips: bool = True) -> str:
     from dynaeval.regions.boxes_file import read_boxes_file, records_to_boxes
     from dynaeval.regions.expand import expand_boxes
 
-    root = Path(__file__).resolve().parent / "data" / "sample"
+    root = Path(dynaeval.__file__).resolve().parent / "data" / "sample"
     records = read_boxes_file(root / "boxes.json").boxes
     values: dict[str, list[tuple[float, float]]] = {"focused_ssim": [], "focused_lpips": []}
     for key in sorted(records):
@@ -650,9 +654,10 @@ import copy, sys, time, warnings
 import numpy as np, torch
 warnings.simplefilter("ignore")
 threads = int(sys.argv[1])
+sys.path.insert(0, sys.argv[2])  # this file's folder
 torch.set_num_threads(threads)
 from dynaeval import metrics as M
-from dynaeval.bench import _nchw, _time, sample_pair
+from bench import _nchw, _time, sample_pair
 p, g, _ = sample_pair(1080, 1920)
 model = M.load_lpips("alex", pretrained_backbone=False)
 mcl = copy.deepcopy(model).to(memory_format=torch.channels_last)
@@ -684,7 +689,8 @@ def torch_threads_study() -> str:
         env.pop("OMP_WAIT_POLICY", None)
         if policy:
             env["OMP_WAIT_POLICY"] = policy
-        out = subprocess.run([sys.executable, "-c", _THREADS_CHILD, str(threads)], env=env,
+        out = subprocess.run([sys.executable, "-c", _THREADS_CHILD, str(threads),
+                              str(Path(__file__).resolve().parent)], env=env,
                              capture_output=True, text=True, check=True).stdout
         for line in out.strip().splitlines():
             name, times = line.rsplit("|", 1)
@@ -703,8 +709,11 @@ def _throughput_table(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m dynaeval.bench", description=__doc__.split("\n")[0])
+COMMAND = "python benchmarks/bench.py"
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog=COMMAND, description=__doc__.split("\n")[0])
     parser.add_argument("--sizes", default=",".join(DEFAULT_SIZES), help="comma-separated WxH list")
     parser.add_argument("--repeats", type=int, default=3, help="timed runs per path (minimum reported)")
     parser.add_argument("--no-lpips", action="store_true", help="skip the LPIPS paths")
@@ -733,33 +742,32 @@ def main(argv: list[str] | None = None) -> int:
                         "DST (for --score) and exit")
     parser.add_argument("--score-workers", default="1,2", help="worker counts for --score")
     parser.add_argument("--score-args", default="", help="extra arguments for --score (one string)")
-    args = parser.parse_args(argv)
-    if args.degrade:
-        n = degrade_folder(*args.degrade)
-        print(f"{n} frames written to {args.degrade[1]}")
-        return 0
-    if args.torch_threads > 0 and not args.no_lpips:
-        import torch
+    return parser
 
-        torch.set_num_threads(args.torch_threads)
+
+def _sizes(text: str) -> list[tuple[int, int]]:
+    """``"1920x1080,960x540"`` -> ``[(1080, 1920), (540, 960)]`` (height, width)."""
     sizes = []
-    for item in args.sizes.split(","):
+    for item in text.split(","):
         w, h = (int(v) for v in item.lower().split("x"))
         sizes.append((h, w))
-    machine = _machine()
-    started = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    return sizes
+
+
+def _measure(args: argparse.Namespace) -> list[dict[str, Any]]:
+    """Every timed path of every frame size: the rows of the main table."""
     rows: list[dict[str, Any]] = []
-    for h, w in sizes:
+    for h, w in _sizes(args.sizes):
         rows.extend(bench_size(h, w, args.repeats, not args.no_lpips, tuple(args.peers.split(","))))
         if not args.no_sequence:
             rows.extend(bench_sequence(h, w, args.repeats, not args.no_lpips))
-    table = format_table(rows)
-    gap = crop_vs_map(rows)
-    sample_gap = sample_scene_crop_vs_map(not args.no_lpips)
-    import shlex
+    return rows
 
-    command = "python -m dynaeval.bench" + (" " + shlex.join(argv if argv is not None else sys.argv[1:])).rstrip()
-    parts = [
+
+def _head_section(command: str, started: str, machine: str, args: argparse.Namespace,
+                  rows: list[dict[str, Any]], table: str) -> list[str]:
+    """Title, provenance, how to read the numbers, the main table and the peer ratios."""
+    return [
         "# Benchmarks",
         "",
         f"Command: `{command}` — run {started}.",
@@ -768,7 +776,7 @@ def main(argv: list[str] | None = None) -> int:
         "",
         "Minimum over the timed runs (after one warm-up run) of the wall and the CPU time (this",
         "process, all its threads) per frame of one prediction/ground-truth pair (float32 RGB, the",
-        "procedural pitch-with-players frame of `dynaeval.bench.sample_pair`). On a machine shared",
+        "procedural pitch-with-players frame of `benchmarks.bench.sample_pair`). On a machine shared",
         "with other jobs the wall time mostly measures the wait for a core: compare CPU times, and",
         "ratios measured in the same run. References: PSNR in float64 numpy; SSIM = scikit-image on",
         "float64 input; LPIPS = the same network in float64; warp = `warp_reference` in float64.",
@@ -776,7 +784,7 @@ def main(argv: list[str] | None = None) -> int:
         "cost does not depend on the weights); torchmetrics' LPIPS is absent because it needs the",
         "pretrained backbone. torchmetrics' SSIM pads the border instead of skipping it, hence its",
         "deviation. Sequence paths (motion masks, flow, temporal metrics) run on",
-        "`dynaeval.bench.sample_sequence` (4 frames, a patch moving 1 % of the width per frame).",
+        "`benchmarks.bench.sample_sequence` (4 frames, a patch moving 1 % of the width per frame).",
         "",
         table,
         "",
@@ -788,55 +796,70 @@ def main(argv: list[str] | None = None) -> int:
         peer_ratios(rows),
         "",
     ]
-    if not args.no_lpips:
-        parts += [
-            "## LPIPS against its arithmetic floor",
-            "",
-            "The pair's cost is the AlexNet backbone run on both images (conv FLOPs counted by",
-            "`backbone_macs`); no implementation of the same float32 network can run it faster",
-            "than a large matrix multiply of the same FLOPs (`sgemm_gflops`, measured in this",
-            "process). `package / floor` is therefore the largest speed-up over the package any",
-            "equal-precision fast path could show here.",
-            "",
-            lpips_floor(rows),
-            "",
-        ]
+
+
+def _lpips_floor_section(rows: list[dict[str, Any]]) -> list[str]:
+    return [
+        "## LPIPS against its arithmetic floor",
+        "",
+        "The pair's cost is the AlexNet backbone run on both images (conv FLOPs counted by",
+        "`backbone_macs`); no implementation of the same float32 network can run it faster",
+        "than a large matrix multiply of the same FLOPs (`sgemm_gflops`, measured in this",
+        "process). `package / floor` is therefore the largest speed-up over the package any",
+        "equal-precision fast path could show here.",
+        "",
+        lpips_floor(rows),
+        "",
+    ]
+
+
+def _plot_section(args: argparse.Namespace, rows: list[dict[str, Any]]) -> list[str]:
+    """Draws the speed-vs-error plot unless ``--plot -`` (or ``--out -`` without ``--plot``)."""
     plot = args.plot
     if plot is None:
         plot = "-" if args.out == "-" else str(Path(args.out).parent / "img" / "bench_speed_error.png")
-    if plot != "-":
-        speed_error_plot(rows, Path(plot))
-        rel = os.path.relpath(plot, Path(args.out).parent if args.out != "-" else ".")
-        parts += ["## Speed against error", "", f"![CPU time vs deviation]({rel})", ""]
-    if args.threads_study and not args.no_lpips:
-        parts += [
-            "## Torch threads on a shared machine",
-            "",
-            "LPIPS of one 1920x1080 pair, each setting in a fresh process (`--threads-study`;",
-            "onnxruntime gets the same number of intra-op threads, never spinning). With two",
-            "intra-op threads OpenMP's waiting threads spin: when the other thread waits for a core",
-            "that other jobs hold, the spinning burns CPU for nothing. Scoring therefore",
-            "parallelises over frames (`--workers`) with one torch thread each; set",
-            "`OMP_WAIT_POLICY=PASSIVE` before starting Python if you raise torch's threads.",
-            "",
-            torch_threads_study(),
-            "",
-        ]
-    for pred_dir, gt_dir in args.score or []:
-        extra = args.score_args.split()
-        workers = tuple(int(v) for v in args.score_workers.split(","))
-        tp = score_throughput(pred_dir, gt_dir, workers, extra)
-        parts += [
-            f"## Whole `dynaeval score` runs: {gt_dir}",
-            "",
-            f"`python -m dynaeval score {pred_dir} {gt_dir} --workers N -q -o TMP "
-            f"{args.score_args}`, each in a child process; its CPU time and peak resident memory",
-            "(`ru_maxrss`) from `getrusage(RUSAGE_CHILDREN)` in a small wrapper process.",
-            "",
-            _throughput_table(tp),
-            "",
-        ]
-    parts += [
+    if plot == "-":
+        return []
+    speed_error_plot(rows, Path(plot))
+    rel = os.path.relpath(plot, Path(args.out).parent if args.out != "-" else ".")
+    return ["## Speed against error", "", f"![CPU time vs deviation]({rel})", ""]
+
+
+def _threads_section() -> list[str]:
+    return [
+        "## Torch threads on a shared machine",
+        "",
+        "LPIPS of one 1920x1080 pair, each setting in a fresh process (`--threads-study`;",
+        "onnxruntime gets the same number of intra-op threads, never spinning). With two",
+        "intra-op threads OpenMP's waiting threads spin: when the other thread waits for a core",
+        "that other jobs hold, the spinning burns CPU for nothing. Scoring therefore",
+        "parallelises over frames (`--workers`) with one torch thread each; set",
+        "`OMP_WAIT_POLICY=PASSIVE` before starting Python if you raise torch's threads.",
+        "",
+        torch_threads_study(),
+        "",
+    ]
+
+
+def _score_section(args: argparse.Namespace, pred_dir: str, gt_dir: str) -> list[str]:
+    """Whole ``dynaeval score`` runs of one ``--score PRED GT`` pair, one per worker count."""
+    extra = args.score_args.split()
+    workers = tuple(int(v) for v in args.score_workers.split(","))
+    tp = score_throughput(pred_dir, gt_dir, workers, extra)
+    return [
+        f"## Whole `dynaeval score` runs: {gt_dir}",
+        "",
+        f"`python -m dynaeval score {pred_dir} {gt_dir} --workers N -q -o TMP "
+        f"{args.score_args}`, each in a child process; its CPU time and peak resident memory",
+        "(`ru_maxrss`) from `getrusage(RUSAGE_CHILDREN)` in a small wrapper process.",
+        "",
+        _throughput_table(tp),
+        "",
+    ]
+
+
+def _crop_vs_map_section(gap: str, sample_gap: str) -> list[str]:
+    return [
         "## Focused metrics: crop vs map",
         "",
         "Six expanded player boxes; the prediction is degraded a little everywhere and much",
@@ -852,12 +875,43 @@ def main(argv: list[str] | None = None) -> int:
         sample_gap,
         "",
     ]
-    text = "\n".join(parts)
+
+
+def _write(text: str, out: str) -> None:
     print(text)
-    if args.out != "-":
-        Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.out).write_text(text)
-        print(f"written to {args.out}", file=sys.stderr)
+    if out != "-":
+        Path(out).parent.mkdir(parents=True, exist_ok=True)
+        Path(out).write_text(text)
+        print(f"written to {out}", file=sys.stderr)
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    if args.degrade:
+        n = degrade_folder(*args.degrade)
+        print(f"{n} frames written to {args.degrade[1]}")
+        return 0
+    if args.torch_threads > 0 and not args.no_lpips:
+        import torch
+
+        torch.set_num_threads(args.torch_threads)
+    machine = _machine()
+    started = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    rows = _measure(args)
+    table = format_table(rows)
+    gap = crop_vs_map(rows)
+    sample_gap = sample_scene_crop_vs_map(not args.no_lpips)
+    command = COMMAND + (" " + shlex.join(argv if argv is not None else sys.argv[1:])).rstrip()
+    parts = _head_section(command, started, machine, args, rows, table)
+    if not args.no_lpips:
+        parts += _lpips_floor_section(rows)
+    parts += _plot_section(args, rows)
+    if args.threads_study and not args.no_lpips:
+        parts += _threads_section()
+    for pred_dir, gt_dir in args.score or []:
+        parts += _score_section(args, pred_dir, gt_dir)
+    parts += _crop_vs_map_section(gap, sample_gap)
+    _write("\n".join(parts), args.out)
     return 0
 
 

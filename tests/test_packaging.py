@@ -75,6 +75,7 @@ def test_the_dynaeval_wheel_holds_dynaeval_only(source_tree, tmp_path):
     for needed in ("dynaeval/__init__.py", "dynaeval/cli.py", "dynaeval/models/detector.onnx",
                    "dynaeval/data/sample/sample.json"):
         assert needed in names
+    assert not any(n.startswith("dynaeval/bench") for n in names)  # the benchmark is benchmarks/
 
 
 def test_the_reference_models_wheel_holds_reference_models_and_needs_torch(source_tree, tmp_path):
