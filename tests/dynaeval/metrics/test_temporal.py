@@ -1,4 +1,7 @@
-"""Temporal metrics: flow direction, warping, occlusion, the four metrics and the sequence API."""
+"""Temporal metrics: flow direction, warping, occlusion and the sequence API (the streaming engine).
+
+The per-pair functions are tested in test_temporal_pairs.py, flicker in test_static_flicker.py.
+"""
 
 from __future__ import annotations
 
@@ -7,10 +10,8 @@ import sys
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
 
-from dynaeval.errors import EmptyRegionError, InputError, WeightsUnavailableError
+from dynaeval.errors import InputError, WeightsUnavailableError
 from dynaeval.metrics.flow import (
     FlowCache,
     FlowConfig,
@@ -21,41 +22,35 @@ from dynaeval.metrics.flow import (
     warp,
     warp_reference,
 )
+from dynaeval.metrics.registry import keys_of
 from dynaeval.metrics.temporal import (
     TEMPORAL_METRICS,
     TemporalConfig,
-    TemporalStd,
     flicker,
     temporal_metrics,
-    tlp,
-    tof,
-    warp_error,
 )
 
-H, W = 64, 80
-ALL_NAMES = [*TEMPORAL_METRICS, *(f"focused_{n}" for n in TEMPORAL_METRICS)]
+from .temporal_frames import H, W, mean_abs, panning, texture
+
+ALL_NAMES = [
+    "warp_error", "tof", "tlp", "flicker",
+    "focused_warp_error", "focused_tof", "focused_tlp", "focused_flicker",
+]
+"""The result keys of temporal_metrics, in report order (written out: what users search for)."""
 
 
-def texture(rng: np.random.Generator, h: int = H + 40, w: int = W + 40) -> np.ndarray:
-    """Smooth random RGB texture in [0.1, 0.9] (blurred noise: trackable by every flow method)."""
-    import cv2
-
-    t = cv2.GaussianBlur(rng.random((h, w, 3)).astype(np.float32), (0, 0), 2.0)
-    t = (t - t.min()) / (t.max() - t.min())
-    return (0.1 + 0.8 * t).astype(np.float32)
+def test_result_keys_are_the_registrys_temporal_keys():
+    assert keys_of("pair", "camera") == ALL_NAMES
+    assert TEMPORAL_METRICS == ("warp_error", "tof", "tlp", "flicker")
 
 
-def panning(base: np.ndarray, n: int, step: tuple[int, int] = (2, -1)) -> list[np.ndarray]:
-    """n frames in which the content moves by ``step = (dx, dy)`` px per frame."""
-    dx, dy = step
-    return [
-        base[20 - k * dy : 20 - k * dy + H, 20 - k * dx : 20 - k * dx + W].copy() for k in range(n)
-    ]
+def test_the_engine_module_re_exports_the_per_pair_functions_and_flicker():
+    from dynaeval.metrics import static_flicker, temporal, temporal_pairs
 
-
-def mean_abs(a: np.ndarray, b: np.ndarray) -> float:
-    """A cheap stand-in for LPIPS: deterministic, 0 on identical frames, grows with change."""
-    return float(np.abs(np.asarray(a, np.float64) - b).mean())
+    for name in ("warp_error", "tof", "tlp", "default_lpips", "LpipsFn"):
+        assert getattr(temporal, name) is getattr(temporal_pairs, name), name
+    for name in ("flicker", "TemporalStd"):
+        assert getattr(temporal, name) is getattr(static_flicker, name), name
 
 
 # ------------------------------------------------------------------------------ optical flow
@@ -187,121 +182,6 @@ def test_valid_mask_keeps_consistent_pixels_and_drops_out_of_frame():
         valid_warp_mask(flow_ts, flow_st[1:])
 
 
-# ------------------------------------------------------------------------------ pair metrics
-
-
-def test_warp_error_direction_uses_the_flow_from_t_to_t_minus_1(rng):
-    prev, cur = panning(texture(rng), 2, step=(3, -2))
-    back = np.zeros((H, W, 2), np.float32)
-    back[..., 0], back[..., 1] = -3, 2  # flow t -> t-1: content came from (x - 3, y + 2)
-    valid = valid_warp_mask(back, -back)
-    assert warp_error(prev, cur, back, valid) == 0.0
-    assert warp_error(prev, cur, -back, valid_warp_mask(-back, back)) > 1e-3  # wrong direction
-    assert warp_error(prev, cur, np.zeros_like(back)) > 1e-3
-
-
-def test_warp_error_is_mse_on_kept_pixels_only(rng):
-    prev = rng.random((H, W, 3)).astype(np.float32)
-    cur = prev.copy()
-    cur[:10] += 0.5  # error only in the top rows
-    zero = np.zeros((H, W, 2), np.float32)
-    region = np.zeros((H, W), bool)
-    region[20:] = True
-    assert warp_error(prev, cur, zero, region=region) == 0.0
-    np.testing.assert_allclose(warp_error(prev, cur, zero), 0.25 * 10 / H, rtol=1e-6)
-    with pytest.raises(EmptyRegionError, match="no pixel"):
-        warp_error(prev, cur, zero, valid=np.zeros((H, W), bool))
-    with pytest.raises(InputError, match="bool mask of shape"):
-        warp_error(prev, cur, zero, region=region[1:])
-    with pytest.raises(InputError, match="one shape"):
-        warp_error(prev, cur[1:], zero)
-
-
-def test_tof_is_mean_endpoint_difference():
-    fp = np.zeros((H, W, 2), np.float32)
-    fg = np.zeros((H, W, 2), np.float32)
-    fg[..., 0], fg[..., 1] = 3.0, 4.0
-    assert tof(fp, fg) == pytest.approx(5.0)
-    assert tof(fg, fg) == 0.0
-    region = np.zeros((H, W), bool)
-    with pytest.raises(EmptyRegionError, match="holds no pixel"):
-        tof(fp, fg, region)
-    with pytest.raises(InputError, match="one shape"):
-        tof(fp, fg[1:])
-
-
-def test_tlp_focused_crop_is_grown_to_min_crop(rng):
-    frames = [rng.random((H, W, 3)).astype(np.float32) for _ in range(2)]
-    sizes = []
-
-    def size_probe(a, b):
-        sizes.append(a.shape[:2])
-        return mean_abs(a, b)
-
-    region = np.zeros((H, W), bool)
-    region[60:63, 2:5] = True  # 3x3 px near the bottom-left corner
-    tlp(*frames, *frames, size_probe, region, min_crop=32)
-    assert sizes == [(32, 32), (32, 32)]
-    with pytest.raises(EmptyRegionError, match="holds no pixel"):
-        tlp(*frames, *frames, mean_abs, np.zeros((H, W), bool))
-
-
-def test_tlp_with_random_backbone_lpips_is_zero_on_ground_truth(rng):
-    torch = pytest.importorskip("torch")
-    lpips = pytest.importorskip("lpips")
-    net = lpips.LPIPS(pretrained=True, net="alex", pnet_rand=True, verbose=False)
-
-    def lp(a, b):
-        ta, tb = (
-            torch.from_numpy(np.ascontiguousarray(x)).permute(2, 0, 1)[None] * 2 - 1 for x in (a, b)
-        )
-        with torch.no_grad():
-            return float(net(ta, tb).item())
-
-    prev, cur = panning(texture(rng), 2)
-    assert tlp(prev, cur, prev, cur, lp) == 0.0
-    noisy = cur + rng.normal(0, 0.1, cur.shape).astype(np.float32)
-    assert tlp(prev, noisy, prev, cur, lp) > 0.0
-
-
-# ------------------------------------------------------------------------------ flicker
-
-
-@settings(max_examples=25, deadline=None)
-@given(st.integers(1, 6), st.integers(0, 2**32 - 1))
-def test_temporal_std_matches_numpy(n_frames, seed):
-    rng = np.random.default_rng(seed)
-    frames = rng.random((n_frames, 5, 6, 3))
-    pixels = rng.random((5, 6)) < 0.5
-    acc = TemporalStd(pixels)
-    for f in frames:
-        acc.update(f)
-    np.testing.assert_allclose(acc.std(), frames.std(axis=0)[pixels], rtol=1e-9, atol=1e-12)
-
-
-def test_flicker_grows_with_brightness_flicker_amplitude(rng):
-    gt = panning(texture(rng), 5, step=(0, 0))
-    static = np.ones((H, W), bool)
-    values = [
-        flicker([g * (1 + a * (-1) ** t) for t, g in enumerate(gt)], gt, static)
-        for a in (0, 0.02, 0.05, 0.1)
-    ]
-    assert values[0] == 0.0
-    assert all(x < y for x, y in zip(values, values[1:], strict=False))
-
-
-def test_flicker_undefined_cases_raise():
-    frame = np.zeros((H, W, 3), np.float32)
-    with pytest.raises(InputError, match="at least 2 frames, got 1"):
-        flicker([frame], [frame], np.ones((H, W), bool))
-    with pytest.raises(EmptyRegionError, match="no static pixel"):
-        flicker([frame, frame], [frame, frame], np.zeros((H, W), bool))
-    with pytest.raises(InputError, match="static_mask must be a bool"):
-        flicker([frame, frame], [frame, frame], np.ones((H, W), np.uint8))
-    with pytest.raises(InputError, match="frame 1 has shape"):
-        flicker([frame, frame[1:]], [frame, frame[1:]], np.ones((H, W), bool))
-
-
 # ------------------------------------------------------------------------------ sequence API
 
 
@@ -363,7 +243,7 @@ def test_ground_truth_is_zero_without_a_shared_cache_for_every_flow_method(rng):
 
 
 def test_region_boxes_and_masks_give_the_same_focused_values(rng):
-    from dynaeval.regions import boxes_to_mask
+    from dynaeval.boxes import boxes_to_mask
 
     gt = panning(texture(rng), 3)
     pred = [g + rng.normal(0, 0.05, g.shape).astype(np.float32) for g in gt]
@@ -501,6 +381,9 @@ def test_sequence_api_rejects_bad_input(rng):
         temporal_metrics([gt[0], gt[1][1:]], [gt[0], gt[1][1:]], lpips_fn=mean_abs)
     with pytest.raises(InputError, match="static_mask must be a bool"):
         temporal_metrics(gt, gt, static_mask=np.ones((H, W)), lpips_fn=mean_abs)
+    with pytest.raises(InputError, match="frame 1 has shape"):  # not an IndexError of the flicker
+        temporal_metrics([gt[0], gt[1][1:]], [gt[0], gt[1][1:]], lpips_fn=mean_abs,
+                         static_mask=np.ones((H, W), bool))
 
 
 def test_settings_describe_the_flow_method():
@@ -511,7 +394,8 @@ def test_settings_describe_the_flow_method():
 
 def test_importing_the_temporal_metrics_pulls_in_neither_torch_nor_cv2():
     code = (
-        "import sys, dynaeval.metrics.temporal; "
+        "import sys, dynaeval.metrics.temporal, dynaeval.metrics.temporal_pairs, "
+        "dynaeval.metrics.static_flicker; "
         "print(sorted(m for m in ('torch', 'cv2', 'lpips') if m in sys.modules))"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
@@ -563,10 +447,3 @@ def test_tlp_from_features_equals_pairwise_lpips_and_runs_the_backbone_once_per_
     assert plain["tlp"]["value"] > 0
     assert counting.calls == 2 * 5  # pred and gt of each frame, not 4 per pair
 
-
-def test_default_lpips_is_the_feature_split_for_torch():
-    from dynaeval.metrics.perceptual import LpipsFeatures
-    from dynaeval.metrics.temporal import default_lpips
-
-    assert isinstance(default_lpips("alex"), LpipsFeatures)
-    assert not isinstance(default_lpips("alex", backend="onnxruntime"), LpipsFeatures)

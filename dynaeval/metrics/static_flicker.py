@@ -1,0 +1,122 @@
+"""Static-region flicker of one static camera: the temporal standard deviation of static pixels.
+
+``flicker = |S(pred) - S(gt)|`` with ``S(x) = mean_{p static, c} std_t x_t(p, c)`` (ddof=0), in
+one streaming pass (Welford, float64). :class:`SequenceFlicker` is the one computation: the
+function :func:`flicker` and the streaming engine
+(:func:`dynaeval.metrics.temporal.temporal_metrics`) both use it.
+
+The module is not called ``flicker``: ``dynaeval.metrics.flicker`` is the function.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+import numpy as np
+
+from dynaeval.errors import EmptyRegionError, InputError
+from dynaeval.metrics.temporal_pairs import check_region, paired_frames
+
+
+class TemporalStd:
+    """Streaming per-pixel temporal standard deviation (Welford, float64) on a fixed pixel set.
+
+    ``pixels``: ``(H, W)`` bool, the pixels to follow. ``update(frame)`` with ``(H, W, C)`` or
+    ``(H, W)`` float frames; ``std()`` gives ``(N, C)`` population std (ddof=0) of the N pixels.
+    """
+
+    def __init__(self, pixels: np.ndarray) -> None:
+        self.pixels = np.asarray(pixels, dtype=bool)
+        self.count = 0
+        self._mean: np.ndarray | None = None
+        self._m2: np.ndarray | None = None
+
+    def update(self, frame: np.ndarray) -> None:
+        x = np.asarray(frame)[self.pixels].astype(np.float64)
+        if self._mean is None:
+            self._mean = np.zeros_like(x)
+            self._m2 = np.zeros_like(x)
+        self.count += 1
+        delta = x - self._mean
+        self._mean += delta / self.count
+        self._m2 += delta * (x - self._mean)
+
+    def std(self) -> np.ndarray:
+        if self.count == 0 or self._m2 is None:
+            raise InputError("temporal std needs at least one frame")
+        return np.sqrt(self._m2 / self.count)
+
+
+def check_static(static_mask: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """``static_mask`` as an ``(H, W) = shape`` bool mask (True = static pixel); InputError else."""
+    m = np.asarray(static_mask)
+    if m.dtype != bool or m.shape != shape:
+        raise InputError(
+            f"static_mask must be a bool (H, W) = {shape} mask (True = static pixel), got {m.dtype} {m.shape}"
+        )
+    return m
+
+
+class SequenceFlicker:
+    """Flicker of one sequence, streamed: the temporal std of prediction and ground truth on the
+    pixels ``pixels`` (``(H, W)`` bool, checked), one frame pair at a time."""
+
+    def __init__(self, pixels: np.ndarray) -> None:
+        self.pixels = pixels
+        self.pred = TemporalStd(pixels)
+        self.gt = TemporalStd(pixels)
+
+    def update(self, pred: np.ndarray, gt: np.ndarray) -> None:
+        """Add frame t of the prediction and of the ground truth (``(H, W, C)`` float)."""
+        self.pred.update(pred)
+        self.gt.update(gt)
+
+    def terms(self, region: np.ndarray | None = None) -> dict[str, float] | None:
+        """``{"value": |S(pred) - S(gt)|, "signed": S(pred) - S(gt), "pred": S(pred), "gt": S(gt)}``
+        over the followed pixels (inside ``region``, ``(H, W)`` bool, when given); None when no
+        pixel is kept. Needs at least one frame."""
+        keep = self.pixels if region is None else self.pixels & region
+        if not keep.any():
+            return None
+        std_pred, std_gt = self.pred.std(), self.gt.std()
+        if region is not None:
+            sel = keep[self.pixels]  # the followed pixels, in the accumulators' order
+            std_pred, std_gt = std_pred[sel], std_gt[sel]
+        vp, vg = float(std_pred.mean()), float(std_gt.mean())
+        return {"value": abs(vp - vg), "signed": vp - vg, "pred": vp, "gt": vg}
+
+
+def flicker(
+    pred_frames: Iterable[np.ndarray],
+    gt_frames: Iterable[np.ndarray],
+    static_mask: np.ndarray,
+    region: np.ndarray | None = None,
+) -> float:
+    """Static-region flicker of one static camera: ``|mean std_t(pred) - mean std_t(gt)|``.
+
+    ``pred_frames``, ``gt_frames``: T frames each, ``(H, W, 3)`` float in ``[0, 1]`` (uint8
+    divided by 255). ``static_mask``: ``(H, W)`` bool, True where the scene does not move (from the
+    motion masks). ``region``: optional ``(H, W)`` bool restricting the pixels further.
+    The std is per pixel and channel over time (ddof=0); the mean is over the kept pixels and
+    channels. Raises InputError for fewer than 2 frames and EmptyRegionError when no pixel is kept.
+    Returns a float >= 0; :func:`~dynaeval.metrics.temporal.temporal_metrics` also reports the
+    signed difference.
+    """
+    acc = None
+    n = 0
+    for n, (p, g) in enumerate(paired_frames(pred_frames, gt_frames), start=1):
+        if acc is None:
+            shape = p.shape
+            keep = check_static(static_mask, p.shape[:2])
+            if region is not None:
+                keep = keep & check_region(region, p.shape[:2])
+            acc = SequenceFlicker(keep)
+        if p.shape != shape:
+            raise InputError(f"frame {n - 1} has shape {p.shape}, frame 0 had {shape}")
+        acc.update(p, g)
+    if n < 2:
+        raise InputError(f"flicker needs at least 2 frames, got {n}")
+    terms = acc.terms()
+    if terms is None:
+        raise EmptyRegionError("flicker: no static pixel (in the region)")
+    return terms["value"]

@@ -1,0 +1,364 @@
+"""Temporal terms of one pair of consecutive frames ``(t-1, t)``: pure functions, no state.
+
+* :func:`warp_error`: ``E(x)``, the warping error of *one* sequence's pair (Lai et al. 2018):
+  ``mean_{p in V, c} (x_t(p) - x_{t-1}(p + b(p)))^2`` with ``b`` the flow ``t -> t-1``. The
+  reported ``warp_error`` is ``|E(pred) - E(gt)|`` per pair (:func:`pair_terms`), averaged over
+  the pairs by :func:`dynaeval.metrics.temporal.temporal_metrics`.
+* :func:`tof`: the endpoint difference of two flows (TecoGAN's tOF of one pair).
+* :func:`tlp`: ``|LPIPS(pred_{t-1}, pred_t) - LPIPS(gt_{t-1}, gt_t)|`` (TecoGAN's tLP of one pair).
+* :func:`pair_terms`: every per-pair value of frames ``(t-1, t)`` of prediction and ground truth
+  (what the streaming engine computes for each pair, possibly on several threads).
+
+Frames are ``(H, W, 3)`` RGB (or ``(H, W)``), float in ``[0, 1]``; uint8 is divided by 255.
+Definitions and flow directions: docs/temporal-metrics.md.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import Future
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from dynaeval.boxes import clip_boxes, mask_to_box
+from dynaeval.errors import EmptyRegionError, InputError, WeightsUnavailableError
+from dynaeval.metrics.flow import (
+    FlowCache,
+    FlowConfig,
+    check_flow,
+    check_image,
+    valid_warp_mask,
+    warp,
+)
+from dynaeval.metrics.registry import result_key
+
+LpipsFn = Callable[[np.ndarray, np.ndarray], float]
+"""``(a, b) -> float``: LPIPS of two ``(H, W, 3)`` float32 frames in ``[0, 1]``."""
+
+WARP_ERROR_KEYS = (result_key("warp_error"), result_key("warp_error", "focused"))
+"""Result keys of the reported warping-error difference, whole frame and focused."""
+
+
+# --------------------------------------------------------------------------------------------
+# Input checks shared by the temporal modules
+
+
+def check_region(
+    region: np.ndarray | None, shape: tuple[int, int], name: str = "region"
+) -> np.ndarray | None:
+    """``region`` as an ``(H, W) = shape`` bool mask (None stays None); InputError otherwise."""
+    if region is None:
+        return None
+    r = np.asarray(region)
+    if r.dtype != bool or r.shape != shape:
+        raise InputError(f"{name} must be a bool mask of shape {shape}, got {r.dtype} {r.shape}")
+    return r
+
+
+def check_pair(a: np.ndarray, b: np.ndarray, names: tuple[str, str]) -> tuple[np.ndarray, np.ndarray]:
+    """Two frames validated by ``check_image`` (float32, uint8 / 255) that must have one shape."""
+    a, b = check_image(a, names[0]), check_image(b, names[1])
+    if a.shape != b.shape:
+        raise InputError(
+            f"{names[0]} and {names[1]} must have one shape, got {a.shape} and {b.shape}"
+        )
+    return a, b
+
+
+def paired_frames(
+    pred_frames: Iterable[np.ndarray], gt_frames: Iterable[np.ndarray]
+) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """``(pred_i, gt_i)`` of two sequences, each validated (``check_image``) and of one shape.
+
+    Raises InputError when the sequences differ in length or a pair in shape.
+    """
+    try:
+        for i, (p, g) in enumerate(zip(pred_frames, gt_frames, strict=True)):
+            p, g = (
+                check_image(p, f"prediction frame {i}"),
+                check_image(g, f"ground-truth frame {i}"),
+            )
+            if p.shape != g.shape:
+                raise InputError(
+                    f"frame {i}: prediction {p.shape} and ground truth {g.shape} differ in shape"
+                )
+            yield p, g
+    except ValueError as exc:
+        if isinstance(exc, InputError | EmptyRegionError) or "zip()" not in str(exc):
+            raise
+        raise InputError(
+            "prediction and ground truth have different numbers of frames; pair them first "
+            "(dynaeval.io) so that frame i of one is frame i of the other"
+        ) from exc
+
+
+# --------------------------------------------------------------------------------------------
+# The three per-pair metrics
+
+
+def warp_error(
+    prev: np.ndarray,
+    cur: np.ndarray,
+    flow_back: np.ndarray,
+    valid: np.ndarray | None = None,
+    region: np.ndarray | None = None,
+) -> float:
+    """``E(x)`` of one sequence's pair: ``mean (cur - warp(prev, flow_back))^2`` over pixels and
+    channels (Lai et al. 2018).
+
+    ``prev``, ``cur``: frames ``t-1`` and ``t``, ``(H, W, C)`` or ``(H, W)`` float in ``[0, 1]``
+    (uint8 divided by 255). ``flow_back``: ``(H, W, 2)`` float32 flow ``t -> t-1`` in pixels (on
+    ``t``'s grid; it brings ``prev`` onto ``cur``'s grid). ``valid``: ``(H, W)`` bool, the pixels
+    of ``t`` visible in ``t-1`` (:func:`~dynaeval.metrics.flow.valid_warp_mask`); None = all.
+    ``region``: ``(H, W)`` bool focus mask on ``t``'s grid; None = whole frame.
+
+    Returns the mean squared error on the ``[0, 1]`` scale (a float >= 0), averaged over the kept
+    pixels *and channels* (Lai et al. 2018 sum the channels: theirs = 3 x ours for RGB).
+    Raises EmptyRegionError when no pixel is kept.
+    """
+    prev, cur = check_pair(prev, cur, ("prev", "cur"))
+    hw = cur.shape[:2]
+    keep = np.ones(hw, dtype=bool)
+    for m, name in ((valid, "valid"), (region, "region")):
+        m = check_region(m, hw, name)
+        if m is not None:
+            keep &= m
+    if not keep.any():
+        raise EmptyRegionError(
+            "warping error: no pixel is both visible in the previous frame and in the region"
+        )
+    diff = cur - warp(prev, flow_back)
+    sq = diff[keep].astype(np.float64) ** 2
+    return float(sq.mean())
+
+
+def tof(flow_pred: np.ndarray, flow_gt: np.ndarray, region: np.ndarray | None = None) -> float:
+    """tOF of one pair: mean Euclidean distance between two ``(H, W, 2)`` flows, in pixels.
+
+    ``flow_pred``: flow ``pred_{t-1} -> pred_t``; ``flow_gt``: flow ``gt_{t-1} -> gt_t`` (both on
+    ``t-1``'s grid, float32 ``(dx, dy)``). ``region``: ``(H, W)`` bool; None = whole frame.
+    As TecoGAN (Chu et al. 2020) without its 8-pixel border crop. Raises EmptyRegionError for an
+    empty region.
+    """
+    fp, fg = check_flow(flow_pred, "flow_pred"), check_flow(flow_gt, "flow_gt")
+    if fp.shape != fg.shape:
+        raise InputError(
+            f"flow_pred and flow_gt must have one shape, got {fp.shape} and {fg.shape}"
+        )
+    epe = np.sqrt(np.sum((fp.astype(np.float64) - fg) ** 2, axis=-1))
+    r = check_region(region, fp.shape[:2])
+    if r is None:
+        return float(epe.mean())
+    if not r.any():
+        raise EmptyRegionError("tOF: the region holds no pixel")
+    return float(epe[r].mean())
+
+
+def default_lpips(net: str = "alex", device: str | None = None, backend: str = "torch") -> LpipsFn:
+    """``(a, b) -> float``: ``dynaeval.metrics.lpips(a, b, net=net, device=device, backend=backend)``.
+
+    With the torch backend it is a ``LpipsFeatures`` (same numbers bit for bit), which also has
+    ``features`` / ``distance``: :func:`~dynaeval.metrics.temporal.temporal_metrics` then computes
+    each frame's features once for tLP instead of once per pair it belongs to. Frames must be in
+    ``[0, 1]`` (InputError outside); WeightsUnavailableError on the first call when the
+    pretrained backbone is missing.
+    """
+    import dynaeval.metrics as _metrics  # lazy: pulls in torch
+
+    if backend == "torch":
+        return _metrics.perceptual.LpipsFeatures(net, device=device)
+    _lpips = _metrics.lpips
+    if not callable(_lpips):  # the submodule, not the function
+        _lpips = _lpips.lpips
+
+    def fn(a: np.ndarray, b: np.ndarray) -> float:
+        return float(np.asarray(_lpips(a, b, net=net, device=device, backend=backend)))
+
+    return fn
+
+
+def _crop_box(region: np.ndarray, min_side: int) -> np.ndarray:
+    """Tight box of ``region`` grown, centred, to ``min_side`` px per side inside the frame.
+
+    Not ``dynaeval.boxes.grow_box``: for an odd number of added pixels this puts the extra one
+    before the box (grow_box: after it), and focused_tlp's numbers depend on the crop.
+    """
+    h, w = region.shape
+    box = mask_to_box(region)
+    if box is None:
+        raise EmptyRegionError("tLP: the region holds no pixel")
+    x0, y0, x1, y1 = (int(v) for v in box)
+    for lo, hi, size, idx in ((x0, x1, w, 0), (y0, y1, h, 1)):
+        side = min(max(hi - lo, min_side), size)
+        start = min(max((lo + hi - side) // 2, 0), size - side)
+        box[idx], box[idx + 2] = start, start + side
+    return clip_boxes(box, h, w)[0]
+
+
+def tlp(
+    pred_prev: np.ndarray,
+    pred_cur: np.ndarray,
+    gt_prev: np.ndarray,
+    gt_cur: np.ndarray,
+    lpips_fn: LpipsFn | None = None,
+    region: np.ndarray | None = None,
+    min_crop: int = 32,
+) -> float:
+    """tLP of one pair: ``|LPIPS(pred_prev, pred_cur) - LPIPS(gt_prev, gt_cur)|`` (TecoGAN).
+
+    Frames: ``(H, W, 3)`` float32 in ``[0, 1]`` (uint8 divided by 255), all of one shape.
+    ``lpips_fn``: ``(a, b) -> float`` taking two such frames (default :func:`default_lpips`).
+    ``region``: ``(H, W)`` bool; the four frames are cropped to the region's tight box, grown to
+    at least ``min_crop`` px per side, before LPIPS. Returns a float >= 0 (LPIPS units).
+    """
+    pred_prev, pred_cur = check_pair(pred_prev, pred_cur, ("pred_prev", "pred_cur"))
+    gt_prev, gt_cur = check_pair(gt_prev, gt_cur, ("gt_prev", "gt_cur"))
+    if pred_cur.shape != gt_cur.shape:
+        raise InputError(
+            f"prediction and ground truth must have one shape, got {pred_cur.shape} and {gt_cur.shape}"
+        )
+    r = check_region(region, pred_cur.shape[:2])
+    if r is not None:
+        x0, y0, x1, y1 = _crop_box(r, min_crop)
+        pred_prev, pred_cur, gt_prev, gt_cur = (
+            x[y0:y1, x0:x1] for x in (pred_prev, pred_cur, gt_prev, gt_cur)
+        )
+    fn = lpips_fn or default_lpips()
+    return abs(float(fn(pred_prev, pred_cur)) - float(fn(gt_prev, gt_cur)))
+
+
+# --------------------------------------------------------------------------------------------
+# Every term of one pair, for the streaming engine
+
+
+class Frames(NamedTuple):
+    """One time step of a camera: prediction, ground truth and the focus region."""
+
+    pred: np.ndarray
+    """``(H, W, 3)`` float32 in ``[0, 1]`` (checked)."""
+    gt: np.ndarray
+    """``(H, W, 3)`` float32 in ``[0, 1]``, the prediction's shape."""
+    region: np.ndarray | None
+    """``(H, W)`` bool focus mask, or None (no regions given for this frame)."""
+
+
+class FeatureMemo:
+    """Whole-frame LPIPS features of the frames in flight, keyed by (frame index, side), computed
+    once even when two threads ask at the same time (the second waits for the first).
+
+    ``fn``: an ``LpipsFn`` with ``features(frame)`` / ``distance(fa, fb)`` (``LpipsFeatures``).
+    """
+
+    def __init__(self, fn: Any) -> None:
+        self.fn = fn
+        self._items: dict[tuple[int, str], Future] = {}
+        self._lock = threading.Lock()
+
+    def get(self, index: int, side: str, frame: np.ndarray) -> Any:
+        """The features of frame ``index`` of ``side`` (``pred`` / ``gt``), computed on first ask."""
+        with self._lock:
+            fut = self._items.get((index, side))
+            owner = fut is None
+            if owner:
+                fut = self._items[(index, side)] = Future()
+        if owner:
+            try:
+                fut.set_result(self.fn.features(frame))
+            except BaseException as exc:
+                fut.set_exception(exc)
+        return fut.result()
+
+    def drop(self, index: int) -> None:
+        """Forget frame ``index``'s features (no pair still to compute needs them)."""
+        with self._lock:
+            for side in ("pred", "gt"):
+                self._items.pop((index, side), None)
+
+
+def _warp_error_parts(
+    prev: Frames, cur: Frames, back: np.ndarray, valid: np.ndarray, region: np.ndarray | None
+) -> dict[str, float | None]:
+    """``{"pred": E(pred), "gt": E(gt), "signed": E(pred) - E(gt)}`` of the pair over ``valid``
+    (and ``region``); all None when no pixel is kept."""
+    try:
+        ep = warp_error(prev.pred, cur.pred, back, valid, region)
+        eg = warp_error(prev.gt, cur.gt, back, valid, region)
+    except EmptyRegionError:
+        return dict(_NO_PARTS)
+    return {"pred": ep, "gt": eg, "signed": ep - eg}
+
+
+_NO_PARTS: dict[str, float | None] = {"pred": None, "gt": None, "signed": None}
+
+
+def _tlp_values(
+    prev: Frames, cur: Frames, region: np.ndarray | None, lpips_fn: LpipsFn, min_crop: int,
+    memo: FeatureMemo | None, index: int,
+) -> dict[str, float | None]:
+    """``{"tlp": ..., "focused_tlp": ...}`` of the pair; the whole-frame LPIPS from ``memo``'s
+    features when given (= ``tlp(...)`` bit for bit, each frame's features once)."""
+    if memo is not None:
+        d_pred = lpips_fn.distance(memo.get(index - 1, "pred", prev.pred),
+                                   memo.get(index, "pred", cur.pred))
+        d_gt = lpips_fn.distance(memo.get(index - 1, "gt", prev.gt), memo.get(index, "gt", cur.gt))
+        whole = abs(d_pred - d_gt)
+    else:
+        whole = tlp(prev.pred, cur.pred, prev.gt, cur.gt, lpips_fn)
+    focused = (
+        None
+        if region is None or not region.any()
+        else tlp(prev.pred, cur.pred, prev.gt, cur.gt, lpips_fn, region, min_crop)
+    )
+    return {result_key("tlp"): whole, result_key("tlp", "focused"): focused}
+
+
+def pair_terms(
+    prev: Frames,
+    cur: Frames,
+    cache: FlowCache,
+    flow: FlowConfig,
+    lpips_fn: LpipsFn | None = None,
+    min_crop: int = 32,
+    memo: FeatureMemo | None = None,
+    index: int = 0,
+) -> dict:
+    """Every per-pair term of frames ``(t-1, t)`` = ``(prev, cur)``, ``index`` = t.
+
+    The focused terms use the union of the two frames' regions (None when either has none).
+    ``flow``: the estimator; ``lpips_fn`` None: no tLP; ``min_crop``: focused tLP's crop side;
+    ``memo``: whole-frame LPIPS features by frame. Pure given the caches (which only save work),
+    so pairs can be computed on several threads and folded in order.
+
+    Returns ``{"per_pair": {result key: float | None}, "parts": {warp-error key: {pred, gt,
+    signed}}, "lpips_error": str | None}``; ``per_pair["warp_error"]`` is ``|E(pred) - E(gt)|``.
+    """
+    region = None if cur.region is None or prev.region is None else (cur.region | prev.region)
+    fw = cache.flow(prev.gt, cur.gt, flow)  # gt t-1 -> t, on t-1's grid
+    bw = cache.flow(cur.gt, prev.gt, flow)  # gt t -> t-1, on t's grid: warps t-1 onto t
+    valid = valid_warp_mask(bw, fw)
+    whole, focused = WARP_ERROR_KEYS
+    parts = {
+        whole: _warp_error_parts(prev, cur, bw, valid, None),
+        focused: (
+            dict(_NO_PARTS) if region is None else _warp_error_parts(prev, cur, bw, valid, region)
+        ),
+    }
+    values: dict[str, float | None] = {
+        key: None if got["signed"] is None else abs(got["signed"]) for key, got in parts.items()
+    }
+
+    fp = cache.flow(prev.pred, cur.pred, flow)
+    values[result_key("tof")] = tof(fp, fw)
+    values[result_key("tof", "focused")] = (
+        None if region is None or not region.any() else tof(fp, fw, region)
+    )
+
+    lpips_error = None
+    if lpips_fn is not None:
+        try:
+            values.update(_tlp_values(prev, cur, region, lpips_fn, min_crop, memo, index))
+        except WeightsUnavailableError as exc:  # raised by the first LPIPS call
+            lpips_error = f"LPIPS unavailable: WeightsUnavailableError: {exc}"
+    return {"per_pair": values, "parts": parts, "lpips_error": lpips_error}
