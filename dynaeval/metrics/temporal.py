@@ -7,7 +7,7 @@ Exact definitions, with the direction of every flow, are in docs/temporal-metric
 for a pair of frames ``(t-1, t)``:
 
 * ``warp_error`` (the reported number): ``|E(pred) - E(gt)|`` with ``E(x)`` the warping error of
-  one sequence, :func:`~dynaeval.metrics.temporal_pairs.warp_error`:
+  one sequence, :func:`~dynaeval.metrics.temporal_pairs.warping_error`:
   ``E(x) = mean_{p in V, c} (x_t(p) - x_{t-1}(p + b(p)))^2``, ``b`` the ground-truth flow
   ``t -> t-1`` (backward warping of ``t-1`` onto ``t``'s grid) and ``V`` the pixels of ``t``
   visible in ``t-1`` (forward-backward check, in frame). Lai et al. 2018.
@@ -54,7 +54,7 @@ from dynaeval.metrics.temporal_pairs import (
     paired_frames,
     tlp,
     tof,
-    warp_error,
+    warping_error,
 )
 
 __all__ = [
@@ -67,7 +67,7 @@ __all__ = [
     "temporal_metrics",
     "tlp",
     "tof",
-    "warp_error",
+    "warping_error",
 ]
 
 TEMPORAL_METRICS = tuple(s.name for s in SPECS.values() if s.kind in ("pair", "camera"))
@@ -280,7 +280,7 @@ def temporal_metrics(
     ``focused_`` variants. ``value`` is the mean of the defined per-pair values (pair i = frames
     ``(i, i+1)``); None exactly when ``reason`` says why (fewer than 2 frames, no static pixels,
     empty regions, LPIPS missing). ``warp_error`` (per pair ``|E(pred) - E(gt)|``, ``E`` =
-    :func:`warp_error`) and ``flicker`` entries (and their focused variants) also carry
+    :func:`warping_error`) and ``flicker`` entries (and their focused variants) also carry
     ``"pred"`` and ``"gt"`` (the two terms, means over pairs) and ``"signed"`` (the mean of
     ``pred - gt`` without the absolute value; > 0: the prediction is less stable than the ground
     truth). Flicker has no per-pair values (``per_pair == []``).

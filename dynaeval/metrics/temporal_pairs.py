@@ -1,6 +1,6 @@
 """Temporal terms of one pair of consecutive frames ``(t-1, t)``: pure functions, no state.
 
-* :func:`warp_error`: ``E(x)``, the warping error of *one* sequence's pair (Lai et al. 2018):
+* :func:`warping_error`: ``E(x)``, the warping error of *one* sequence's pair (Lai et al. 2018):
   ``mean_{p in V, c} (x_t(p) - x_{t-1}(p + b(p)))^2`` with ``b`` the flow ``t -> t-1``. The
   reported ``warp_error`` is ``|E(pred) - E(gt)|`` per pair (:func:`pair_terms`), averaged over
   the pairs by :func:`dynaeval.metrics.temporal.temporal_metrics`.
@@ -98,7 +98,7 @@ def paired_frames(
 # The three per-pair metrics
 
 
-def warp_error(
+def warping_error(
     prev: np.ndarray,
     cur: np.ndarray,
     flow_back: np.ndarray,
@@ -106,7 +106,7 @@ def warp_error(
     region: np.ndarray | None = None,
 ) -> float:
     """``E(x)`` of one sequence's pair: ``mean (cur - warp(prev, flow_back))^2`` over pixels and
-    channels (Lai et al. 2018).
+    channels (Lai et al. 2018). Not the reported ``warp_error``, which is ``|E(pred) - E(gt)|``.
 
     ``prev``, ``cur``: frames ``t-1`` and ``t``, ``(H, W, C)`` or ``(H, W)`` float in ``[0, 1]``
     (uint8 divided by 255). ``flow_back``: ``(H, W, 2)`` float32 flow ``t -> t-1`` in pixels (on
@@ -283,8 +283,8 @@ def _warp_error_parts(
     """``{"pred": E(pred), "gt": E(gt), "signed": E(pred) - E(gt)}`` of the pair over ``valid``
     (and ``region``); all None when no pixel is kept."""
     try:
-        ep = warp_error(prev.pred, cur.pred, back, valid, region)
-        eg = warp_error(prev.gt, cur.gt, back, valid, region)
+        ep = warping_error(prev.pred, cur.pred, back, valid, region)
+        eg = warping_error(prev.gt, cur.gt, back, valid, region)
     except EmptyRegionError:
         return dict(_NO_PARTS)
     return {"pred": ep, "gt": eg, "signed": ep - eg}

@@ -47,10 +47,11 @@ def test_result_keys_are_the_registrys_temporal_keys():
 def test_the_engine_module_re_exports_the_per_pair_functions_and_flicker():
     from dynaeval.metrics import static_flicker, temporal, temporal_pairs
 
-    for name in ("warp_error", "tof", "tlp", "default_lpips", "LpipsFn"):
+    for name in ("warping_error", "tof", "tlp", "default_lpips", "LpipsFn"):
         assert getattr(temporal, name) is getattr(temporal_pairs, name), name
     for name in ("flicker", "TemporalStd"):
         assert getattr(temporal, name) is getattr(static_flicker, name), name
+    assert not hasattr(temporal, "warp_error")  # the result key, not a function (issue 15)
 
 
 # ------------------------------------------------------------------------------ optical flow

@@ -14,37 +14,37 @@ from dynaeval.metrics.temporal_pairs import (
     pair_terms,
     tlp,
     tof,
-    warp_error,
+    warping_error,
 )
 
 from .temporal_frames import H, W, mean_abs, panning, texture
 
 
-def test_warp_error_direction_uses_the_flow_from_t_to_t_minus_1(rng):
+def test_warping_error_direction_uses_the_flow_from_t_to_t_minus_1(rng):
     prev, cur = panning(texture(rng), 2, step=(3, -2))
     back = np.zeros((H, W, 2), np.float32)
     back[..., 0], back[..., 1] = -3, 2  # flow t -> t-1: content came from (x - 3, y + 2)
     valid = valid_warp_mask(back, -back)
-    assert warp_error(prev, cur, back, valid) == 0.0
-    assert warp_error(prev, cur, -back, valid_warp_mask(-back, back)) > 1e-3  # wrong direction
-    assert warp_error(prev, cur, np.zeros_like(back)) > 1e-3
+    assert warping_error(prev, cur, back, valid) == 0.0
+    assert warping_error(prev, cur, -back, valid_warp_mask(-back, back)) > 1e-3  # wrong direction
+    assert warping_error(prev, cur, np.zeros_like(back)) > 1e-3
 
 
-def test_warp_error_is_mse_on_kept_pixels_only(rng):
+def test_warping_error_is_mse_on_kept_pixels_only(rng):
     prev = rng.random((H, W, 3)).astype(np.float32)
     cur = prev.copy()
     cur[:10] += 0.5  # error only in the top rows
     zero = np.zeros((H, W, 2), np.float32)
     region = np.zeros((H, W), bool)
     region[20:] = True
-    assert warp_error(prev, cur, zero, region=region) == 0.0
-    np.testing.assert_allclose(warp_error(prev, cur, zero), 0.25 * 10 / H, rtol=1e-6)
+    assert warping_error(prev, cur, zero, region=region) == 0.0
+    np.testing.assert_allclose(warping_error(prev, cur, zero), 0.25 * 10 / H, rtol=1e-6)
     with pytest.raises(EmptyRegionError, match="no pixel"):
-        warp_error(prev, cur, zero, valid=np.zeros((H, W), bool))
+        warping_error(prev, cur, zero, valid=np.zeros((H, W), bool))
     with pytest.raises(InputError, match="bool mask of shape"):
-        warp_error(prev, cur, zero, region=region[1:])
+        warping_error(prev, cur, zero, region=region[1:])
     with pytest.raises(InputError, match="one shape"):
-        warp_error(prev, cur[1:], zero)
+        warping_error(prev, cur[1:], zero)
 
 
 def test_tof_is_mean_endpoint_difference():
@@ -103,8 +103,8 @@ def _pair(rng, regions=(None, None)):
     return Frames(pred[0], gt[0], regions[0]), Frames(pred[1], gt[1], regions[1])
 
 
-def test_pair_terms_report_the_difference_of_the_two_sequences_warp_errors(rng):
-    """per_pair["warp_error"] is |E(pred) - E(gt)| with E = warp_error on the GT's flow and
+def test_pair_terms_report_the_difference_of_the_two_sequences_warping_errors(rng):
+    """per_pair["warp_error"] is |E(pred) - E(gt)| with E = warping_error on the GT's flow and
     visibility; tof and tlp are the pure functions' values, bit for bit."""
     region = np.zeros((H, W), bool)
     region[10:40, 20:60] = True
@@ -117,8 +117,8 @@ def test_pair_terms_report_the_difference_of_the_two_sequences_warp_errors(rng):
     valid = valid_warp_mask(bw, fw)
     union = prev.region | cur.region
     for key, r in (("warp_error", None), ("focused_warp_error", union)):
-        e_pred = warp_error(prev.pred, cur.pred, bw, valid, r)
-        e_gt = warp_error(prev.gt, cur.gt, bw, valid, r)
+        e_pred = warping_error(prev.pred, cur.pred, bw, valid, r)
+        e_gt = warping_error(prev.gt, cur.gt, bw, valid, r)
         assert got["parts"][key] == {"pred": e_pred, "gt": e_gt, "signed": e_pred - e_gt}
         assert got["per_pair"][key] == abs(e_pred - e_gt) > 0
     fp = cache.flow(prev.pred, cur.pred)
