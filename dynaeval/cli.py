@@ -10,6 +10,7 @@ import argparse
 import sys
 import traceback
 from pathlib import Path
+from typing import Any
 
 from dynaeval import __version__
 from dynaeval.errors import InputError
@@ -24,34 +25,68 @@ def sample_dir() -> Path:
     return Path(__file__).resolve().parent / "data" / "sample"
 
 
+_DEFAULTS = None
+
+
+def _defaults() -> Any:
+    """``ScoreConfig()``: the CLI's defaults are the library's."""
+    global _DEFAULTS
+    if _DEFAULTS is None:
+        from dynaeval.config import ScoreConfig
+
+        _DEFAULTS = ScoreConfig()
+    return _DEFAULTS
+
+
+def _add_metric_flags(p: argparse.ArgumentParser) -> None:
+    """``--no-NAME`` for every per-frame metric that runs by default, ``--NAME`` for the others
+    (from the registry)."""
+    from dynaeval.metrics.registry import frame_specs
+
+    for spec in frame_specs():
+        extra = f" (needs pip install 'dynaeval[{spec.extra}]')" if spec.extra else ""
+        if spec.default:
+            p.add_argument(f"--no-{spec.name.replace('_', '-')}", action="store_true",
+                           dest=f"no_{spec.name}", help=f"skip {spec.title}{extra}")
+        else:
+            p.add_argument(f"--{spec.name.replace('_', '-')}", action="store_true",
+                           dest=f"with_{spec.name}", help=f"also compute {spec.title}: "
+                           f"{spec.description}{extra}")
+
+
 def _add_score_options(p: argparse.ArgumentParser) -> None:
+    from dynaeval.config import BACKGROUNDS, DEVICES, QUANTIZE_MODES
+    from dynaeval.metrics.flow import FLOW_METHODS
+    from dynaeval.metrics.perceptual import LPIPS_BACKENDS, LPIPS_NETS
+    from dynaeval.metrics.protocols import PROTOCOL_NAMES
+
+    d = _defaults()
     p.add_argument("--method", help="method name for the leaderboard (default: PRED's folder name)")
     p.add_argument("--scene", help="scene name for the leaderboard (default: GT's folder name)")
-    p.add_argument("--no-lpips", action="store_true", help="skip LPIPS (no torch needed)")
-    p.add_argument("--lpips-net", choices=["alex", "vgg"], default="alex",
-                   help="LPIPS backbone (default: alex)")
-    p.add_argument("--lpips-backend", choices=["torch", "onnxruntime"], default="torch",
+    _add_metric_flags(p)
+    p.add_argument("--lpips-net", choices=LPIPS_NETS, default=d.lpips_net,
+                   help=f"LPIPS backbone (default: {d.lpips_net})")
+    p.add_argument("--lpips-backend", choices=LPIPS_BACKENDS, default=d.lpips_backend,
                    help="run the LPIPS network with torch (the lpips package, default) or the same "
                         "network exported to onnxruntime (faster on CPU, equal to 1e-6)")
-    p.add_argument("--quantize", choices=["none", "round", "truncate"], default="none",
+    p.add_argument("--quantize", choices=QUANTIZE_MODES, default=d.quantize,
                    help="quantise both images to 8 bit before scoring, as some evaluators do "
                         "(default: none, or the protocol's)")
-    p.add_argument("--protocol", choices=["dynaeval", "nerfbaselines", "nerfstudio"],
-                   default="dynaeval",
+    p.add_argument("--protocol", choices=PROTOCOL_NAMES, default=d.protocol,
                    help="reproduce another evaluator's whole-frame PSNR/SSIM and 8-bit step "
                         "(docs/protocols.md; default: dynaeval)")
-    p.add_argument("--background", choices=["white", "black"], default="white",
-                   help="colour RGBA frames are composited over (default: white)")
+    p.add_argument("--background", choices=BACKGROUNDS, default=d.background,
+                   help=f"colour RGBA frames are composited over (default: {d.background})")
     p.add_argument("--allow-missing", action="store_true",
                    help="score the frames present when a camera misses some predictions, and "
                         "record what was skipped")
-    p.add_argument("--focus", default="detector", metavar="detector|motion|boxes:FILE|none",
+    p.add_argument("--focus", default=d.focus.source, metavar="detector|motion|boxes:FILE|none",
                    help="boxes for the focused_* metrics, from the ground truth: the ONNX detector "
                         "(default), connected components of the motion masks, a boxes file "
                         "(dynaeval detect, or the scene generator's boxes.json), or none")
     p.add_argument("--detector", metavar="MODEL.onnx",
                    help="ONNX detector for --focus detector (default: the one shipped with dynaeval)")
-    p.add_argument("--expand", choices=["paper", "margin", "none"], default="paper",
+    p.add_argument("--expand", choices=["paper", "margin", "none"], default=d.focus.expand,
                    help="box expansion: paper = width x7, height x2.5 as in the seed study "
                         "(default), margin, or none; boxes are then clipped and merged")
     p.add_argument("--no-masked", action="store_true",
@@ -61,16 +96,16 @@ def _add_score_options(p: argparse.ArgumentParser) -> None:
                         "tight_psnr_*)")
     p.add_argument("--no-temporal", action="store_true",
                    help="skip the temporal metrics (warp_error, tof, tlp, flicker)")
-    p.add_argument("--flow", choices=["dis", "farneback", "tvl1"], default="dis",
-                   help="optical flow for the temporal metrics (default: dis)")
-    p.add_argument("--workers", type=int, default=1, metavar="N",
-                   help="frames scored concurrently; never changes a number (default: 1)")
-    p.add_argument("--device", choices=["cpu", "cuda", "auto"], default="cpu",
-                   help="torch device for LPIPS (default: cpu)")
-    p.add_argument("--cache-mb", type=int, default=1024, metavar="MB",
-                   help="decoded frames kept per camera so each file is decoded once (default: "
-                        "1024; a 1080p frame is 25 MB, and a camera needs its ground truth and "
-                        "predictions); never changes a number")
+    p.add_argument("--flow", choices=FLOW_METHODS, default=d.flow,
+                   help=f"optical flow for the temporal metrics (default: {d.flow})")
+    p.add_argument("--workers", type=int, default=d.workers, metavar="N",
+                   help=f"frames scored concurrently; never changes a number (default: {d.workers})")
+    p.add_argument("--device", choices=DEVICES, default=d.device,
+                   help=f"torch device for LPIPS and the detector (default: {d.device})")
+    p.add_argument("--cache-mb", type=int, default=d.cache_mb, metavar="MB",
+                   help=f"decoded frames kept per camera so each file is decoded once (default: "
+                        f"{d.cache_mb}; a 1080p frame is 25 MB, and a camera needs its ground "
+                        "truth and predictions); never changes a number")
     p.add_argument("-o", "--output", metavar="results.json",
                    help="write the results JSON here (atomically)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing -o file")
@@ -81,6 +116,36 @@ def _add_score_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--shard", metavar="I/N",
                    help="score only the I-th of N slices of the cameras (1 <= I <= N); "
                         "'dynaeval merge' combines the N results into the unsharded numbers")
+
+
+def config_from_args(args: argparse.Namespace) -> Any:
+    """The ``ScoreConfig`` of parsed ``score``/``demo`` arguments (options a command lacks keep
+    the library's defaults)."""
+    from dataclasses import replace
+
+    from dynaeval.metrics.registry import frame_specs
+    from dynaeval.regions.focus import FocusConfig
+
+    d = _defaults()
+    metrics = tuple(s.name for s in frame_specs()
+                    if (s.default and not getattr(args, f"no_{s.name}", False))
+                    or (not s.default and getattr(args, f"with_{s.name}", False)))
+    opt = lambda name: getattr(args, name, getattr(d, name))  # noqa: E731
+    return replace(
+        d, method=getattr(args, "method", None), scene=getattr(args, "scene", None),
+        metrics=metrics, lpips_net=opt("lpips_net"), lpips_backend=opt("lpips_backend"),
+        quantize=opt("quantize"), background=opt("background"),
+        allow_missing=opt("allow_missing"), workers=opt("workers"), cache_mb=opt("cache_mb"),
+        device=opt("device"), progress=not args.quiet,
+        shard=parse_shard(args.shard) if getattr(args, "shard", None) else None,
+        focus=FocusConfig.parse(args.focus, detector_model=getattr(args, "detector", None),
+                                expand=getattr(args, "expand", d.focus.expand),
+                                masked=not getattr(args, "no_masked", False),
+                                device=opt("device")),
+        temporal=not getattr(args, "no_temporal", False),
+        presence=not getattr(args, "no_presence", False),
+        flow=opt("flow"), protocol=opt("protocol"),
+    )
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -146,18 +211,34 @@ def build_parser() -> argparse.ArgumentParser:
                                    "ground truth, print the table and write results JSON.")
     d.add_argument("-o", "--output", default="dynaeval-demo-results.json", metavar="results.json",
                    help="where to write the results (default: %(default)s, replaced if present)")
-    d.add_argument("--no-lpips", action="store_true", help="skip LPIPS")
+    _add_metric_flags(d)
     d.add_argument("--report", metavar="DIR", help="also write an HTML report into DIR")
     d.set_defaults(focus=f"boxes:{sample_dir() / 'boxes.json'}")
-    d.add_argument("--workers", type=int, default=1, metavar="N")
+    d.add_argument("--workers", type=int, default=_defaults().workers, metavar="N")
     d.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     return parser
 
 
+def _print_warnings(results: dict) -> None:
+    for w in results["warnings"]:
+        if "camera" not in w:  # run-level warnings; per-frame ones are in the JSON
+            metric = w.get("metric")
+            prefix = f"{metric}: " if metric and not w["reason"].lower().startswith(metric) else ""
+            print(f"dynaeval: warning: {prefix}{w['reason']}", file=sys.stderr)
+    n_frame_warnings = sum("camera" in w for w in results["warnings"])  # per frame or camera
+    if n_frame_warnings:
+        print(f"dynaeval: {n_frame_warnings} warning(s) about single frames or cameras, listed in "
+              "the results JSON", file=sys.stderr)
+    cams = results["inputs"]["unscored_cameras"]
+    if cams:
+        print(f"dynaeval: {len(cams)} ground-truth camera(s) without predictions not scored: "
+              f"{', '.join(cams[:8])}{' …' if len(cams) > 8 else ''}", file=sys.stderr)
+
+
 def _run_score(pred: str, gt: str | None, args: argparse.Namespace, *, overwrite: bool) -> int:
-    from dynaeval.evaluate import ScoreConfig, score
-    from dynaeval.io.layouts import detect_layout
-    from dynaeval.regions.focus import FocusConfig
+    import warnings
+
+    from dynaeval.evaluate import DynaevalWarning, score
     from dynaeval.report import summary_table, write_json_atomic
 
     output = getattr(args, "output", None)
@@ -166,62 +247,24 @@ def _run_score(pred: str, gt: str | None, args: argparse.Namespace, *, overwrite
     if report and (Path(report) / "index.html").exists() and not overwrite:
         raise InputError("report exists; pass --overwrite or choose another --report folder",
                          path=Path(report) / "index.html")
-    layout = detect_layout(pred, gt)
-    run_name = None
-    if layout.name != "folders":
-        run_name = Path(pred).resolve().name
-        print(f"dynaeval: {layout.name} render folder: scoring {layout.pred} against {layout.gt}",
-              file=sys.stderr)
-        if not getattr(args, "no_temporal", False):
-            print("dynaeval: warning: render folders hold separate test views; temporal metrics "
-                  "treat them as a sequence (pass --no-temporal unless they are one)",
-                  file=sys.stderr)
-    pred, gt = str(layout.pred), str(layout.gt)
-    config = ScoreConfig(
-        method=getattr(args, "method", None) or ("sample-degraded" if args.command == "demo" else run_name),
-        scene=getattr(args, "scene", None) or ("sample" if args.command == "demo" else run_name),
-        lpips=not args.no_lpips,
-        lpips_net=getattr(args, "lpips_net", "alex"),
-        lpips_backend=getattr(args, "lpips_backend", "torch"),
-        quantize=getattr(args, "quantize", "none"),
-        background=getattr(args, "background", "white"),
-        allow_missing=getattr(args, "allow_missing", False),
-        workers=args.workers,
-        cache_mb=getattr(args, "cache_mb", 1024),
-        device=getattr(args, "device", "cpu"),
-        progress=not args.quiet,
-        shard=parse_shard(args.shard) if getattr(args, "shard", None) else None,
-        focus=FocusConfig.parse(
-            args.focus,
-            detector_model=getattr(args, "detector", None),
-            expand=getattr(args, "expand", "paper"),
-            masked=not getattr(args, "no_masked", False),
-            device=getattr(args, "device", "cpu"),
-        ),
-        temporal=not getattr(args, "no_temporal", False),
-        presence=not getattr(args, "no_presence", False),
-        flow=getattr(args, "flow", "dis"),
-        protocol=getattr(args, "protocol", "dynaeval"),
-    )
+    config = config_from_args(args)
+    if args.command == "demo":
+        from dataclasses import replace
+
+        config = replace(config, method="sample-degraded", scene="sample")
     recorder = None
     if report:
         from dynaeval.report.html import RegionRecorder
 
         recorder = RegionRecorder()
-    results = score(pred, gt, config, on_regions=recorder)
-    for w in results["warnings"]:
-        if "camera" not in w:  # run-level warnings; per-frame ones are in the JSON
-            metric = f"{w['metric']}: " if w.get("metric") and not w["reason"].lower().startswith(w["metric"]) else ""
-            print(f"dynaeval: warning: {metric}{w['reason']}", file=sys.stderr)
-    n_frame_warnings = sum("camera" in w for w in results["warnings"])  # per frame or camera
-    if n_frame_warnings:
-        print(f"dynaeval: {n_frame_warnings} warning(s) about single frames or cameras, listed in "
-              "the results JSON",
-              file=sys.stderr)
-    if results["inputs"]["unscored_cameras"]:
-        cams = results["inputs"]["unscored_cameras"]
-        print(f"dynaeval: {len(cams)} ground-truth camera(s) without predictions not scored: "
-              f"{', '.join(cams[:8])}{' …' if len(cams) > 8 else ''}", file=sys.stderr)
+    with warnings.catch_warnings():  # printed below, from the results, once
+        warnings.simplefilter("ignore", DynaevalWarning)
+        results = score(pred, gt, config, on_regions=recorder)
+    layout = results["inputs"].get("layout")
+    if layout:
+        print(f"dynaeval: {layout['name']} render folder: scored {results['inputs']['pred']} "
+              f"against {results['inputs']['gt']}", file=sys.stderr)
+    _print_warnings(results)
     if output:
         write_json_atomic(output, results, overwrite=overwrite)
         print(f"results written to {output}", file=sys.stderr)

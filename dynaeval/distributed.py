@@ -81,7 +81,7 @@ def score_jobs(
         shards: slices of whole cameras per job (more shards than cameras leaves some empty).
         overwrite: replace existing results files.
         settings: ``ScoreConfig`` fields for every job (``no_lpips`` style names are not
-            accepted: use the field names, e.g. ``lpips=False, temporal=False, workers=1``).
+            accepted: use the field names, e.g. ``metrics=("psnr", "ssim"), temporal=False, workers=1``).
 
     Returns:
         The results files, in the order of ``jobs``. Their numbers equal those of one unsharded

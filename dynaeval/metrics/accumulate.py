@@ -1,9 +1,10 @@
-"""``ImageMetrics``: accumulate PSNR / SSIM / LPIPS over batches in a training or eval loop.
+"""``ImageMetrics``: accumulate per-frame metrics over batches in a training or eval loop.
 
-A thin stateful layer over the pure functions (``dynaeval.metrics.psnr``, ``ssim``, ``lpips`` or a
-protocol's whole-frame variants): ``update`` scores every image of a batch and keeps the per-image
-values, ``compute`` returns their means — the same numbers ``dynaeval score`` writes for the same
-frames and settings (summaries are means of per-image values, never of a pooled error).
+A thin stateful layer over the registry's per-frame metrics (``dynaeval.metrics.registry``:
+PSNR, SSIM, LPIPS and any metric registered later, with a protocol's whole-frame variants):
+``update`` scores every image of a batch and keeps the per-image values, ``compute`` returns their
+means — the same numbers ``dynaeval score`` writes for the same frames and settings (summaries are
+means of per-image values, never of a pooled error).
 
     metrics = ImageMetrics(device="cuda")
     for batch in loader:
@@ -20,9 +21,11 @@ from typing import Any
 import numpy as np
 
 from dynaeval.errors import InputError
+from dynaeval.metrics.registry import FrameContext, FrameFn, default_frame_metrics, frame_specs
 from dynaeval.metrics._common import is_torch_tensor
 
-SUPPORTED = ("psnr", "ssim", "lpips")
+SUPPORTED = tuple(s.name for s in frame_specs())
+"""Names ``ImageMetrics`` accepts: every per-frame metric of the registry."""
 
 
 def _images(x: Any, name: str) -> list[np.ndarray]:
@@ -52,10 +55,11 @@ def _images(x: Any, name: str) -> list[np.ndarray]:
 
 
 class ImageMetrics:
-    """Per-image PSNR / SSIM / LPIPS over many ``update`` calls; ``compute`` gives their means.
+    """Per-image values of per-frame metrics over many ``update`` calls; ``compute`` gives means.
 
     Args:
-        metrics: names among ``psnr``, ``ssim``, ``lpips``.
+        metrics: registry names (default: those ``dynaeval score`` runs by default, ``psnr``,
+            ``ssim``, ``lpips``).
         data_range: peak value of the images (1.0 for [0, 1]); LPIPS needs [0, 1].
         lpips_net: ``alex`` (default) or ``vgg``.
         device: torch device for LPIPS; None: the device of the first tensor given (CPU for numpy).
@@ -69,16 +73,17 @@ class ImageMetrics:
 
     def __init__(
         self,
-        metrics: Sequence[str] = SUPPORTED,
+        metrics: Sequence[str] | None = None,
         data_range: float = 1.0,
         lpips_net: str = "alex",
         device: Any = None,
         protocol: str = "dynaeval",
         pretrained_backbone: bool = True,
     ) -> None:
-        from dynaeval.metrics._common import check_data_range
         from dynaeval.metrics.protocols import check_lpips_net, get_protocol
+        from dynaeval.metrics._common import check_data_range
 
+        metrics = default_frame_metrics() if metrics is None else tuple(metrics)
         unknown = [m for m in metrics if m not in SUPPORTED]
         if unknown or not metrics:
             raise InputError(f"metrics must be a non-empty subset of {', '.join(SUPPORTED)}, "
@@ -92,6 +97,7 @@ class ImageMetrics:
         self.protocol = get_protocol(protocol)
         check_lpips_net(self.protocol, lpips_net)
         self.pretrained_backbone = pretrained_backbone
+        self._fns: dict[str, FrameFn] | None = None
         self._values: dict[str, list[float]] = {m: [] for m in self.metrics}
 
     def reset(self) -> None:
@@ -107,6 +113,17 @@ class ImageMetrics:
         """Per-image values so far, per metric (copies)."""
         return {m: list(v) for m, v in self._values.items()}
 
+    def _functions(self, device: Any) -> dict[str, FrameFn]:
+        """The registry's functions, built on first use (LPIPS needs the device of the data)."""
+        if self._fns is None:
+            from dynaeval.runtime import resolve_device
+
+            ctx = FrameContext(data_range=self.data_range, protocol=self.protocol,
+                               device=resolve_device(device), lpips_net=self.lpips_net,
+                               pretrained_backbone=self.pretrained_backbone)
+            self._fns = {s.name: s.load("build")(ctx) for s in frame_specs(self.metrics)}
+        return self._fns
+
     def update(self, pred: Any, gt: Any) -> dict[str, list[float]]:
         """Score every image of a batch and keep the values.
 
@@ -120,8 +137,9 @@ class ImageMetrics:
         Raises:
             InputError: shapes differ or are not images, NaN/Inf pixels, LPIPS input outside
                 [0, 1]. Nothing is kept from a batch that raised.
+            WeightsUnavailableError: LPIPS asked for and its backbone weights are absent.
         """
-        from dynaeval import metrics as M
+        from dynaeval.metrics.pixel import quantize
 
         preds, gts = _images(pred, "pred"), _images(gt, "gt")
         if len(preds) != len(gts):
@@ -129,19 +147,13 @@ class ImageMetrics:
         device = self.device
         if device is None and is_torch_tensor(pred):
             device = pred.device
+        fns = self._functions(device)
         batch: dict[str, list[float]] = {m: [] for m in self.metrics}
         for p, g in zip(preds, gts, strict=True):
             if self.protocol.quantize != "none":
-                p, g = M.quantize(p, self.protocol.quantize), M.quantize(g, self.protocol.quantize)
+                p, g = quantize(p, self.protocol.quantize), quantize(g, self.protocol.quantize)
             for m in self.metrics:
-                if m == "psnr":
-                    v = self.protocol.whole_psnr(p, g, data_range=self.data_range)
-                elif m == "ssim":
-                    v = self.protocol.whole_ssim(p, g, data_range=self.data_range)
-                else:
-                    v = M.lpips(p, g, net=self.lpips_net, device=device,
-                                pretrained_backbone=self.pretrained_backbone)
-                batch[m].append(float(v))
+                batch[m].append(float(fns[m](p, g, {})))
         for m, vals in batch.items():
             self._values[m].extend(vals)
         return batch

@@ -37,7 +37,7 @@ by ``focused_*``, grown by ``PresenceConfig.margin`` pixels and clipped to the i
 An object is ``present`` when it passes the region test and, if the detector test ran, that too.
 
 Images are ``(H, W)`` or ``(H, W, C)`` float in ``[0, data_range]`` (integers are upcast); boxes
-``[x_min, y_min, x_max, y_max]`` int pixels, max exclusive (``dynaeval.regions.boxes``).
+``[x_min, y_min, x_max, y_max]`` int pixels, max exclusive (``dynaeval.boxes``).
 """
 
 from __future__ import annotations
@@ -52,12 +52,12 @@ import numpy as np
 from dynaeval.errors import InputError
 from dynaeval.metrics._common import check_data_range, check_pair
 from dynaeval.metrics.pixel import psnr as _psnr
-from dynaeval.regions.boxes import as_boxes, boxes_to_mask, clip_boxes
+from dynaeval.boxes import as_boxes, box_iou_matrix, boxes_to_mask, clip_boxes
+from dynaeval.metrics.registry import PRESENCE_CLASSES, keys_of, result_key
 
-PRESENCE_CLASSES = ("person", "ball")
-"""Classes with a ``presence_<class>`` and ``tight_psnr_<class>`` value per frame."""
-PRESENCE_METRICS = (*(f"presence_{c}" for c in PRESENCE_CLASSES),
-                    *(f"tight_psnr_{c}" for c in PRESENCE_CLASSES))
+PRESENCE_METRICS = tuple(keys_of("object"))
+"""Result keys of the presence check (``presence_<class>``, ``tight_psnr_<class>``), from the
+registry; the classes are ``PRESENCE_CLASSES``."""
 """Per-frame values ``frame_presence`` returns (names in the results and the metrics registry)."""
 
 
@@ -361,8 +361,6 @@ def match_objects(
     Returns:
         (M,) int64: index of the matched detection, -1 for an unmatched ground-truth object.
     """
-    from dynaeval.regions.detector import box_iou_matrix
-
     g = as_boxes(gt_boxes).astype(np.float64)
     d = as_boxes(det_boxes).astype(np.float64)
     if len(gt_classes) != len(g) or len(det_classes) != len(d):
@@ -450,15 +448,23 @@ def frame_presence(
         out.append({"class": obj["class"], "id": obj["id"], "box": [int(v) for v in box],
                     "present": bool(passed and det is not False), "ncc": ncc, "psnr": value,
                     "visibility": vis, "detected": det})
+    values, reasons = _class_values(p, g, out, cfg.data_range)
+    return FramePresence(out, values, reasons)
+
+
+def _class_values(
+    p: np.ndarray, g: np.ndarray, objects: list[dict[str, Any]], data_range: float
+) -> tuple[dict[str, float | None], dict[str, str]]:
+    """Per class: the fraction of its objects present and the PSNR over their tight boxes."""
     values: dict[str, float | None] = dict.fromkeys(PRESENCE_METRICS)
     reasons: dict[str, str] = {}
     for cls in PRESENCE_CLASSES:
-        mine = [o for o in out if o["class"] == cls]
+        present, tight = result_key("presence", cls=cls), result_key("tight_psnr", cls=cls)
+        mine = [o for o in objects if o["class"] == cls]
         if not mine:
-            for name in (f"presence_{cls}", f"tight_psnr_{cls}"):
-                reasons[name] = f"no {cls} in the ground truth of this frame"
+            reasons[present] = reasons[tight] = f"no {cls} in the ground truth of this frame"
             continue
-        values[f"presence_{cls}"] = sum(o["present"] for o in mine) / len(mine)
-        union = boxes_to_mask([o["box"] for o in mine], h, w)
-        values[f"tight_psnr_{cls}"] = _psnr(p[union], g[union], data_range=cfg.data_range)
-    return FramePresence(out, values, reasons)
+        values[present] = sum(o["present"] for o in mine) / len(mine)
+        union = boxes_to_mask([o["box"] for o in mine], *p.shape[:2])
+        values[tight] = _psnr(p[union], g[union], data_range=data_range)
+    return values, reasons

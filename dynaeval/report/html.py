@@ -23,7 +23,6 @@ from typing import Any
 import numpy as np
 
 from dynaeval.errors import InputError
-from dynaeval.report.table import REGIONS
 
 BOX_COLOUR = "#ffd400"
 MASK_COLOUR = "#00e5ff"
@@ -82,30 +81,18 @@ def worst_frames(results: dict[str, Any], n: int = 4) -> tuple[str, list[dict[st
 
 
 def _summary_html(results: dict[str, Any]) -> str:
-    from dynaeval.report.table import _base, _fmt
+    from dynaeval.report.table import fmt, region_rows
 
     metrics = results["metrics"]
-    bases: list[str] = []
-    for name in metrics:
-        if _base(name) not in bases:
-            bases.append(_base(name))
-    regions = [(p, label) for p, label in REGIONS if any(p + b in metrics for b in bases)]
-    head = "".join(f"<th>{label}</th>" for _, label in regions)
-    rows = []
-    for b in bases:
-        info = next(metrics[p + b] for p, _ in regions if p + b in metrics)
-        arrow = "↑" if info["higher_is_better"] else "↓"
-        unit = f" ({info['unit']})" if info["unit"] else ""
-        cells = "".join(
-            f"<td>{_fmt(b, results['summary'].get(p + b)) if p + b in metrics else ''}</td>"
-            for p, _ in regions)
-        rows.append(f"<tr><td>{escape(b)} {arrow}{escape(unit)}</td>{cells}</tr>")
-    table = f"<table><tr><th>metric</th>{head}</tr>{''.join(rows)}</table>"
+    header, body = region_rows(results, objects=True)
+    head = "".join(f"<th>{escape(h)}</th>" for h in header)
+    rows = ["<tr>" + "".join(f"<td>{escape(c)}</td>" for c in row) + "</tr>" for row in body]
+    table = f"<table><tr>{head}</tr>{''.join(rows)}</table>"
     per_cam = [m for m in metrics if any(m in v for v in results["cameras"].values())]
     cam_head = "".join(f"<th>{escape(m)}</th>" for m in per_cam)
     cam_rows = "".join(
         f"<tr><td>{escape(cam)}</td><td>{v['n_frames']}</td>"
-        + "".join(f"<td>{_fmt(_base(m), v.get(m))}</td>" for m in per_cam) + "</tr>"
+        + "".join(f"<td>{fmt(m, v.get(m))}</td>" for m in per_cam) + "</tr>"
         for cam, v in results["cameras"].items())
     cams = f"<table><tr><th>camera</th><th>frames</th>{cam_head}</tr>{cam_rows}</table>"
     return table + "<h3>Per camera (means over frames)</h3>" + cams

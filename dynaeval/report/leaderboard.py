@@ -38,19 +38,27 @@ SCHEMA = "dynaeval/leaderboard/v1"
 ALL_SCENES = "(all)"
 FORMATS = ("md", "csv", "json", "html")
 
-IGNORED_SETTINGS = (
+RUN_IGNORED_SETTINGS = (
     "allow_missing",
-    "lpips.enabled",
-    "lpips.device",
-    "lpips.backend",
-    "lpips.unavailable",
     "focus.boxes_file.path",
     "focus.detector.model",
     "focus.detector.settings.model",
     "focus.detector.settings.device",
     "focus.detector.onnxruntime",
 )
-"""Settings that never change a number (paths, devices, whether a metric ran): not compared."""
+"""Run settings that never change a number (paths, devices): not compared."""
+
+
+def _ignored_settings() -> tuple[str, ...]:
+    from dynaeval.metrics.registry import SPECS
+
+    return RUN_IGNORED_SETTINGS + tuple(
+        f"{s.name}.{f}" for s in SPECS.values() for f in s.ignored_settings)
+
+
+IGNORED_SETTINGS = _ignored_settings()
+"""Settings that never change a number (paths, devices, whether a metric ran): not compared.
+The metrics' own come from the registry (``MetricSpec.ignored_settings``)."""
 
 SCENE_SETTINGS = ("focus.boxes_file.",)
 """Settings that belong to a scene (its boxes file): compared only between files of one scene."""
@@ -209,6 +217,72 @@ def _check(docs: list[dict[str, Any]], paths: list[str], force: bool) -> list[di
     return forced
 
 
+def _scene_entry(d: dict[str, Any], n: str, bootstrap: BootstrapConfig,
+                 ) -> tuple[dict[str, Any], np.ndarray | None]:
+    """One file's value of metric ``n`` with its bootstrap interval over frames, and the
+    replicate means (None when the metric has no finite per-frame values)."""
+    mean = d["summary"].get(n)
+    entry: dict[str, Any] = {"mean": mean, "ci_low": None, "ci_high": None,
+                             "n": d["counts"].get(n, 0)}
+    reps = None
+    per_frame = n in d["metrics"] and any(n in f for f in d["frames"])
+    if mean is not None and per_frame:
+        vals = _frame_values(d, n)
+        if len(vals) and np.isfinite(vals).all():
+            reps = bootstrap_means(vals, bootstrap, _rng(bootstrap.seed, d["method"], d["scene"], n))
+            entry["ci_low"], entry["ci_high"] = _percentiles(reps, bootstrap.confidence)
+    return entry, reps
+
+
+def _overall_entry(means: list[float | None], reps: list[np.ndarray | None],
+                   confidence: float) -> dict[str, Any]:
+    """Mean of per-scene means, its interval from the scenes' replicates averaged."""
+    entry: dict[str, Any] = {"mean": None, "ci_low": None, "ci_high": None, "n": len(means)}
+    if means and all(m is not None for m in means):
+        entry["mean"] = math.fsum(means) / len(means)  # type: ignore[arg-type]
+        if all(r is not None for r in reps):
+            stacked = np.mean(np.stack(reps), axis=0)  # type: ignore[arg-type]
+            entry["ci_low"], entry["ci_high"] = _percentiles(stacked, confidence)
+    return entry
+
+
+def _board_rows(docs: list[dict[str, Any]], paths: list[str], names: list[str],
+                bootstrap: BootstrapConfig) -> tuple[list[dict[str, Any]], list[str], list[str]]:
+    """One row per file, then one ``(all)`` row per method; and the methods and scenes in order."""
+    rows: list[dict[str, Any]] = []
+    replicates: dict[tuple[str, str], list[np.ndarray | None]] = {}
+    scene_means: dict[tuple[str, str], list[float | None]] = {}
+    methods = list(dict.fromkeys(d["method"] for d in docs))
+    scenes = list(dict.fromkeys(d["scene"] for d in docs))
+    for d, p in zip(docs, paths, strict=True):
+        row: dict[str, Any] = {"method": d["method"], "scene": d["scene"],
+                               "n_frames": d["summary"]["n_frames"], "file": p, "values": {}}
+        for n in names:
+            row["values"][n], reps = _scene_entry(d, n, bootstrap)
+            replicates.setdefault((d["method"], n), []).append(reps)
+            scene_means.setdefault((d["method"], n), []).append(row["values"][n]["mean"])
+        rows.append(row)
+    for method in methods:
+        own = [r for r in rows if r["method"] == method]
+        rows.append({"method": method, "scene": ALL_SCENES,
+                     "n_frames": sum(r["n_frames"] for r in own), "n_scenes": len(own),
+                     "values": {n: _overall_entry(scene_means[(method, n)],
+                                                  replicates[(method, n)], bootstrap.confidence)
+                                for n in names}})
+    return rows, methods, scenes
+
+
+def _selected_metrics(docs: list[dict[str, Any]], metrics: list[str] | None) -> list[str]:
+    names = _metric_names(docs)
+    if metrics is None:
+        return names
+    unknown = [m for m in metrics if m not in names]
+    if unknown:
+        raise InputError(f"metrics not in any results file: {', '.join(unknown)}; "
+                         f"available: {', '.join(names)}")
+    return list(metrics)
+
+
 def build_leaderboard(
     paths: list[str | Path],
     *,
@@ -229,7 +303,7 @@ def build_leaderboard(
             incompatible settings without ``force``, or an unknown metric asked for.
     """
     from dynaeval import __version__
-    from dynaeval.report.results import load_results
+    from dynaeval.report.results import load_results, strict
 
     if not paths:
         raise InputError("leaderboard needs at least one results file")
@@ -242,80 +316,22 @@ def build_leaderboard(
     str_paths = [str(p) for p in paths]
     docs = [load_results(p) for p in str_paths]
     forced = _check(docs, str_paths, force)
-    names = _metric_names(docs)
-    if metrics is not None:
-        unknown = [m for m in metrics if m not in names]
-        if unknown:
-            raise InputError(f"metrics not in any results file: {', '.join(unknown)}; "
-                             f"available: {', '.join(names)}")
-        names = list(metrics)
+    names = _selected_metrics(docs, metrics)
     info: dict[str, Any] = {}
     for d in docs:
         for n in names:
             if n in d["metrics"]:
                 info.setdefault(n, d["metrics"][n])
-
-    rows: list[dict[str, Any]] = []
-    # replicate means per (method, metric): list over scenes of (n_boot,) arrays or None
-    replicates: dict[tuple[str, str], list[np.ndarray | None]] = {}
-    scene_means: dict[tuple[str, str], list[float | None]] = {}
-    methods: list[str] = []
-    scenes: list[str] = []
-    for d, p in zip(docs, str_paths, strict=True):
-        method, scene = d["method"], d["scene"]
-        methods += [method] if method not in methods else []
-        scenes += [scene] if scene not in scenes else []
-        row: dict[str, Any] = {"method": method, "scene": scene, "n_frames": d["summary"]["n_frames"],
-                               "file": p, "values": {}}
-        for n in names:
-            mean = d["summary"].get(n)
-            entry: dict[str, Any] = {"mean": mean, "ci_low": None, "ci_high": None,
-                                     "n": d["counts"].get(n, 0)}
-            reps = None
-            per_frame = n in d["metrics"] and any(n in f for f in d["frames"])
-            if mean is not None and per_frame:
-                vals = _frame_values(d, n)
-                if len(vals) and np.isfinite(vals).all():
-                    reps = bootstrap_means(vals, bootstrap, _rng(bootstrap.seed, method, scene, n))
-                    entry["ci_low"], entry["ci_high"] = _percentiles(reps, bootstrap.confidence)
-            row["values"][n] = entry
-            replicates.setdefault((method, n), []).append(reps)
-            scene_means.setdefault((method, n), []).append(mean)
-        rows.append(row)
-
-    for method in methods:
-        own = [r for r in rows if r["method"] == method]
-        overall: dict[str, Any] = {"method": method, "scene": ALL_SCENES,
-                                   "n_frames": sum(r["n_frames"] for r in own),
-                                   "n_scenes": len(own), "values": {}}
-        for n in names:
-            means = scene_means[(method, n)]
-            reps = replicates[(method, n)]
-            entry = {"mean": None, "ci_low": None, "ci_high": None, "n": len(means)}
-            if means and all(m is not None for m in means):
-                entry["mean"] = math.fsum(means) / len(means)
-                if all(r is not None for r in reps):
-                    stacked = np.mean(np.stack(reps), axis=0)  # type: ignore[arg-type]
-                    entry["ci_low"], entry["ci_high"] = _percentiles(stacked, bootstrap.confidence)
-            overall["values"][n] = entry
-        rows.append(overall)
-
+    rows, methods, scenes = _board_rows(docs, str_paths, names, bootstrap)
     covered = {m: sorted(r["scene"] for r in rows if r["method"] == m and r["scene"] != ALL_SCENES)
                for m in methods}
     notes = []
     if len({tuple(v) for v in covered.values()}) > 1:
         notes.append("methods cover different scenes: their (all) rows average different scene "
                      "sets and are not comparable")
-    from dynaeval.report.results import strict
-
     return strict({
-        "schema": SCHEMA,
-        "dynaeval_version": __version__,
-        "methods": methods,
-        "scenes": scenes,
-        "metrics": info,
-        "settings": docs[0]["settings"],
-        "forced": forced,
+        "schema": SCHEMA, "dynaeval_version": __version__, "methods": methods, "scenes": scenes,
+        "metrics": info, "settings": docs[0]["settings"], "forced": forced,
         "bootstrap": bootstrap.describe(),
         "overall": "mean of per-scene means (every scene weighs the same)",
         "sources": [{"file": p, "method": d["method"], "scene": d["scene"],
@@ -342,10 +358,13 @@ def _ordered_rows(board: dict[str, Any], by: str) -> list[dict[str, Any]]:
 
 
 def _fmt(name: str, v: float | None) -> str:
-    """dB values with 2 decimals, others with 4, small errors (< 0.01) with 3 significant digits."""
+    """dB values with 2 decimals, others with 4, small errors (< 0.01) with 3 significant digits
+    (units from the registry)."""
+    from dynaeval.metrics.registry import METRICS
+
     if v is None:
         return "n/a"
-    if "psnr" in name:
+    if name in METRICS and METRICS[name].unit == "dB":
         return f"{v:.2f}"
     return f"{v:.4f}" if abs(v) >= 0.01 or v == 0 else f"{v:.3g}"
 

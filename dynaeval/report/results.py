@@ -36,19 +36,19 @@ from dynaeval.io.atomic import write_text_atomic
 
 SCHEMA = "dynaeval/results/v1"
 
-# direction and unit of the per-frame metrics; the metrics registry has the full description
-_DIRECTIONS = {"psnr": (True, "dB"), "ssim": (True, ""), "lpips": (False, "")}
+def _direction(name: str) -> dict[str, Any]:
+    """``{"higher_is_better", "unit"}`` of a result key, from the metric registry.
 
+    Raises:
+        KeyError: the key is not registered (a bug: every reported key is in the registry).
+    """
+    from dynaeval.metrics.registry import METRICS
 
-def _direction(name: str) -> tuple[bool, str]:
-    try:
-        from dynaeval.metrics import METRICS
-
-        info = METRICS[name]
-        return bool(info.higher_is_better), str(info.unit)
-    except (ImportError, KeyError, AttributeError):
-        base = name.split("_", 1)[-1] if name.startswith(("focused_", "masked_")) else name
-        return _DIRECTIONS.get(base, (False, ""))
+    if name not in METRICS:
+        raise KeyError(f"result key {name!r} is not in the metric registry "
+                       "(dynaeval.metrics.registry.SPECS): register the metric")
+    info = METRICS[name]
+    return {"higher_is_better": info.higher_is_better, "unit": info.unit}
 
 
 def _mean(values: list[float | None]) -> tuple[float | None, int, str | None]:
@@ -117,6 +117,7 @@ def build_results(
     temporal: dict[str, dict[str, dict]] | None = None,
     camera_values: dict[str, dict[str, float | None]] | None = None,
     shard: tuple[int, int] | None = None,
+    inputs_extra: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """Assemble the results document from per-frame rows (values may be inf; made strict here).
 
@@ -182,12 +183,10 @@ def build_results(
             "unscored_cameras": list(unscored_cameras),
             "skipped_frames": list(skipped),
             **({"shard": {"index": shard[0], "count": shard[1]}} if shard else {}),
+            **(inputs_extra or {}),
         },
         "settings": settings,
-        "metrics": {
-            n: dict(zip(("higher_is_better", "unit"), _direction(n), strict=True))
-            for n in metric_names
-        },
+        "metrics": {n: _direction(n) for n in metric_names},
         "frames": frames,
         "cameras": cameras,
         "summary": summary,

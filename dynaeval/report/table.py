@@ -4,22 +4,17 @@ from __future__ import annotations
 
 from typing import Any
 
-REGIONS = (("", "whole"), ("focused_", "focused"), ("masked_", "masked"))
-OBJECT_PREFIXES = ("presence_", "tight_psnr_")
-"""Per-object metrics (``dynaeval.metrics.presence``): shown in a table of their own."""
+from dynaeval.metrics.registry import METRICS, REGIONS
+
+REGION_LABELS = {"whole": "whole", "focused": "focused", "masked": "masked"}
+"""Column heading of each region variant."""
 
 
-def _fmt(base: str, value: Any) -> str:
+def fmt(name: str, value: Any) -> str:
+    """A value of result key ``name`` at the registry's precision (``n/a`` for null)."""
     if value is None:
         return "n/a"
-    return f"{value:.3f}" if "psnr" in base else f"{value:.4f}"
-
-
-def _base(name: str) -> str:
-    for prefix, _ in REGIONS:
-        if prefix and name.startswith(prefix):
-            return name[len(prefix):]
-    return name
+    return f"{value:.{METRICS[name].precision}f}"
 
 
 def _render(header: list[str], rows: list[list[str]]) -> list[str]:
@@ -35,43 +30,56 @@ def _render(header: list[str], rows: list[list[str]]) -> list[str]:
     return [head, "-" * len(head), *map(line, rows)]
 
 
-def summary_table(results: dict[str, Any]) -> str:
-    """The summary (mean over all frames) as a metric x region table, then per-camera means of
-    the whole-frame metrics. Arrows give the direction: ↑ higher is better, ↓ lower is better."""
-    metrics = results["metrics"]
-    summary = results["summary"]
-    bases: list[str] = []
-    for name in metrics:
-        if _base(name) not in bases:
-            bases.append(_base(name))
-    objects = [b for b in bases if b.startswith(OBJECT_PREFIXES)]
-    bases = [b for b in bases if b not in objects]
-    regions = [(p, label) for p, label in REGIONS if any(p + b in metrics for b in bases)]
+def _heading(name: str, info: dict[str, Any]) -> str:
+    arrow = "↑" if info["higher_is_better"] else "↓"
+    unit = f" ({info['unit']})" if info["unit"] else ""
+    return f"{name} {arrow}{unit}"
+
+
+def region_rows(results: dict[str, Any], *,
+                objects: bool = False) -> tuple[list[str], list[list[str]]]:
+    """Header and rows of the metric x region table of the summary: one row per metric with
+    region variants; with ``objects`` also one row per object key (in the ``whole`` column)."""
+    metrics, summary = results["metrics"], results["summary"]
+    shown = [n for n in metrics if objects or METRICS[n].kind != "object"]
+
+    def base(n: str) -> str:
+        return n if METRICS[n].kind == "object" else METRICS[n].metric
+
+    def region(n: str) -> str:
+        return "whole" if METRICS[n].kind == "object" else METRICS[n].variant
+
+    bases = list(dict.fromkeys(base(n) for n in shown))
+    regions = [r for r in REGIONS if any(region(n) == r for n in shown)]
     rows = []
     for b in bases:
-        info = metrics.get(b) or next(metrics[p + b] for p, _ in regions if p + b in metrics)
-        arrow = "↑" if info["higher_is_better"] else "↓"
-        unit = f" ({info['unit']})" if info["unit"] else ""
-        rows.append([f"{b} {arrow}{unit}"] + [
-            _fmt(b, summary.get(p + b)) if p + b in metrics else "" for p, _ in regions
-        ])
+        keys = {region(n): n for n in shown if base(n) == b}
+        first = keys.get("whole") or next(keys[r] for r in regions if r in keys)
+        rows.append([_heading(b, metrics[first])] + [
+            fmt(keys[r], summary.get(keys[r])) if r in keys else "" for r in regions])
+    return ["metric", *(REGION_LABELS[r] for r in regions)], rows
+
+
+def summary_table(results: dict[str, Any]) -> str:
+    """The summary (mean over all frames) as a metric x region table, the per-object metrics,
+    then per-camera means of the whole-frame per-frame metrics. Arrows give the direction:
+    ↑ higher is better, ↓ lower is better. Metrics, regions and precision come from the registry."""
+    metrics, summary = results["metrics"], results["summary"]
     n_cams = len(results["cameras"])
+    header, rows = region_rows(results)
     out = [
         f"{results['method']} on {results['scene']}: {summary['n_frames']} frames, "
         f"{n_cams} camera{'s' if n_cams != 1 else ''} (means over frames)",
-        *_render(["metric"] + [label for _, label in regions], rows),
+        *_render(header, rows),
     ]
+    objects = [n for n in metrics if METRICS[n].kind == "object"]
     if objects:
-        obj_rows = []
-        for b in objects:
-            arrow = "↑" if metrics[b]["higher_is_better"] else "↓"
-            unit = f" ({metrics[b]['unit']})" if metrics[b]["unit"] else ""
-            obj_rows.append([f"{b} {arrow}{unit}", _fmt(b, summary.get(b))])
+        obj_rows = [[_heading(n, metrics[n]), fmt(n, summary.get(n))] for n in objects]
         out += ["", *_render(["per object (tight boxes)", "mean"], obj_rows)]
-    whole = [b for b in bases if b in metrics and b in ("psnr", "ssim", "lpips")]
+    whole = [n for n in metrics if METRICS[n].kind == "frame" and METRICS[n].variant == "whole"]
     if n_cams > 1 and whole:
         cam_rows = [
-            [cam, str(v["n_frames"])] + [_fmt(b, v.get(b)) for b in whole]
+            [cam, str(v["n_frames"])] + [fmt(b, v.get(b)) for b in whole]
             for cam, v in results["cameras"].items()
         ]
         out += ["", *_render(["camera", "frames", *whole], cam_rows)]

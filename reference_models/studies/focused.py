@@ -99,7 +99,7 @@ def study(preset: str, root: Path, size: str = "small") -> list[dict]:
         for f in range(FRAMES):
             _write(pred_dir / CAMERA / f"{f:04d}.png", make_condition(scene, f, condition,
                                                                       expanded[f]))
-        res = dynaeval.score(pred_dir, gt_dir, lpips=False, temporal=False, progress=False,
+        res = dynaeval.score(pred_dir, gt_dir, metrics=("psnr", "ssim"), temporal=False, progress=False,
                              focus=FocusConfig(source="boxes", boxes_file=str(boxes_file),
                                                masked=False))
         s = res["summary"]

@@ -307,7 +307,7 @@ def validation_rows(views=VALIDATION_VIEWS, seed: int = VALIDATION_SEED,
             for cond, seq in preds.items():
                 _write(root / cond, camera, seq)
                 results[cond] = dynaeval.score(
-                    root / cond, root / "gt", lpips=False, temporal=False, progress=False,
+                    root / cond, root / "gt", metrics=("psnr", "ssim"), temporal=False, progress=False,
                     focus=FocusConfig(source="boxes", boxes_file=str(root / "boxes.json"),
                                       masked=False))
         ref = results["none"]["frames"]

@@ -17,7 +17,7 @@ from dynaeval.regions.focus import FocusConfig
 from .helpers import moving_square_scene, write_frames
 
 NUMBERS = ("frames", "cameras", "summary", "counts", "metrics", "settings", "method", "scene")
-SETTINGS = {"lpips": False, "focus": FocusConfig(source="motion", masked=True)}
+SETTINGS = {"metrics": ("psnr", "ssim"), "focus": FocusConfig(source="motion", masked=True)}
 
 
 @pytest.fixture(scope="module")
@@ -95,5 +95,5 @@ def test_score_jobs_errors(tmp_path, scenes):
         (tmp_path / "gt__m1.json").write_text("{}")
         with pytest.raises(InputError, match="results file exists"):
             score_jobs([job], pool, out_dir=tmp_path, **SETTINGS)
-        with pytest.raises(InputError, match="workers must be >= 1"):
+        with pytest.raises(InputError, match="workers must be an integer >= 1"):
             score_jobs([job], pool, out_dir=tmp_path / "new", workers=0)

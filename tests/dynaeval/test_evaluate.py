@@ -34,23 +34,13 @@ def scene(tmp_path):
     return tmp_path / "pred", gt, frames, pred
 
 
-@pytest.fixture
-def random_lpips(monkeypatch):
-    """LPIPS with the package's real linear layers on a seeded random backbone (no download)."""
-    load, fn = M.load_lpips, M.lpips
-    monkeypatch.setattr(M, "load_lpips", lambda net, **kw: load(net, **{**kw, "pretrained_backbone": False}))
-    # LpipsFeatures (tLP) loads the module through the perceptual module itself
-    monkeypatch.setattr(perceptual, "load_lpips", M.load_lpips)
-    monkeypatch.setattr(M, "lpips", lambda p, g, **kw: fn(p, g, pretrained_backbone=False, **kw))
-
-
 def _frame_values(results, name):
     return [f[name] for f in results["frames"]]
 
 
 def test_whole_frame_values_equal_pure_functions(scene):
     pred_dir, gt_dir, gt, pred = scene
-    res = dynaeval.score(pred_dir, gt_dir, lpips=False, temporal=False, progress=False)
+    res = dynaeval.score(pred_dir, gt_dir, metrics=("psnr", "ssim"), temporal=False, progress=False)
     f32 = lambda x: x.astype(np.float32) / np.float32(255)  # noqa: E731 - as the reader does
     expected = [M.psnr(f32(p), f32(g)) for c in gt for p, g in zip(pred[c], gt[c], strict=True)]
     np.testing.assert_allclose(_frame_values(res, "psnr"), expected, rtol=0, atol=1e-12)
@@ -62,7 +52,7 @@ def test_whole_frame_values_equal_pure_functions(scene):
 
 def test_summary_is_mean_of_frames_not_pooled_error(scene):
     pred_dir, gt_dir, gt, pred = scene
-    res = dynaeval.score(pred_dir, gt_dir, lpips=False, temporal=False, progress=False)
+    res = dynaeval.score(pred_dir, gt_dir, metrics=("psnr", "ssim"), temporal=False, progress=False)
     stats = [M.squared_error_stats(p / 255, g / 255) for c in gt
              for p, g in zip(pred[c], gt[c], strict=True)]
     pooled = 10 * math.log10(1 / (sum(s.sse for s in stats) / sum(s.count for s in stats)))
@@ -108,7 +98,7 @@ def test_focused_metrics_ignore_changes_outside_boxes(tmp_path, scene):
     write_boxes_file(tmp_path / "boxes.json", boxes)
     focus = FocusConfig(source="boxes", boxes_file=str(tmp_path / "boxes.json"), expand="none",
                         masked=False)
-    res = dynaeval.score(pred_root, gt_dir, lpips=False, temporal=False, focus=focus,
+    res = dynaeval.score(pred_root, gt_dir, metrics=("psnr", "ssim"), temporal=False, focus=focus,
                          progress=False)
     assert res["summary"]["focused_ssim"] == pytest.approx(1.0, abs=1e-12)
     assert res["summary"]["focused_psnr"] is None  # perfect in the boxes: +inf -> null
@@ -120,7 +110,7 @@ def test_frame_missing_from_boxes_file_is_null_with_reason(tmp_path, scene):
     write_boxes_file(tmp_path / "b.json", {"cam00/0000": [{"class": "ball", "id": 1,
                                                           "box": [0, 0, 20, 20], "visible": 1.0}]})
     focus = FocusConfig(source="boxes", boxes_file=str(tmp_path / "b.json"), masked=False)
-    res = dynaeval.score(pred_dir, gt_dir, lpips=False, temporal=False, focus=focus,
+    res = dynaeval.score(pred_dir, gt_dir, metrics=("psnr", "ssim"), temporal=False, focus=focus,
                          progress=False)
     vals = _frame_values(res, "focused_psnr")
     assert vals[0] is not None and vals[1:] == [None] * 7
@@ -136,7 +126,7 @@ def test_temporal_terms_grow_with_flicker(tmp_path, scene):
         for cam, seq in gt.items():
             write_frames(root, cam, [np.clip(f.astype(int) + (amp if t % 2 else -amp), 0, 255)
                                      .astype(np.uint8) for t, f in enumerate(seq)])
-        res = dynaeval.score(root, gt_dir, lpips=False, focus=FocusConfig(source="motion"),
+        res = dynaeval.score(root, gt_dir, metrics=("psnr", "ssim"), focus=FocusConfig(source="motion"),
                              progress=False)
         vals.append((res["summary"]["warp_error"], res["summary"]["flicker"]))
     assert vals[0][0] < vals[1][0] < vals[2][0]
@@ -147,7 +137,7 @@ def test_size_mismatch_names_both_files(tmp_path, scene):
     _, gt_dir, gt, _ = scene
     write_frames(tmp_path / "p", "cam00", [f[:40] for f in gt["cam00"]])
     with pytest.raises(InputError, match=r"0000\.png: prediction is 64x40 px but its ground truth"):
-        dynaeval.score(tmp_path / "p", gt_dir, lpips=False, progress=False)
+        dynaeval.score(tmp_path / "p", gt_dir, metrics=("psnr", "ssim"), progress=False)
 
 
 def test_channel_mismatch(tmp_path, scene):
@@ -158,36 +148,77 @@ def test_channel_mismatch(tmp_path, scene):
     for i, f in enumerate(gt["cam00"]):
         cv2.imwrite(str(tmp_path / "p" / "cam00" / f"{i:04d}.png"), f[..., 0])
     with pytest.raises(InputError, match="prediction has 1 channel"):
-        dynaeval.score(tmp_path / "p", gt_dir, lpips=False, progress=False)
+        dynaeval.score(tmp_path / "p", gt_dir, metrics=("psnr", "ssim"), progress=False)
 
 
-def test_bad_settings():
-    with pytest.raises(InputError, match="quantize must be none, round or truncate"):
-        dynaeval.score(".", ".", quantize="ceil")
-    with pytest.raises(InputError, match="workers must be >= 1"):
-        dynaeval.score(".", ".", workers=0)
+@pytest.mark.parametrize(("field", "value", "message"), [
+    ("quantize", "ceil", "quantize must be one of none, round, truncate, got 'ceil'"),
+    ("workers", 0, "workers must be an integer >= 1, got 0"),
+    ("workers", 1.5, "workers must be an integer >= 1"),
+    ("cache_mb", -1, "cache_mb must be an integer >= 0"),
+    ("background", "grey", "background must be one of white, black"),
+    ("lpips_backend", "tf", "lpips_backend must be one of torch, onnxruntime"),
+    ("lpips_net", "squeeze", "lpips_net must be one of alex, vgg"),
+    ("device", "tpu", "device must be cpu, cuda, cuda:N or auto"),
+    ("flow", "raft", "flow method must be one of"),
+    ("protocol", "nerf", "protocol must be one of dynaeval, nerfbaselines, nerfstudio"),
+    ("metrics", ("psnr", "fid"), r"unknown per-frame metric\(s\) \['fid'\]"),
+    ("metrics", "psnr", "metrics must be a sequence of metric names"),
+    ("shard", (3, 2), "needs 1 <= I <= N"),
+    ("focus", "motion", "focus must be a FocusConfig"),
+])
+def test_bad_settings_are_refused_before_any_frame_is_read(tmp_path, field, value, message):
+    with pytest.raises(InputError, match=message):
+        dynaeval.score(tmp_path / "missing", tmp_path / "missing", **{field: value})
+    with pytest.raises(InputError, match=message):
+        ScoreConfig(**{field: value})
+
+
+def test_protocol_conflicts_are_refused_in_the_config():
+    with pytest.raises(InputError, match="protocol nerfbaselines uses quantize=truncate, not round"):
+        ScoreConfig(protocol="nerfbaselines", quantize="round")
+    with pytest.raises(InputError, match="reports LPIPS with the alex backbone, not vgg"):
+        ScoreConfig(protocol="nerfstudio", lpips_net="vgg")
+    assert ScoreConfig(protocol="nerfbaselines").resolved_quantize() == "truncate"
+    assert ScoreConfig(shard="2/3").shard == (2, 3)
 
 
 def test_quantize_recorded_and_applied(scene):
     pred_dir, gt_dir, _, _ = scene
-    res = dynaeval.score(pred_dir, gt_dir, lpips=False, temporal=False, quantize="truncate",
+    res = dynaeval.score(pred_dir, gt_dir, metrics=("psnr", "ssim"), temporal=False, quantize="truncate",
                          progress=False)
     assert res["settings"]["quantize"] == "truncate"
 
 
 def test_dataframe_accessor(scene):
     pred_dir, gt_dir, _, _ = scene
-    res = dynaeval.score(pred_dir, gt_dir, lpips=False, temporal=False, progress=False)
+    res = dynaeval.score(pred_dir, gt_dir, metrics=("psnr", "ssim"), temporal=False, progress=False)
     df = res.to_dataframe()
     assert len(df) == 8 and {"camera", "frame", "psnr", "ssim"} <= set(df.columns)
     assert list(res.to_dataframe("cameras").index) == ["cam00", "cam01"]
 
 
-def test_default_config_scores_whole_frame_only(scene):
+def test_metrics_selects_the_per_frame_metrics(scene):
     pred_dir, gt_dir, _, _ = scene
-    res = dynaeval.score(pred_dir, gt_dir, ScoreConfig(lpips=False, temporal=False,
-                                                       progress=False))
+    focus = FocusConfig(source="none", masked=False)
+    res = dynaeval.score(pred_dir, gt_dir, ScoreConfig(metrics=("psnr", "ssim"), temporal=False,
+                                                       progress=False, focus=focus))
     assert set(res["metrics"]) == {"psnr", "ssim"}
+    res = dynaeval.score(pred_dir, gt_dir, ScoreConfig(metrics=("ssim",), temporal=False,
+                                                       progress=False, focus=focus))
+    assert set(res["metrics"]) == {"ssim"}
+
+
+def test_default_config_is_the_cli_default():
+    """The library's defaults are the command's: detector boxes, motion masks, presence,
+    temporal terms, PSNR/SSIM/LPIPS (docs/architecture.md)."""
+    from dynaeval.cli import build_parser, config_from_args
+
+    args = build_parser().parse_args(["score", "p", "g"])
+    assert config_from_args(args) == ScoreConfig()
+    d = ScoreConfig()
+    assert d.focus.source == "detector" and d.focus.masked and d.presence and d.temporal
+    assert d.metrics == ("psnr", "ssim", "lpips")
 
 
 def test_temporal_pass_on_the_pool_keeps_numbers_and_order(tmp_path):
@@ -199,7 +230,7 @@ def test_temporal_pass_on_the_pool_keeps_numbers_and_order(tmp_path):
     for cam, seq in frames.items():
         write_frames(tmp_path / "pred", cam, [
             np.clip(f.astype(int) + rng.integers(-9, 10, f.shape), 0, 255).astype(np.uint8) for f in seq])
-    kw = {"lpips": False, "focus": FocusConfig(source="motion"), "progress": False}
+    kw = {"metrics": ("psnr", "ssim"), "focus": FocusConfig(source="motion"), "progress": False}
     runs = [json.loads(json.dumps(dict(dynaeval.score(tmp_path / "pred", gt, workers=w, **kw))))
             for w in (1, 2, 3)]
     assert list(runs[0]["cameras"]) == list(cams)
@@ -223,7 +254,7 @@ def test_onnxruntime_lpips_backend_gives_the_same_numbers(scene, random_lpips, m
     for name in ("lpips", "focused_lpips", "masked_lpips"):
         np.testing.assert_allclose([f[name] for f in onnx_run["frames"]],
                                    [f[name] for f in torch_run["frames"]], rtol=0, atol=1e-6)
-    with pytest.raises(InputError, match="lpips_backend must be torch or onnxruntime"):
+    with pytest.raises(InputError, match="lpips_backend must be one of torch, onnxruntime"):
         dynaeval.score(pred_dir, gt_dir, lpips_backend="tensorrt", **kw)
 
 
@@ -242,7 +273,7 @@ def test_focused_metrics_drop_when_only_the_inside_changes(tmp_path, scene):
     write_boxes_file(tmp_path / "boxes.json", boxes)
     focus = FocusConfig(source="boxes", boxes_file=str(tmp_path / "boxes.json"), expand="none",
                         masked=False)
-    res = dynaeval.score(tmp_path / "inside", gt_dir, lpips=False, temporal=False, focus=focus,
+    res = dynaeval.score(tmp_path / "inside", gt_dir, metrics=("psnr", "ssim"), temporal=False, focus=focus,
                          progress=False)
     s = res["summary"]
     assert s["focused_psnr"] < s["psnr"] - 10  # the box is ~3 % of the frame: 10 log10(1/0.03)
@@ -256,7 +287,7 @@ def test_detector_regions_on_the_pool_equal_the_sequential_ones():
     from importlib.resources import files
 
     sample = files("dynaeval") / "data" / "sample"
-    kw = {"lpips": False, "temporal": False, "presence": False, "progress": False,
+    kw = {"metrics": ("psnr", "ssim"), "temporal": False, "presence": False, "progress": False,
           "focus": FocusConfig(source="detector")}
     runs = [json.loads(json.dumps(dict(dynaeval.score(sample / "pred", sample / "gt", workers=w, **kw))))
             for w in (1, 2)]

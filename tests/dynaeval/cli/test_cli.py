@@ -108,7 +108,7 @@ def test_bad_focus_and_missing_detector(tmp_path, scene, capsys):
 def test_cache_mb_is_passed_and_checked(tmp_path, scene, capsys):
     pred, gt = scene
     code, _, err = run(capsys, "score", pred, gt, "--no-lpips", "-q", "--cache-mb", "-1")
-    assert code == 2 and "cache_mb must be >= 0" in err
+    assert code == 2 and "cache_mb must be an integer >= 0" in err
     out = tmp_path / "r.json"
     code, _, _ = run(capsys, "score", pred, gt, "--no-lpips", "-q", "--cache-mb", "0", "-o", out)
     assert code == 0 and out.is_file()

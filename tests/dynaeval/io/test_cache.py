@@ -55,10 +55,10 @@ def test_score_decodes_every_file_once(tmp_path, monkeypatch):
         return real(path, **kw)
 
     monkeypatch.setattr(frames_mod, "read_image", counting)
-    dynaeval.score(tmp_path / "pred", gt, lpips=False, focus=FocusConfig(source="motion"),
+    dynaeval.score(tmp_path / "pred", gt, metrics=("psnr", "ssim"), focus=FocusConfig(source="motion"),
                    progress=False)
     assert len(calls) == 16 and set(calls.values()) == {1}
     calls.clear()
-    dynaeval.score(tmp_path / "pred", gt, lpips=False, focus=FocusConfig(source="motion"),
+    dynaeval.score(tmp_path / "pred", gt, metrics=("psnr", "ssim"), focus=FocusConfig(source="motion"),
                    progress=False, cache_mb=0)
     assert max(calls.values()) > 1  # without a cache, the passes decode again

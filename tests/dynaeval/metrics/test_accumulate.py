@@ -12,7 +12,7 @@ from dynaeval import metrics as M
 from dynaeval.cli import sample_dir
 from dynaeval.errors import InputError
 from dynaeval.io import read_image
-from dynaeval.metrics import perceptual
+from dynaeval.regions.focus import FocusConfig
 from dynaeval.metrics.accumulate import ImageMetrics
 
 torch = pytest.importorskip("torch")
@@ -26,16 +26,6 @@ def one_torch_thread():
     torch.set_num_threads(1)
     yield
     torch.set_num_threads(n)
-
-
-@pytest.fixture
-def random_lpips(monkeypatch):
-    """LPIPS with the package's linear layers on a seeded random backbone (no weights needed)."""
-    load, fn = M.load_lpips, M.lpips
-    monkeypatch.setattr(M, "load_lpips", lambda net, **kw: load(net, **{**kw, "pretrained_backbone": False}))
-    # LpipsFeatures (tLP) loads the module through the perceptual module itself
-    monkeypatch.setattr(perceptual, "load_lpips", M.load_lpips)
-    monkeypatch.setattr(M, "lpips", lambda p, g, **kw: fn(p, g, **{**kw, "pretrained_backbone": False}))
 
 
 def _sample_batches(cams):
@@ -57,7 +47,7 @@ def test_same_numbers_as_score_on_the_sample_frames(random_lpips, protocol, name
     root = sample_dir()
     sub = cams[0] if len(cams) == 1 else ""
     res = dynaeval.score(root / "pred" / sub, root / "gt" / sub, temporal=False, progress=False,
-                         protocol=protocol, lpips="lpips" in names)
+                         protocol=protocol, metrics=names, focus=FocusConfig(source="none", masked=False))
     acc = ImageMetrics(names, protocol=protocol)
     for pred, gt in _sample_batches(cams):  # one batch of 8 (B, 3, H, W) tensors per camera
         acc.update(pred, gt)

@@ -339,7 +339,7 @@ def on_disk(tmp_path, rendered):
 
 
 def _score(pred, gt, focus, **kw):
-    return dynaeval.score(pred, gt, lpips=False, temporal=False, progress=False, focus=focus, **kw)
+    return dynaeval.score(pred, gt, metrics=("psnr", "ssim"), temporal=False, progress=False, focus=focus, **kw)
 
 
 def test_score_ground_truth_against_itself_is_fully_present(on_disk):

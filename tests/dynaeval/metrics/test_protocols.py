@@ -111,7 +111,7 @@ def scene16(tmp_path, rng):
 
 def test_score_with_nerfbaselines_protocol_truncates_to_8_bit(scene16):
     root, pairs = scene16
-    kw = dict(lpips=False, temporal=False, progress=False)
+    kw = dict(metrics=("psnr", "ssim"), temporal=False, progress=False)
     res = dynaeval.score(root / "pred", root / "gt", protocol="nerfbaselines", **kw)
     expected = []
     for p, g in pairs:  # independent: NeRFBaselines' float -> uint8 cast, then float32 MSE

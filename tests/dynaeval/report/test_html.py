@@ -22,7 +22,7 @@ def sample_run():
     root = sample_dir()
     recorder = RegionRecorder()
     config = ScoreConfig(
-        method="sample-degraded", scene="sample", lpips=False, temporal=False, progress=False,
+        method="sample-degraded", scene="sample", metrics=("psnr", "ssim"), temporal=False, progress=False,
         focus=FocusConfig(source="boxes", boxes_file=str(root / "boxes.json"), masked=True),
     )
     results = score(root / "pred", root / "gt", config, on_regions=recorder)

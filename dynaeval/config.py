@@ -1,0 +1,126 @@
+"""``ScoreConfig``: every setting of a scoring run, checked when it is made.
+
+The defaults are those of ``dynaeval score PRED GT`` (the CLI reads them from here), so
+``dynaeval.score(pred, gt)`` and the command give the same numbers. Every setting that changes a
+number is written into the results' ``settings``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from dynaeval.errors import InputError
+from dynaeval.metrics.registry import default_frame_metrics, frame_specs
+from dynaeval.regions.focus import FOCUS_SOURCES, FocusConfig
+
+QUANTIZE_MODES = ("none", "round", "truncate")
+BACKGROUNDS = ("white", "black")
+DEVICES = ("cpu", "cuda", "auto")
+
+
+@dataclass
+class ScoreConfig:
+    """Every setting of a scoring run (checked in ``__post_init__``: a bad value raises
+    ``InputError`` before any frame is read)."""
+
+    method: str | None = None
+    """Name of the method whose predictions are scored (leaderboard row); default: PRED's name,
+    or the render folder's for a known layout."""
+    scene: str | None = None
+    """Name of the scene (leaderboard column); default: GT's folder name, or the render folder's."""
+    metrics: tuple[str, ...] = field(default_factory=default_frame_metrics)
+    """Per-frame metrics to compute (registry names, ``dynaeval.metrics.registry``), each over
+    the whole frame, the focus boxes and the motion mask. Default: those the registry runs by
+    default (``psnr``, ``ssim``, ``lpips``); e.g. ``("psnr", "ssim")`` skips LPIPS (no torch)."""
+    lpips_net: str = "alex"
+    """LPIPS backbone: ``alex`` (default, as most NeRF papers report) or ``vgg``."""
+    lpips_backend: str = "torch"
+    """Runtime of the LPIPS network: ``torch`` (the lpips package) or ``onnxruntime`` (the same
+    network exported, ~1.2x faster on CPU, equal to 1e-6: docs/benchmarks.md)."""
+    data_range: float = 1.0
+    """Value range of the images after reading (files are mapped to [0, 1] by their dtype)."""
+    quantize: str = "none"
+    """Quantise both images to 8 bit before scoring: ``none`` (or the protocol's), ``round`` or
+    ``truncate`` (``floor(x*255)``), to reproduce evaluators that save renders as 8-bit files."""
+    background: str = "white"
+    """Colour RGBA frames are composited over: ``white`` (Blender/NeRF-synthetic convention) or
+    ``black``."""
+    allow_missing: bool = False
+    """Score the frames present when a camera misses some predictions (else an error)."""
+    focus: FocusConfig = field(default_factory=FocusConfig)
+    """Regions for ``focused_*`` and ``masked_*`` metrics (``FocusConfig.parse`` reads the CLI
+    form). Default: the shipped detector's boxes, expanded as in the seed study, and motion masks."""
+    presence: bool = True
+    """Decide per ground-truth object whether the prediction shows it: ``presence_person``,
+    ``presence_ball``, ``tight_psnr_*`` and ``objects`` per frame (``dynaeval.metrics.presence``).
+    Needs boxes with classes: focus ``detector`` or ``boxes``."""
+    temporal: bool = True
+    """Compute the temporal terms (warp_error, tof, tlp, flicker) per camera."""
+    flow: str = "dis"
+    """Optical flow for the temporal terms: ``dis``, ``farneback`` or ``tvl1``."""
+    workers: int = 1
+    """Frames scored concurrently (threads). Never changes a number."""
+    device: str = "cpu"
+    """Torch device for LPIPS: ``cpu``, ``cuda[:i]`` or ``auto`` (``dynaeval.runtime``)."""
+    progress: bool = True
+    """Show a progress bar on stderr."""
+    cache_mb: int = 1024
+    """Decoded frames kept for reuse (MiB; one camera is scored at a time), so the passes over a
+    camera (regions, metrics, temporal) decode each file once where it fits. Never changes a number."""
+    shard: tuple[int, int] | None = None
+    """Score only slice ``(I, N)`` (or ``"I/N"``) of the cameras (``dynaeval.io.frames.select_shard``); the
+    shards' results combine with ``dynaeval merge`` into exactly the unsharded numbers."""
+    protocol: str = "dynaeval"
+    """Whose whole-frame PSNR/SSIM and 8-bit step to reproduce: ``dynaeval``, ``nerfbaselines``
+    or ``nerfstudio`` (``dynaeval.metrics.protocols``; ``quantize`` then defaults to the
+    protocol's)."""
+
+    def __post_init__(self) -> None:
+        self.metrics = _check_metrics(self.metrics)
+        _check_choice("quantize", self.quantize, QUANTIZE_MODES)
+        _check_choice("background", self.background, BACKGROUNDS)
+        _check_choice("lpips_backend", self.lpips_backend, ("torch", "onnxruntime"))
+        _check_choice("lpips_net", self.lpips_net, ("alex", "vgg"))
+        if not (self.device in DEVICES or str(self.device).startswith("cuda:")):
+            raise InputError(f"device must be cpu, cuda, cuda:N or auto, got {self.device!r}")
+        for name, low in (("workers", 1), ("cache_mb", 0)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < low:
+                raise InputError(f"{name} must be an integer >= {low}, got {value!r}")
+        if not isinstance(self.focus, FocusConfig):
+            raise InputError(f"focus must be a FocusConfig, got {type(self.focus).__name__}")
+        _check_choice("focus source", self.focus.source, FOCUS_SOURCES)
+        from dynaeval.metrics.flow import FlowConfig
+        from dynaeval.metrics.protocols import check_lpips_net, get_protocol
+
+        FlowConfig(method=self.flow)  # raises InputError for an unknown method
+        protocol = get_protocol(self.protocol)
+        check_lpips_net(protocol, self.lpips_net)
+        self.resolved_quantize()  # raises when the protocol fixes another 8-bit step
+        if self.shard is not None:
+            from dynaeval.io.frames import parse_shard
+
+            spec = self.shard if isinstance(self.shard, str) else "/".join(map(str, self.shard))
+            self.shard = parse_shard(spec)
+
+    def resolved_quantize(self) -> str:
+        """The 8-bit step of the run: the protocol's unless a compatible one was asked for."""
+        from dynaeval.metrics.protocols import get_protocol, resolve_quantize
+
+        return resolve_quantize(get_protocol(self.protocol), self.quantize)
+
+
+def _check_choice(name: str, value: object, choices: tuple[str, ...]) -> None:
+    if value not in choices:
+        raise InputError(f"{name} must be one of {', '.join(choices)}, got {value!r}")
+
+
+def _check_metrics(names: object) -> tuple[str, ...]:
+    if isinstance(names, str) or not all(isinstance(n, str) for n in names):  # type: ignore[union-attr]
+        raise InputError(f"metrics must be a sequence of metric names, got {names!r}")
+    names = tuple(dict.fromkeys(names))  # type: ignore[arg-type]
+    try:
+        frame_specs(names)
+    except KeyError as err:
+        raise InputError(str(err).strip("\"'")) from None
+    return names

@@ -1,0 +1,335 @@
+"""Scoring one camera: its regions, every frame's per-frame metrics and presence, its temporal terms.
+
+``prepare_run`` turns a checked ``ScoreConfig`` into a ``Run`` (the built metric functions, the
+opened region sources, the presence step, the temporal settings, and the ``settings`` that go
+into the results); ``score_camera`` scores one camera with it. ``dynaeval.evaluate.score`` loops
+over the cameras and assembles the results.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from collections import defaultdict
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from dynaeval.config import ScoreConfig
+from dynaeval.errors import EmptyRegionError, InputError
+from dynaeval.io import FramePair
+from dynaeval.io.cache import FrameCache
+from dynaeval.metrics.registry import REGION_RULES, FrameFn, keys_of
+from dynaeval.regions.focus import FrameRegions
+
+PresenceStep = Callable[[FramePair, np.ndarray, np.ndarray, FrameRegions],
+                        tuple[dict[str, float | None], dict[str, str], list[dict]]]
+
+
+@dataclass
+class Run:
+    """Per-run state shared by every camera."""
+
+    config: ScoreConfig
+    """The run's settings (``quantize`` resolved to the protocol's)."""
+    fns: dict[str, tuple[str, FrameFn]]
+    """Result key -> (region variant, function), from the registry."""
+    settings: dict[str, Any]
+    """The results' ``settings``."""
+    warnings: list[dict]
+    """Run-level warnings so far (a metric unavailable, ...)."""
+    sources: Any
+    """``dynaeval.regions.focus.RegionSources``: the opened detector or boxes file."""
+    presence: PresenceStep | None = None
+    """The per-frame presence step, or None when it does not run."""
+    temporal: Any = None
+    """``TemporalConfig`` of the temporal terms, or None when they do not run."""
+    pool: ThreadPoolExecutor | None = None
+    """Worker threads (``workers > 1``)."""
+    timing: dict[str, float] = field(default_factory=lambda: defaultdict(float))
+    """Seconds per phase and metric, summed over frames."""
+    lock: threading.Lock = field(default_factory=threading.Lock)
+    """Guards ``timing``."""
+
+    def add_time(self, times: dict[str, float]) -> None:
+        with self.lock:
+            for k, v in times.items():
+                self.timing[k] += v
+
+    @property
+    def metric_names(self) -> list[str]:
+        """Result keys of the per-frame values, in report order."""
+        from dynaeval.metrics.presence import PRESENCE_METRICS
+
+        return [*self.fns, *(PRESENCE_METRICS if self.presence else ())]
+
+
+def prepare_run(config: ScoreConfig) -> Run:
+    """Build the metrics, open the region sources and describe the run (before any frame is read).
+
+    Raises:
+        InputError: an unusable detector or boxes file.
+    """
+    from dynaeval.metrics.protocols import get_protocol
+    from dynaeval.metrics.registry import FrameContext, build_frame_metrics
+    from dynaeval.regions.focus import open_sources
+    from dynaeval.runtime import resolve_device
+
+    config = replace(config, quantize=config.resolved_quantize())
+    protocol = get_protocol(config.protocol)
+    device = resolve_device(config.device)
+    ctx = FrameContext(data_range=config.data_range, protocol=protocol, device=device,
+                       lpips_net=config.lpips_net, lpips_backend=config.lpips_backend)
+    regions = ("whole",
+               *(("focused",) if config.focus.source != "none" else ()),
+               *(("masked",) if config.focus.masked else ()))
+    built = build_frame_metrics(ctx, config.metrics, regions)
+    from dynaeval.metrics.registry import SPECS
+
+    warnings = [{"metric": name, "reason": f"{SPECS[name].title} not computed: {why}"}
+                for name, why in built.unavailable.items()]
+    settings: dict[str, Any] = {
+        "data_range": config.data_range, "quantize": config.quantize,
+        "background": config.background, "allow_missing": config.allow_missing,
+        **built.settings,
+        "regions": dict(REGION_RULES),
+        "summary": "mean of per-frame values (frames weighted equally, not pooled error)",
+        "protocol": protocol.describe(),
+    }
+    sources = open_sources(config.focus)
+    settings["focus"] = sources.settings
+    run = Run(config, built.fns, settings, warnings, sources)
+    run.presence = _presence_step(config, sources, settings)
+    if config.temporal:
+        from dynaeval.metrics.flow import FlowConfig
+        from dynaeval.metrics.temporal import TemporalConfig
+
+        run.temporal = TemporalConfig(flow=FlowConfig(method=config.flow),
+                                      lpips_net=config.lpips_net, lpips_device=device,
+                                      lpips_backend=config.lpips_backend)
+        settings["temporal"] = run.temporal.describe()
+    return run
+
+
+def _presence_step(config: ScoreConfig, sources: Any, settings: dict) -> PresenceStep | None:
+    """The per-frame presence step, ``(pair, pred, gt, regions) -> (values, reasons, objects)``
+    (the ground-truth objects are ``regions.records``), or None when it does not run
+    (``settings["presence"]`` says why)."""
+    src = config.focus.source
+    if not config.presence or src not in ("detector", "boxes"):
+        why = ("disabled (presence=False)" if not config.presence else
+               f"needs boxes with classes (focus detector or boxes:FILE), focus is {src!r}")
+        settings["presence"] = {"enabled": False, "reason": why}
+        return None
+    from dynaeval.metrics.presence import PRESENCE_METRICS, PresenceConfig, frame_presence
+    from dynaeval.regions.boxes_file import frame_key
+
+    pcfg = PresenceConfig(data_range=config.data_range)
+    settings["presence"] = {
+        "enabled": True, **pcfg.describe(), "detector_test": src == "detector",
+        "objects": "the boxes file's records" if src == "boxes" else "the detector on the ground truth",
+    }
+
+    def step(pair: FramePair, pred: np.ndarray, gt: np.ndarray, regions: FrameRegions):
+        records = regions.records
+        if records is None:
+            why = f"frame {frame_key(pair.camera, pair.frame)!r} is not in the boxes file"
+            return dict.fromkeys(PRESENCE_METRICS), dict.fromkeys(PRESENCE_METRICS, why), []
+        detections = sources.detector(pred) if src == "detector" else None
+        fp = frame_presence(pred, gt, records, detections=detections, config=pcfg)
+        return fp.values, fp.reasons, fp.objects
+
+    return step
+
+
+# --------------------------------------------------------------------------------------------
+# Frames
+
+
+def load_gt(pair: FramePair, config: ScoreConfig, cache: FrameCache) -> np.ndarray:
+    """The ground truth of ``pair`` as the metrics see it (quantised when asked)."""
+    from dynaeval.metrics import quantize
+
+    gt = cache.read(pair.gt, config.background)
+    return gt if config.quantize == "none" else quantize(gt, config.quantize)
+
+
+def load_pair(pair: FramePair, config: ScoreConfig,
+              cache: FrameCache) -> tuple[np.ndarray, np.ndarray]:
+    """Prediction and ground truth of ``pair`` as the metrics see them; InputError when their
+    sizes or channel counts differ."""
+    from dynaeval.metrics import quantize
+
+    pred = cache.read(pair.pred, config.background)
+    gt = cache.read(pair.gt, config.background)
+    if pred.shape[:2] != gt.shape[:2]:
+        raise InputError(
+            f"prediction is {pred.shape[1]}x{pred.shape[0]} px but its ground truth {pair.gt} is "
+            f"{gt.shape[1]}x{gt.shape[0]} px; render at the ground truth's size",
+            path=str(pair.pred),
+        )
+    if pred.shape[2] != gt.shape[2]:
+        raise InputError(
+            f"prediction has {pred.shape[2]} channel(s) but its ground truth {pair.gt} has "
+            f"{gt.shape[2]}; both must be RGB or both grayscale",
+            path=str(pair.pred),
+        )
+    if config.quantize != "none":
+        pred = quantize(pred, config.quantize)
+        gt = quantize(gt, config.quantize)
+    return pred, gt
+
+
+def _warning(pair: FramePair, metric: str, reason: str) -> dict:
+    return {"camera": pair.camera, "frame": pair.frame, "metric": metric, "reason": reason}
+
+
+Value = tuple[str, "float | None", "str | None"]
+
+
+def _metric_values(pair: FramePair, pred: np.ndarray, gt: np.ndarray, regions: FrameRegions,
+                   run: Run, elapsed: dict[str, float]) -> list[Value]:
+    """``(key, value or None, reason)`` of every per-frame metric of one frame."""
+    values: list[Value] = []
+    for name, (region, fn) in run.fns.items():
+        if region == "focused" and regions.boxes is None:
+            values.append((name, None, regions.boxes_reason))
+            continue
+        if region == "masked" and regions.mask is None:
+            values.append((name, None, regions.mask_reason))
+            continue
+        kw = ({"boxes": regions.boxes} if region == "focused" else
+              {"mask": regions.mask} if region == "masked" else {})
+        t0 = time.perf_counter()
+        try:
+            values.append((name, float(fn(pred, gt, kw)), None))
+        except InputError as err:  # e.g. a frame smaller than the SSIM window
+            raise InputError(f"{name}: {err}", path=str(pair.pred)) from err
+        except EmptyRegionError as err:
+            values.append((name, None, str(err)))
+        elapsed[name] = time.perf_counter() - t0
+    return values
+
+
+def score_frame(pair: FramePair, regions: FrameRegions, run: Run,
+                cache: FrameCache) -> tuple[dict[str, Any], list[dict]]:
+    """The results row of one frame (its metric values; inf kept, None for undefined) and its
+    warnings."""
+    t0 = time.perf_counter()
+    pred, gt = load_pair(pair, run.config, cache)
+    elapsed = {"read": time.perf_counter() - t0}
+    row: dict[str, Any] = {"camera": pair.camera, "frame": pair.frame, "index": pair.index,
+                           "pred": str(pair.pred), "gt": str(pair.gt)}
+    values = _metric_values(pair, pred, gt, regions, run, elapsed)
+    if run.presence is not None:
+        t0 = time.perf_counter()
+        found, reasons, row["objects"] = run.presence(pair, pred, gt, regions)
+        values.extend((name, v, reasons.get(name)) for name, v in found.items())
+        elapsed["presence"] = time.perf_counter() - t0
+    warnings: list[dict] = []
+    for name, value, reason in values:
+        if value is None:
+            warnings.append(_warning(pair, name, reason or "undefined"))
+        elif math.isnan(value):  # inputs are checked finite before this point
+            raise RuntimeError(f"{name} is NaN for {pair.pred}")
+        elif math.isinf(value):
+            warnings.append(_warning(pair, name, "prediction equals ground truth in the scored "
+                                     "region: value is +infinity, written as null"))
+        row[name] = value
+    run.add_time(elapsed)
+    return row, warnings
+
+
+# --------------------------------------------------------------------------------------------
+# Cameras
+
+
+@dataclass
+class CameraScores:
+    """What one camera contributes to the results."""
+
+    rows: list[dict[str, Any]]
+    warnings: list[dict]
+    temporal: dict[str, dict] | None
+
+
+def camera_regions_of(camera: str, pairs: list[FramePair], run: Run,
+                      cache: FrameCache) -> list[FrameRegions]:
+    """The regions of every frame of a camera, from its ground truth (timed as ``regions``)."""
+    from dynaeval.regions.focus import camera_regions
+
+    t0 = time.perf_counter()
+    first_gt = load_gt(pairs[0], run.config, cache)
+    regions = camera_regions(
+        camera, [p.frame for p in pairs],
+        lambda i: load_gt(pairs[i], run.config, cache),
+        first_gt.shape[:2], run.sources, run.pool,
+    )
+    run.add_time({"regions": time.perf_counter() - t0})
+    return regions
+
+
+def score_camera(camera: str, pairs: list[FramePair], run: Run, *,
+                 on_regions: Callable | None = None,
+                 on_frame: Callable[[], None] | None = None) -> CameraScores:
+    """Regions, per-frame values and temporal terms of one camera (its frames in order).
+
+    ``on_regions(camera, pairs, regions)`` is called before the frames are scored; ``on_frame()``
+    after each frame (progress).
+    """
+    cache = FrameCache(run.config.cache_mb * 2**20)  # dropped after the camera's temporal pass
+    regions = camera_regions_of(camera, pairs, run, cache)
+    if on_regions is not None:
+        on_regions(camera, pairs, regions)
+
+    def work(item: tuple[FramePair, FrameRegions]) -> tuple[dict[str, Any], list[dict]]:
+        out = score_frame(item[0], item[1], run, cache)
+        if on_frame is not None:
+            on_frame()
+        return out
+
+    items = list(zip(pairs, regions, strict=True))
+    outputs = list(run.pool.map(work, items)) if run.pool else [work(it) for it in items]
+    rows = [row for row, _ in outputs]
+    warnings = [w for _, ws in outputs for w in ws]
+    temporal = None
+    if run.temporal is not None:
+        # the camera's pairs run on the pool (flows dominate: 3 per pair); the frames are
+        # decoded here meanwhile, and the next camera starts when they are done
+        t0 = time.perf_counter()
+        temporal = temporal_of_camera(pairs, regions, run, cache)
+        run.add_time({"temporal": time.perf_counter() - t0})
+    return CameraScores(rows, warnings, temporal)
+
+
+def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], run: Run,
+                       cache: FrameCache) -> dict[str, dict]:
+    """The temporal terms of one camera (``dynaeval.metrics.temporal.temporal_metrics`` output)."""
+    from dynaeval.metrics.temporal import temporal_metrics
+
+    config = run.config
+    indices = [p.index for p in pairs]
+    if indices != list(range(indices[0], indices[0] + len(indices))):
+        reason = "frames are not consecutive (some were skipped): temporal terms need a sequence"
+        return {n: {"value": None, "reason": reason} for n in keys_of("pair", "camera")}
+    static = None
+    masks = [r.mask for r in regions if r.mask is not None]
+    if config.focus.masked and masks:
+        static = ~np.logical_or.reduce(masks)  # static: never moving in any frame
+    region_masks = None
+    if config.focus.source != "none" and all(r.boxes is not None for r in regions):
+        region_masks = [r.boxes for r in regions]
+    tcfg = run.temporal if "lpips" in run.fns else replace(run.temporal, tlp=False)
+    return temporal_metrics(
+        (load_pair(p, config, cache)[0] for p in pairs),
+        (load_gt(p, config, cache) for p in pairs),
+        static_mask=static,
+        region_masks=region_masks,
+        config=tcfg,
+        executor=run.pool,
+        window=2 * config.workers,
+    )

@@ -1,0 +1,164 @@
+"""The layers of docs/architecture.md hold: who imports whom, function sizes, no reference models.
+
+Imports are read from the source with ``ast`` (also those inside functions, which run later), so
+a lazy import that crosses a layer is caught too.
+"""
+
+from __future__ import annotations
+
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+PACKAGE = Path(__file__).resolve().parents[2] / "dynaeval"
+
+FLOOR = ("dynaeval.errors", "dynaeval.boxes", "dynaeval.runtime", "dynaeval.validation")
+"""The ground floor: every layer may import it; it imports nothing of dynaeval above it."""
+
+LAYERS = {
+    "io": ("dynaeval.io",),
+    "regions": ("dynaeval.regions",),
+    "metrics": ("dynaeval.metrics",),
+    "evaluate": ("dynaeval.config", "dynaeval.scoring", "dynaeval.evaluate",
+                 "dynaeval.distributed"),
+    "report": ("dynaeval.report",),
+    "cli": ("dynaeval.cli", "dynaeval.__main__"),
+}
+MAY_IMPORT = {
+    "floor": {"floor"},
+    "io": {"floor", "io"},
+    "regions": {"floor", "io", "regions"},
+    "metrics": {"floor", "io", "metrics"},  # never regions
+    "evaluate": {"floor", "io", "regions", "metrics", "evaluate", "report"},
+    "report": {"floor", "io", "metrics", "report"},
+    "cli": {"floor", "io", "regions", "metrics", "evaluate", "report", "cli"},
+}
+"""Which layers each layer may import (evaluate assembles its results with report.results)."""
+
+
+def _module_name(path: Path) -> str:
+    rel = path.relative_to(PACKAGE.parent).with_suffix("")
+    parts = list(rel.parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+def _layer(module: str) -> str | None:
+    if module in ("dynaeval", "dynaeval.__init__"):
+        return None  # the package itself: lazy re-exports only
+    if any(module == f or module.startswith(f + ".") for f in FLOOR):
+        return "floor"
+    for layer, prefixes in LAYERS.items():
+        if any(module == p or module.startswith(p + ".") for p in prefixes):
+            return layer
+    return "unknown"
+
+
+def _imports(path: Path) -> list[tuple[int, str]]:
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            found += [(node.lineno, a.name) for a in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            found.append((node.lineno, node.module))
+            # ``from dynaeval import metrics`` imports the sub-package
+            if node.module == "dynaeval":
+                found += [(node.lineno, f"dynaeval.{a.name}") for a in node.names
+                          if a.name not in ("__version__",)]
+    return found
+
+
+def _sources() -> list[Path]:
+    return sorted(PACKAGE.rglob("*.py"))
+
+
+def test_every_module_belongs_to_a_layer():
+    unknown = [_module_name(p) for p in _sources() if _layer(_module_name(p)) == "unknown"]
+    assert not unknown, f"modules outside every layer of docs/architecture.md: {unknown}"
+
+
+def test_layers_import_only_what_they_may():
+    bad = []
+    for path in _sources():
+        me = _layer(_module_name(path))
+        if me is None:
+            continue
+        for line, target in _imports(path):
+            if not target.startswith("dynaeval.") and target != "dynaeval":
+                continue
+            other = _layer(target)
+            if other is not None and other not in MAY_IMPORT[me]:
+                bad.append(f"{path.relative_to(PACKAGE.parent)}:{line} ({me}) imports {target} ({other})")
+    assert not bad, "imports against the layers:\n" + "\n".join(bad)
+
+
+def test_dynaeval_never_imports_reference_models_or_benchmarks():
+    bad = [f"{p.relative_to(PACKAGE.parent)}:{line} {t}" for p in _sources()
+           for line, t in _imports(p) if t.split(".")[0] in ("reference_models", "benchmarks")]
+    assert not bad, bad
+
+
+def test_no_function_longer_than_100_lines():
+    long = []
+    for path in _sources():
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                n = node.end_lineno - node.lineno + 1
+                if n > 100:
+                    long.append(f"{path.relative_to(PACKAGE.parent)}:{node.lineno} {node.name} {n}")
+    assert not long, f"functions over 100 lines: {long}"
+
+
+_NO_TORCH = """
+import importlib.abc, sys
+
+class NoTorch(importlib.abc.MetaPathFinder):
+    def find_spec(self, name, path=None, target=None):
+        if name.split(".")[0] in ("torch", "torchvision", "lpips"):
+            raise ImportError(f"No module named {name!r} (blocked: a torch-free environment)")
+        return None
+
+sys.meta_path.insert(0, NoTorch())
+import warnings
+import dynaeval
+from dynaeval.cli import sample_dir
+
+root = sample_dir()
+with warnings.catch_warnings(record=True) as caught:
+    warnings.simplefilter("always")
+    res = dynaeval.score(root / "pred", root / "gt", progress=False,
+                         focus=dynaeval.ScoreConfig().focus.__class__(
+                             source="boxes", boxes_file=str(root / "boxes.json")))
+assert res["settings"]["lpips"]["enabled"] is False, res["settings"]["lpips"]
+assert "dynaeval[lpips]" in res["settings"]["lpips"]["unavailable"]
+assert any("LPIPS not computed" in str(w.message) for w in caught), [str(w.message) for w in caught]
+assert res["summary"]["psnr"] > 20 and res["summary"]["focused_ssim"] > 0.5
+assert "lpips" not in res["summary"] and res["summary"]["tlp"] is None
+assert not any(m.split(".")[0] in ("torch", "reference_models") for m in sys.modules)
+print("ok")
+"""
+
+
+def test_score_works_without_torch():
+    """``import dynaeval`` and ``dynaeval.score`` in an interpreter where torch cannot be
+    imported: LPIPS (and tLP) are reported unavailable with the install hint, nothing else
+    changes, and neither torch nor reference_models is ever imported."""
+    out = subprocess.run([sys.executable, "-c", _NO_TORCH], capture_output=True, text=True,
+                         timeout=600)
+    assert out.returncode == 0, out.stderr[-3000:]
+    assert out.stdout.strip().endswith("ok")
+
+
+@pytest.mark.parametrize("module", ["dynaeval", "dynaeval.cli", "dynaeval.metrics",
+                                    "dynaeval.regions", "dynaeval.report"])
+def test_importing_the_toolkit_stays_light(module):
+    code = (f"import sys, {module}; heavy = [m for m in ('torch', 'onnxruntime', 'reference_models',"
+            " 'pandas', 'matplotlib') if m in sys.modules]; print(heavy)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "[]", f"import {module} loads {out.stdout.strip()}"
