@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from dynaeval.errors import InputError
+from dynaeval.validation import as_image
 
 IMAGE_EXTENSIONS = frozenset(
     {".png", ".jpg", ".jpeg", ".tif", ".tiff", ".exr", ".webp", ".bmp"}
@@ -25,22 +26,17 @@ BACKGROUNDS = {"white": 1.0, "black": 0.0}
 
 
 def to_float(image: np.ndarray, path: str | Path | None = None) -> np.ndarray:
-    """Convert an integer or float image to float32, dividing by the dtype's maximum.
+    """Convert an integer or float image to float32, dividing integers by the dtype's maximum.
 
     Args:
         image: (H, W) or (H, W, C) array, dtype uint8, uint16, float16, float32 or float64.
         path: file the image came from, for error messages.
 
     Returns:
-        float32 array of the same shape; integers mapped to [0, 1] by ``x / iinfo(dtype).max``.
+        float32 array of the same shape; integers mapped to [0, 1] by ``x / iinfo(dtype).max``
+        (the rule of ``dynaeval.validation.as_image``; NaN/Inf are checked by the caller).
     """
-    if image.dtype == np.uint8 or image.dtype == np.uint16:
-        return image.astype(np.float32) / np.float32(np.iinfo(image.dtype).max)
-    if image.dtype in (np.float16, np.float32, np.float64):
-        return image.astype(np.float32)
-    raise InputError(
-        f"unsupported pixel type {image.dtype}; expected uint8, uint16 or float", path=path
-    )
+    return as_image(image, "image", finite=False, path=path)
 
 
 def composite_alpha(rgba: np.ndarray, background: str | float) -> np.ndarray:

@@ -7,7 +7,8 @@ Conventions used throughout (and by ``dynaeval.metrics.temporal``):
   A scene translating by ``(+3, -2)`` px from ``a`` to ``b`` gives ``flow ~ (3, -2)``.
 * **Backward warping** brings ``b`` onto ``a``'s grid with the flow ``a -> b``:
   ``warp(b, flow_ab)(p) = b(p + flow_ab(p))`` (bilinear).
-* Images are ``(H, W, 3)`` RGB or ``(H, W)`` gray, float in ``[0, 1]`` or uint8 in ``[0, 255]``.
+* Images are ``(H, W, 3)`` RGB or ``(H, W)`` gray, float in ``[0, 1]`` or uint8 in ``[0, 255]``
+  (checked by ``dynaeval.validation.as_image``: uint8 / 255, uint16 / 65535, float32 out).
 
 OpenCV (``cv2``, opencv-contrib for TV-L1) is imported lazily inside the functions that use it.
 """
@@ -23,6 +24,8 @@ from pathlib import Path
 import numpy as np
 
 from dynaeval.errors import InputError
+from dynaeval.validation import as_image
+from dynaeval.validation import as_image as check_image  # noqa: F401  (old name: temporal.py)
 
 FLOW_METHODS = ("dis", "farneback", "tvl1")
 DIS_PRESETS = ("ultrafast", "fast", "medium")
@@ -92,27 +95,6 @@ class FlowConfig:
         }
 
 
-def check_image(image: np.ndarray, name: str = "image") -> np.ndarray:
-    """Return ``image`` as float32 ``(H, W)`` or ``(H, W, C)``; uint8 is divided by 255.
-
-    Raises InputError for another rank, no pixels or NaN/Inf values. Floats are not rescaled or
-    clipped: the caller's data range is ``[0, 1]``.
-    """
-    arr = np.asarray(image)
-    if arr.ndim not in (2, 3) or arr.shape[0] == 0 or arr.shape[1] == 0:
-        raise InputError(f"{name} must be (H, W) or (H, W, C) with H, W > 0, got shape {arr.shape}")
-    if arr.dtype == np.uint8:
-        return arr.astype(np.float32) / np.float32(255.0)
-    if arr.dtype == bool or not np.issubdtype(arr.dtype, np.number):
-        raise InputError(f"{name} must be uint8 or float, got dtype {arr.dtype}")
-    arr = arr.astype(np.float32, copy=False)
-    if not np.all(np.isfinite(arr)):
-        raise InputError(
-            f"{name} contains NaN or Inf values; fix the renderer output or its loader"
-        )
-    return arr
-
-
 def to_gray_u8(image: np.ndarray) -> np.ndarray:
     """Gray uint8 ``(H, W)`` for the flow estimators, from RGB/gray, float ``[0, 1]`` or uint8.
 
@@ -122,7 +104,7 @@ def to_gray_u8(image: np.ndarray) -> np.ndarray:
     ``[0, 1]`` are clipped here only (for the flow), never in the metrics themselves. A single
     channel is used as is; a 4th (alpha) channel is ignored.
     """
-    arr = check_image(image)
+    arr = as_image(image)
     if arr.ndim == 3:
         if arr.shape[2] == 1:
             arr = arr[..., 0]
@@ -298,7 +280,7 @@ def warp(image: np.ndarray, flow: np.ndarray) -> np.ndarray:
     """
     import cv2
 
-    img = check_image(image)
+    img = as_image(image)
     flow = check_flow(flow)
     if img.shape[:2] != flow.shape[:2]:
         raise InputError(
@@ -313,7 +295,7 @@ def warp(image: np.ndarray, flow: np.ndarray) -> np.ndarray:
 
 def warp_reference(image: np.ndarray, flow: np.ndarray) -> np.ndarray:
     """Slow, readable numpy version of :func:`warp` (the test holds them together)."""
-    img = check_image(image)
+    img = as_image(image)
     flow = check_flow(flow)
     h, w = flow.shape[:2]
     xs, ys = _sample_grid(flow)

@@ -17,10 +17,12 @@ from typing import Any
 
 import numpy as np
 
+from dynaeval.boxes import grow_box
 from dynaeval.errors import InputError, WeightsUnavailableError
-from dynaeval.metrics._common import check_pair, clipped_boxes, grow_box, region_mask
+from dynaeval.metrics._common import clipped_boxes, region_mask
 from dynaeval.runtime import new_session, onnx_providers, torch_device
 from dynaeval.runtime import resolve_device as resolve_device  # re-export: evaluate.py, temporal.py
+from dynaeval.validation import check_pair
 
 LPIPS_NETS = ("alex", "vgg")
 MIN_SIZE = {"alex": 31, "vgg": 16}

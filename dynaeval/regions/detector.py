@@ -39,6 +39,7 @@ import numpy as np
 from dynaeval.boxes import batched_nms, box_iou_matrix, nms  # noqa: F401  (box_iou_matrix, nms: old import path)
 from dynaeval.errors import InputError
 from dynaeval.runtime import file_sha256, load_session, onnx_providers
+from dynaeval.validation import as_image
 
 # torchvision's COCO category list (91 indices, "N/A" for ids unused by COCO 2017); checked against
 # torchvision.models.detection weights' meta["categories"] in the tests.
@@ -133,24 +134,6 @@ def resolve_model_path(model: str | Path | None) -> Path:
 
 # --------------------------------------------------------------------------------------------
 # Pure helpers: image checks, letterbox, NMS
-
-
-def as_rgb_float(image: np.ndarray) -> np.ndarray:
-    """``(H, W, 3)`` uint8 [0, 255] or float [0, 1] RGB -> ``(H, W, 3)`` float32 in [0, 1]."""
-    arr = np.asarray(image)
-    if arr.ndim != 3 or arr.shape[2] != 3:
-        raise InputError(f"detector input must be an (H, W, 3) RGB image, got shape {arr.shape}")
-    if arr.dtype == np.uint8:
-        return arr.astype(np.float32) / 255.0
-    if not np.issubdtype(arr.dtype, np.floating):
-        raise InputError(f"detector input must be uint8 or float in [0, 1], got dtype {arr.dtype}")
-    arr = arr.astype(np.float32)
-    if not np.all(np.isfinite(arr)):
-        raise InputError("detector input contains NaN or Inf pixels")
-    lo, hi = float(arr.min()), float(arr.max())
-    if lo < 0.0 or hi > 1.0:
-        raise InputError(f"float images must be in [0, 1], got values in [{lo:.4g}, {hi:.4g}]")
-    return arr
 
 
 def letterbox(image: np.ndarray, size_hw: tuple[int, int], pad_value: float = 114 / 255):
@@ -357,7 +340,7 @@ class Detector:
     def raw(self, image: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Decoded candidates before filtering: float64 ``(N, 4)`` xyxy boxes in *original image*
         pixels (unclipped), ``(N,)`` scores and ``(N,)`` int64 class ids."""
-        img = as_rgb_float(image)
+        img = np.ascontiguousarray(as_image(image, "detector input", check_range=True, channels=3))
         if self.convention == "yolo":
             return self._raw_yolo(img)
         return self._raw_torchvision(img)

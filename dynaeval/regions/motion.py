@@ -45,6 +45,7 @@ from typing import Any
 import numpy as np
 
 from dynaeval.errors import InputError
+from dynaeval.validation import as_image
 
 MOTION_KINDS = ("isg", "ist")
 _DEFAULT_THRESHOLD = {"isg": 0.5, "ist": 0.15}
@@ -125,24 +126,11 @@ class LazyFrames(Sequence):
 
 def _frame(frame: object, index: int, shape: tuple[int, ...] | None) -> np.ndarray:
     """One frame as ``(H, W, C)`` float32 in [0, 1]; InputError on a bad shape, dtype or range."""
-    arr = np.asarray(frame)
+    arr = as_image(frame, f"frame {index}", check_range=True)
     if arr.ndim == 2:
         arr = arr[:, :, None]
-    if arr.ndim != 3:
-        raise InputError(f"frame {index}: expected (H, W, C) or (H, W), got shape {arr.shape}")
     if shape is not None and arr.shape != shape:
         raise InputError(f"frame {index}: shape {arr.shape} differs from frame 0's {shape} (one static camera)")
-    if arr.dtype == np.uint8:
-        out = arr.astype(np.float32)
-        out /= np.float32(255.0)
-        return out
-    if not np.issubdtype(arr.dtype, np.floating):
-        raise InputError(f"frame {index}: expected uint8 or float in [0, 1], got dtype {arr.dtype}")
-    arr = arr.astype(np.float32, copy=False)
-    if not np.all(np.isfinite(arr)):
-        raise InputError(f"frame {index}: contains NaN or Inf")
-    if arr.min() < 0.0 or arr.max() > 1.0:
-        raise InputError(f"frame {index}: float values must be in [0, 1], got [{arr.min():.4g}, {arr.max():.4g}]")
     return arr
 
 

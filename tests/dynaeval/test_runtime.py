@@ -25,9 +25,9 @@ from dynaeval.runtime import (
 ort = pytest.importorskip("onnxruntime")
 
 
-def test_import_runtime_loads_no_engine():
+def test_ground_floor_imports_no_engine():
     code = (
-        "import sys, dynaeval.runtime, dynaeval.boxes; "
+        "import sys, dynaeval.runtime, dynaeval.boxes, dynaeval.validation; "
         "print(','.join(m for m in ('onnxruntime', 'torch', 'cv2', 'scipy') if m in sys.modules))"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

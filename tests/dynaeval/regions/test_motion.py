@@ -250,7 +250,7 @@ def test_bad_frames():
         importance_weights(bad, "ist", window=1)
     with pytest.raises(InputError, match="frame 1: shape"):
         importance_weights([frames[0], frames[1][:10]], "isg")
-    with pytest.raises(InputError, match="frame 0: contains NaN"):
+    with pytest.raises(InputError, match="frame 0 contains 48 NaN or Inf values"):
         importance_weights(np.full((2, 4, 4, 3), np.nan, np.float32), "ist")
     with pytest.raises(InputError, match="uint8 or float"):
         importance_weights(np.zeros((2, 4, 4, 3), np.int16), "ist")
