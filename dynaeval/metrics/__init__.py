@@ -1,4 +1,5 @@
-"""Image metrics as pure functions on (H, W[, C]) arrays/tensors: PSNR, SSIM, LPIPS, focused, masked.
+"""Metrics as pure functions on (H, W[, C]) arrays/tensors: PSNR, SSIM, LPIPS, focused, masked,
+temporal, presence; ``registry`` declares every one of them (``SPECS``, ``METRICS``).
 
 Importing this package does not import torch: LPIPS imports it on first call.
 """
@@ -29,7 +30,7 @@ from dynaeval.metrics.pixel import (
     squared_error_stats,
 )
 from dynaeval.metrics.presence import frame_presence
-from dynaeval.metrics.registry import METRICS, MetricInfo
+from dynaeval.metrics.registry import METRICS, SPECS, MetricInfo, MetricSpec, result_key
 from dynaeval.metrics.structural import ssim, ssim_map, ssim_reference
 from dynaeval.metrics.temporal import (
     TemporalConfig,
@@ -37,7 +38,7 @@ from dynaeval.metrics.temporal import (
     temporal_metrics,
     tlp,
     tof,
-    warp_error,
+    warping_error,
 )
 
 __all__ = [
@@ -47,6 +48,8 @@ __all__ = [
     "LPIPS_BACKENDS",
     "METRICS",
     "MetricInfo",
+    "MetricSpec",
+    "SPECS",
     "SquaredErrorStats",
     "TemporalConfig",
     "backbone_weights_file",
@@ -66,6 +69,7 @@ __all__ = [
     "psnr",
     "psnr_from_stats",
     "quantize",
+    "result_key",
     "squared_error_stats",
     "ssim",
     "ssim_map",
@@ -75,5 +79,5 @@ __all__ = [
     "tof",
     "valid_warp_mask",
     "warp",
-    "warp_error",
+    "warping_error",
 ]
