@@ -220,11 +220,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _print_warnings(results: dict) -> None:
+    from dynaeval.evaluate import warning_text
+
     for w in results["warnings"]:
         if "camera" not in w:  # run-level warnings; per-frame ones are in the JSON
-            metric = w.get("metric")
-            prefix = f"{metric}: " if metric and not w["reason"].lower().startswith(metric) else ""
-            print(f"dynaeval: warning: {prefix}{w['reason']}", file=sys.stderr)
+            print(f"dynaeval: warning: {warning_text(w)}", file=sys.stderr)
     n_frame_warnings = sum("camera" in w for w in results["warnings"])  # per frame or camera
     if n_frame_warnings:
         print(f"dynaeval: {n_frame_warnings} warning(s) about single frames or cameras, listed in "

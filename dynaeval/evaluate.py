@@ -106,8 +106,15 @@ def score(
     results = _assemble(layout, run_name, pairing, run, rows, warnings, temporal, t_start)
     for w in results["warnings"]:
         if "camera" not in w:
-            pywarnings.warn(w["reason"], DynaevalWarning, stacklevel=2)
+            pywarnings.warn(warning_text(w), DynaevalWarning, stacklevel=2)
     return results
+
+
+def warning_text(warning: dict[str, Any]) -> str:
+    """One results warning as a line of text: ``"tlp: summary is null: ..."``."""
+    metric = warning.get("metric")
+    reason = warning["reason"]
+    return f"{metric}: {reason}" if metric and not reason.lower().startswith(metric) else reason
 
 
 def _score_cameras(pairs: list[FramePair], run: Any,

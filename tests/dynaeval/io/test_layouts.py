@@ -84,3 +84,22 @@ def test_same_ordinary_folder_twice_is_scored_as_given(tmp_path):
     (tmp_path / "gt" / "cam00").mkdir(parents=True)
     layout = detect_layout(tmp_path / "gt", tmp_path / "gt")
     assert layout.name == "folders" and layout.pred == layout.gt == tmp_path / "gt"
+
+
+def test_library_reads_a_render_folder_like_the_cli(tmp_path, rng):
+    """``dynaeval.score(RUN)`` finds the layout itself (no CLI needed), names the run after the
+    folder, records the layout and warns, as a Python warning too, that temporal metrics treat
+    separate test views as a sequence."""
+    import dynaeval
+    from dynaeval.evaluate import DynaevalWarning
+
+    run = _run(tmp_path / "myrun", "color", "gt-color", rng)
+    with pytest.warns(DynaevalWarning, match="render folders hold separate test views"):
+        res = dynaeval.score(run, metrics=("psnr", "ssim"), progress=False)
+    assert res["method"] == res["scene"] == "myrun"
+    assert res["inputs"]["layout"] == {"name": "nerfbaselines", "root": str(run)}
+    assert res["inputs"]["pred"] == str(run / "color")
+    plain = dynaeval.score(run / "color", run / "gt-color", metrics=("psnr", "ssim"),
+                           progress=False, temporal=False)
+    assert "layout" not in plain["inputs"]
+    assert plain["frames"][0]["psnr"] == res["frames"][0]["psnr"]
