@@ -251,14 +251,6 @@ def write_report(
                          path=index)
     img_dir = out_dir / "img"
     img_dir.mkdir(parents=True, exist_ok=True)
-    curves = _curves(results, img_dir)
-    metric, worst = worst_frames(results, n_worst)
-    worst_imgs = []
-    for i, row in enumerate(worst):
-        file = img_dir / f"worst_{i:02d}.png"
-        _frame_figure(row, metric, results, recorder, file)
-        worst_imgs.append((row, f"img/{file.name}"))
-
     title = f"dynaeval: {results['method']} on {results['scene']}"
     parts = [
         "<!DOCTYPE html>", "<html><head><meta charset='utf-8'>", f"<title>{escape(title)}</title>",
@@ -270,35 +262,59 @@ def write_report(
         f"dynaeval {escape(results['dynaeval_version'])}, {escape(results['created'])}. "
         "Values are means of per-frame values.</p>",
         "<h2>Summary</h2>", _summary_html(results),
-        "<h2>Per-frame curves</h2>",
+        "<h2>Per-frame curves</h2>", "<div class='curves'>",
+        *(f"<img src='{escape(src)}' alt='{escape(name)} per frame'>"
+          for name, src in _curves(results, img_dir)),
+        "</div>",
+        *_worst_html(results, recorder, n_worst, img_dir),
+        *_missing_html(results, img_dir),
+        *_details_html(results),
     ]
-    parts.append("<div class='curves'>")
-    parts += [f"<img src='{escape(src)}' alt='{escape(name)} per frame'>" for name, src in curves]
-    parts.append("</div>")
-    parts.append(f"<h2>Worst frames by {escape(metric)}</h2>")
+    return write_text_atomic(index, "\n".join(parts) + "\n", overwrite=overwrite)
+
+
+def _worst_html(results: dict[str, Any], recorder: RegionRecorder | None, n_worst: int,
+                img_dir: Path) -> list[str]:
+    """The worst frames' panels (written into ``img_dir``) and their captions."""
+    metric, worst = worst_frames(results, n_worst)
+    parts = [f"<h2>Worst frames by {escape(metric)}</h2>"]
     if recorder is not None:
         parts.append("<p>Drawn on each panel: <span style='color:#b09000'>boxes</span> "
                      "(pixels of the focused_* metrics) and the <span style='color:#0097a7'>"
                      "motion-mask outline</span> (pixels of the masked_* metrics).</p>")
-    if not worst_imgs:
+    if not worst:
         parts.append(f"<p>No frame has a defined {escape(metric)}.</p>")
-    for row, src in worst_imgs:
+    for i, row in enumerate(worst):
+        file = img_dir / f"worst_{i:02d}.png"
+        _frame_figure(row, metric, results, recorder, file)
         cap = ", ".join(f"{m} {row[m]:.4g}" for m in results["metrics"] if row.get(m) is not None)
-        parts.append(f"<img src='{escape(src)}' alt='camera {escape(row['camera'])} frame "
-                     f"{escape(row['frame'])}'><p>{escape(cap)}</p>")
+        parts.append(f"<img src='img/{escape(file.name)}' alt='camera {escape(row['camera'])} "
+                     f"frame {escape(row['frame'])}'><p>{escape(cap)}</p>")
+    return parts
+
+
+def _missing_html(results: dict[str, Any], img_dir: Path) -> list[str]:
+    """Crops of the objects the presence check did not find (written into ``img_dir``)."""
     missing = missing_objects(results)
-    if missing:
-        background = results["settings"].get("background", "white")
-        parts.append("<h2>Objects missing from the prediction</h2><p>Ground truth (left) and "
-                     "prediction (right) around each object the presence check did not find "
-                     "(first frames in order).</p>")
-        for i, (row, obj) in enumerate(missing):
-            file = img_dir / f"missing_{i:02d}.png"
-            _object_crops(row, obj, background, file)
-            cap = (f"camera {row['camera']} frame {row['frame']}: {obj['class']} {obj['id']} "
-                   + ", ".join(f"{k} {obj[k]:.3g}" for k in ("ncc", "psnr", "visibility")
-                               if isinstance(obj.get(k), float)))
-            parts.append(f"<img src='img/{file.name}' alt='{escape(cap)}'><p>{escape(cap)}</p>")
+    if not missing:
+        return []
+    background = results["settings"].get("background", "white")
+    parts = ["<h2>Objects missing from the prediction</h2><p>Ground truth (left) and "
+             "prediction (right) around each object the presence check did not find "
+             "(first frames in order).</p>"]
+    for i, (row, obj) in enumerate(missing):
+        file = img_dir / f"missing_{i:02d}.png"
+        _object_crops(row, obj, background, file)
+        cap = (f"camera {row['camera']} frame {row['frame']}: {obj['class']} {obj['id']} "
+               + ", ".join(f"{k} {obj[k]:.3g}" for k in ("ncc", "psnr", "visibility")
+                           if isinstance(obj.get(k), float)))
+        parts.append(f"<img src='img/{file.name}' alt='{escape(cap)}'><p>{escape(cap)}</p>")
+    return parts
+
+
+def _details_html(results: dict[str, Any]) -> list[str]:
+    """Warnings and settings, folded."""
+    parts = []
     if results["warnings"]:
         items = "".join(f"<li>{escape(json.dumps(w, ensure_ascii=False))}</li>"
                         for w in results["warnings"][:200])
@@ -307,4 +323,4 @@ def write_report(
     parts.append("<details><summary>Settings</summary><pre>"
                  f"{escape(json.dumps(results['settings'], indent=1, ensure_ascii=False))}"
                  "</pre></details></body></html>")
-    return write_text_atomic(index, "\n".join(parts) + "\n", overwrite=overwrite)
+    return parts

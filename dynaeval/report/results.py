@@ -100,6 +100,39 @@ def place_temporal(
     return camera_values, warnings
 
 
+def _summaries(
+    rows: list[dict[str, Any]], names: list[str],
+    camera_values: dict[str, dict[str, float | None]], warnings: list[dict],
+) -> tuple[dict[str, dict[str, Any]], dict[str, Any], dict[str, int], list[str]]:
+    """Per-camera means, the overall summary, the counts of defined values, and the names of
+    the camera-level terms; a null summary adds a warning to ``warnings``."""
+    in_rows = {k for r in rows for k in r}
+    camera_only = [n for n in dict.fromkeys(n for vals in camera_values.values() for n in vals)
+                   if n not in in_rows]
+    cameras: dict[str, dict[str, Any]] = {}
+    by_camera: dict[str, list[dict]] = {}
+    for row in rows:
+        by_camera.setdefault(row["camera"], []).append(row)
+    for cam, cam_rows in by_camera.items():
+        entry: dict[str, Any] = {"n_frames": len(cam_rows)}
+        for name in names:
+            entry[name], _, _ = _mean([r.get(name) for r in cam_rows])
+        for name in camera_only:
+            entry[name] = camera_values.get(cam, {}).get(name)
+        cameras[cam] = entry
+    summary: dict[str, Any] = {"n_frames": len(rows)}
+    counts: dict[str, int] = {}
+    for name in names:
+        summary[name], counts[name], reason = _mean([r.get(name) for r in rows])
+        if reason and rows:
+            warnings.append({"metric": name, "reason": f"summary is null: {reason}"})
+    for name in camera_only:
+        summary[name], counts[name], reason = _mean([c.get(name) for c in cameras.values()])
+        if reason and rows:
+            warnings.append({"metric": name, "reason": f"summary is null: {reason} (per camera)"})
+    return cameras, summary, counts, camera_only
+
+
 def build_results(
     *,
     rows: list[dict[str, Any]],
@@ -140,30 +173,7 @@ def build_results(
         for k, v in row.items():
             if k not in FRAME_FIELDS and k not in names and (v is None or isinstance(v, float)):
                 names.append(k)
-    in_rows = {k for r in rows for k in r}
-    camera_only = [n for n in dict.fromkeys(n for vals in camera_values.values() for n in vals)
-                   if n not in in_rows]
-    cameras: dict[str, dict[str, Any]] = {}
-    by_camera: dict[str, list[dict]] = {}
-    for row in rows:
-        by_camera.setdefault(row["camera"], []).append(row)
-    for cam, cam_rows in by_camera.items():
-        entry: dict[str, Any] = {"n_frames": len(cam_rows)}
-        for name in names:
-            entry[name], _, _ = _mean([r.get(name) for r in cam_rows])
-        for name in camera_only:
-            entry[name] = camera_values.get(cam, {}).get(name)
-        cameras[cam] = entry
-    summary: dict[str, Any] = {"n_frames": len(rows)}
-    counts: dict[str, int] = {}
-    for name in names:
-        summary[name], counts[name], reason = _mean([r.get(name) for r in rows])
-        if reason and rows:
-            warnings.append({"metric": name, "reason": f"summary is null: {reason}"})
-    for name in camera_only:
-        summary[name], counts[name], reason = _mean([c.get(name) for c in cameras.values()])
-        if reason and rows:
-            warnings.append({"metric": name, "reason": f"summary is null: {reason} (per camera)"})
+    cameras, summary, counts, camera_only = _summaries(rows, names, camera_values, warnings)
     metric_names = [*names, *camera_only]
     frames = [
         {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in r.items()}
@@ -179,7 +189,7 @@ def build_results(
             "pred": pred_dir,
             "gt": gt_dir,
             "n_frames": len(rows),
-            "cameras": list(by_camera),
+            "cameras": list(cameras),
             "unscored_cameras": list(unscored_cameras),
             "skipped_frames": list(skipped),
             **({"shard": {"index": shard[0], "count": shard[1]}} if shard else {}),
