@@ -1,20 +1,13 @@
 """Boxes from any object detector exported to ONNX, run through onnxruntime.
 
 Two output conventions are decoded (``DetectorConfig.convention``; ``"auto"`` tells them apart
-from the graph's outputs):
+from the graph's outputs), each by its own module:
 
-* **YOLO-style** (Ultralytics YOLOv8/11 exports): one input ``(1, 3, S, S)`` float32 RGB in [0, 1],
-  the image *letterboxed* into it (aspect kept, centred, padded with grey 114/255); one output
-  ``(1, 4 + C, N)``: per candidate ``cx, cy, w, h`` in input pixels, then ``C`` class scores. A
-  candidate's class is the arg-max over all ``C`` scores (as Ultralytics does), its score that
-  maximum. Coordinates are mapped back through the letterbox to the original image.
-* **torchvision-style** (``torchvision.models.detection`` RetinaNet / Faster R-CNN / FCOS exports):
-  one image input, float32 RGB in [0, 1], either ``(3, H, W)`` (the plain export of a model called
-  on a list of images) or ``(1, 3, H, W)`` (a batch wrapper); the model resizes internally, so the
-  image is fed at its own size unless the graph fixes ``H, W`` (then it is resized and boxes scaled
-  back). Outputs ``boxes (N, 4)`` x_min, y_min, x_max, y_max in input pixels, ``scores (N,)``,
-  ``labels (N,)`` int (each optionally with a leading batch dimension of 1). Outputs are matched by
-  name (containing ``box``, ``score``, ``label``/``class``) or else by dtype and shape.
+* **YOLO-style** (Ultralytics YOLOv8/11 exports; ``dynaeval.regions.yolo``): the image
+  letterboxed into a ``(1, 3, S, S)`` input; one output ``(1, 4 + C, N)``.
+* **torchvision-style** (``torchvision.models.detection`` RetinaNet / Faster R-CNN / FCOS exports;
+  ``dynaeval.regions.torchvision_onnx``): the image at its own size; outputs ``boxes (N, 4)``,
+  ``scores (N,)``, ``labels (N,)``.
 
 Class names come from ``DetectorConfig.class_names``, else the model's ``names`` metadata (what
 Ultralytics writes, e.g. ``"{0: 'person', ...}"``), else COCO (80 names for YOLO, torchvision's
@@ -36,35 +29,22 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.boxes import batched_nms, box_iou_matrix, nms  # noqa: F401  (box_iou_matrix, nms: old import path)
+from dynaeval.boxes import batched_nms
 from dynaeval.errors import InputError
+from dynaeval.regions import torchvision_onnx, yolo
+from dynaeval.regions.coco import COCO80_NAMES, COCO91_NAMES  # noqa: F401  (re-export)
+from dynaeval.regions.yolo import letterbox  # noqa: F401  (re-export: reference_models, tests)
 from dynaeval.runtime import file_sha256, load_session, onnx_providers
 from dynaeval.validation import as_image
-
-# torchvision's COCO category list (91 indices, "N/A" for ids unused by COCO 2017); checked against
-# torchvision.models.detection weights' meta["categories"] in the tests.
-COCO91_NAMES: tuple[str, ...] = (
-    "__background__", "person", "bicycle", "car", "motorcycle", "airplane", "bus", "train",
-    "truck", "boat", "traffic light", "fire hydrant", "N/A", "stop sign", "parking meter", "bench",
-    "bird", "cat", "dog", "horse", "sheep", "cow", "elephant", "bear", "zebra", "giraffe", "N/A",
-    "backpack", "umbrella", "N/A", "N/A", "handbag", "tie", "suitcase", "frisbee", "skis",
-    "snowboard", "sports ball", "kite", "baseball bat", "baseball glove", "skateboard", "surfboard",
-    "tennis racket", "bottle", "N/A", "wine glass", "cup", "fork", "knife", "spoon", "bowl",
-    "banana", "apple", "sandwich", "orange", "broccoli", "carrot", "hot dog", "pizza", "donut",
-    "cake", "chair", "couch", "potted plant", "bed", "N/A", "dining table", "N/A", "N/A", "toilet",
-    "N/A", "tv", "laptop", "mouse", "remote", "keyboard", "cell phone", "microwave", "oven",
-    "toaster", "sink", "refrigerator", "N/A", "book", "clock", "vase", "scissors", "teddy bear",
-    "hair drier", "toothbrush",
-)  # fmt: skip
-"""torchvision detection label index -> COCO name (index 1 is ``person``, 37 ``sports ball``)."""
-
-COCO80_NAMES: tuple[str, ...] = tuple(n for n in COCO91_NAMES if n not in ("__background__", "N/A"))
-"""YOLO's contiguous 80-class COCO list (index 0 is ``person``, 32 ``sports ball``)."""
 
 DEFAULT_DETECTOR = Path(__file__).resolve().parents[1] / "models" / "detector.onnx"
 """Where the packaged default detector (person + ball, trained on the synthetic scenes) lives."""
 
-CONVENTIONS = ("auto", "yolo", "torchvision")
+DECODERS = {"yolo": yolo, "torchvision": torchvision_onnx}
+"""Convention name -> its decoder module (``fits``, ``default_names``, ``prepare``, ``decode``,
+``n_classes``); ``"auto"`` takes the first that fits the graph's outputs."""
+
+CONVENTIONS = ("auto", *DECODERS)
 
 
 @dataclass(frozen=True)
@@ -133,28 +113,7 @@ def resolve_model_path(model: str | Path | None) -> Path:
 
 
 # --------------------------------------------------------------------------------------------
-# Pure helpers: image checks, letterbox, NMS
-
-
-def letterbox(image: np.ndarray, size_hw: tuple[int, int], pad_value: float = 114 / 255):
-    """Resize keeping the aspect ratio and pad (centred) to ``size_hw``, as YOLO expects.
-
-    ``image``: ``(H, W, 3)`` float32 in [0, 1]. Returns ``(canvas, scale_xy, offset_xy)`` where
-    ``canvas`` is ``(th, tw, 3)`` float32, and a point ``(x, y)`` of the original image lands at
-    ``(x * scale_x + off_x, y * scale_y + off_y)`` on the canvas (both scales equal the resize
-    factor up to rounding of the resized size).
-    """
-    import cv2
-
-    h, w = image.shape[:2]
-    th, tw = size_hw
-    r = min(th / h, tw / w)
-    nh, nw = max(1, int(round(h * r))), max(1, int(round(w * r)))
-    resized = image if (nh, nw) == (h, w) else cv2.resize(image, (nw, nh), interpolation=cv2.INTER_LINEAR)
-    top, left = (th - nh) // 2, (tw - nw) // 2
-    canvas = np.full((th, tw, 3), pad_value, dtype=np.float32)
-    canvas[top : top + nh, left : left + nw] = resized
-    return canvas, (nw / w, nh / h), (left, top)
+# Model metadata
 
 
 def _parse_names(raw: str | None) -> dict[int, str] | None:
@@ -223,7 +182,8 @@ class Detector:
     """An ONNX detector ready to run: session, convention, class names and selected class ids.
 
     Create once and call per image (``detector(image) -> Detections``). The session itself is
-    cached per (file, providers), so two Detectors on the same file share it.
+    cached per (file, providers), so two Detectors on the same file share it. Decoding the raw
+    outputs is the convention's module (``DECODERS``); the Detector prepares and feeds the input.
     """
 
     def __init__(self, config: DetectorConfig | None = None) -> None:
@@ -242,21 +202,17 @@ class Detector:
             )
         self.outputs = self.session.get_outputs()
         self.convention = self._infer_convention()
+        self._decoder = DECODERS[self.convention]
         self.class_names = self._class_names()
         self.selected_ids = self._select_ids()
 
     # -- setup -----------------------------------------------------------------------------
     def _infer_convention(self) -> str:
         conv = self.config.convention
-        n = len(self.outputs)
-        looks_yolo = n == 1 and len(self.outputs[0].shape) == 3
-        looks_tv = n >= 3
-        if conv == "auto":
-            if looks_yolo:
-                return "yolo"
-            if looks_tv:
-                return "torchvision"
-        elif (conv == "yolo" and looks_yolo) or (conv == "torchvision" and looks_tv):
+        fitting = [name for name, dec in DECODERS.items() if dec.fits(self.outputs)]
+        if conv == "auto" and fitting:
+            return fitting[0]
+        if conv in fitting:
             return conv
         raise InputError(
             f"detector outputs fit neither convention{'' if conv == 'auto' else f' (asked for {conv!r})'}: "
@@ -270,14 +226,7 @@ class Detector:
             return dict(enumerate(self.config.class_names))
         meta = self.session.get_modelmeta().custom_metadata_map
         names = _parse_names(meta.get("names"))
-        if names is not None:
-            return names
-        if self.convention == "yolo":
-            rows = self.outputs[0].shape[1]
-            if isinstance(rows, int) and rows - 4 != len(COCO80_NAMES):
-                return {}  # not a COCO model and no names: only integer class ids can select
-            return dict(enumerate(COCO80_NAMES))
-        return dict(enumerate(COCO91_NAMES))
+        return names if names is not None else self._decoder.default_names(self.outputs)
 
     def _canonical(self, name: str) -> str:
         return dict(self.config.aliases).get(name, name)
@@ -291,19 +240,19 @@ class Detector:
             target = self._canonical(str(want))
             found = [i for i, n in self.class_names.items() if self._canonical(n) == target]
             if not found:
-                known = sorted({n for n in self.class_names.values() if n not in ("N/A", "__background__")})
-                listed = (
-                    f"{', '.join(known[:20])}{', ...' if len(known) > 20 else ''}"
-                    if known
-                    else "unknown: the model has no 'names' metadata and is not a COCO model"
-                )
                 raise InputError(
-                    f"class {want!r} is not among the detector's classes ({listed}); give a known "
-                    "name, an integer class id, or DetectorConfig.class_names",
+                    f"class {want!r} is not among the detector's classes ({self._known_names()}); "
+                    "give a known name, an integer class id, or DetectorConfig.class_names",
                     path=self.path,
                 )
             ids.extend(found)
         return tuple(sorted(set(ids)))
+
+    def _known_names(self) -> str:
+        known = sorted({n for n in self.class_names.values() if n not in ("N/A", "__background__")})
+        if not known:
+            return "unknown: the model has no 'names' metadata and is not a COCO model"
+        return f"{', '.join(known[:20])}{', ...' if len(known) > 20 else ''}"
 
     @functools.cached_property
     def sha256(self) -> str:
@@ -341,20 +290,15 @@ class Detector:
         """Decoded candidates before filtering: float64 ``(N, 4)`` xyxy boxes in *original image*
         pixels (unclipped), ``(N,)`` scores and ``(N,)`` int64 class ids."""
         img = np.ascontiguousarray(as_image(image, "detector input", check_range=True, channels=3))
-        if self.convention == "yolo":
-            return self._raw_yolo(img)
-        return self._raw_torchvision(img)
+        fed, geometry = self._decoder.prepare(img, self._input_hw(), self.config.input_size)
+        outs = [np.asarray(o) for o in self.session.run(None, self._feed(fed.transpose(2, 0, 1)))]
+        names = [o.name for o in self.outputs]
+        candidates = self._decoder.decode(outs, names, geometry, self.path)
+        self._check_class_count(self._decoder.n_classes(outs))
+        return candidates
 
-    def _raw_yolo(self, img: np.ndarray):
-        th, tw = self._input_hw()
-        side = self.config.input_size or 640
-        canvas, (sx, sy), (ox, oy) = letterbox(img, (th or side, tw or side))
-        (out,) = self.session.run(None, self._feed(canvas.transpose(2, 0, 1)))
-        out = np.asarray(out)
-        if out.ndim != 3 or out.shape[0] != 1 or out.shape[1] <= 4:
-            raise InputError(f"YOLO-style output must be (1, 4+C, N), got {out.shape}", path=self.path)
-        n_cls = out.shape[1] - 4
-        if max(self.selected_ids) >= n_cls:
+    def _check_class_count(self, n_cls: int | None) -> None:
+        if n_cls is not None and max(self.selected_ids) >= n_cls:
             raise InputError(
                 f"the model predicts {n_cls} classes (ids 0..{n_cls - 1}) but class ids "
                 f"{[i for i in self.selected_ids if i >= n_cls]} were selected (names list has "
@@ -362,82 +306,6 @@ class Detector:
                 "classes by integer id",
                 path=self.path,
             )
-        pred = out[0].T.astype(np.float64)  # (N, 4 + C)
-        cx, cy, w, h = pred[:, 0], pred[:, 1], pred[:, 2], pred[:, 3]
-        boxes = np.stack([cx - w / 2, cy - h / 2, cx + w / 2, cy + h / 2], axis=1)
-        boxes[:, [0, 2]] = (boxes[:, [0, 2]] - ox) / sx
-        boxes[:, [1, 3]] = (boxes[:, [1, 3]] - oy) / sy
-        cls = np.argmax(pred[:, 4:], axis=1).astype(np.int64)
-        scores = pred[np.arange(pred.shape[0]), 4 + cls]
-        return boxes, scores, cls
-
-    def _raw_torchvision(self, img: np.ndarray):
-        import cv2
-
-        h, w = img.shape[:2]
-        th, tw = self._input_hw()
-        if th is not None and tw is not None:
-            size = (th, tw)
-        elif self.config.input_size is not None:
-            r = self.config.input_size / max(h, w)
-            size = (max(1, int(round(h * r))), max(1, int(round(w * r))))
-        else:
-            size = (h, w)
-        x = img if size == (h, w) else cv2.resize(img, (size[1], size[0]), interpolation=cv2.INTER_LINEAR)
-        outs = [np.asarray(o) for o in self.session.run(None, self._feed(x.transpose(2, 0, 1)))]
-        boxes, scores, labels = self._match_torchvision(outs)
-        boxes = boxes.astype(np.float64)
-        boxes[:, [0, 2]] *= w / size[1]
-        boxes[:, [1, 3]] *= h / size[0]
-        return boxes, scores.astype(np.float64), labels
-
-    def _roles_by_name(self) -> dict[str, int] | None:
-        names = [o.name.lower() for o in self.outputs]
-        roles: dict[str, int] = {}
-        for role, keys in (("boxes", ("box",)), ("scores", ("score",)), ("labels", ("label", "class"))):
-            hits = [i for i, n in enumerate(names) if any(k in n for k in keys)]
-            if len(hits) == 1:
-                roles[role] = hits[0]
-        return roles if len(set(roles.values())) == 3 else None
-
-    @staticmethod
-    def _roles_by_type(outs: list[np.ndarray]) -> dict[str, int] | None:
-        ints = [i for i, a in enumerate(outs) if np.issubdtype(a.dtype, np.integer)]
-        floats = [i for i, a in enumerate(outs) if np.issubdtype(a.dtype, np.floating)]
-        if len(ints) != 1 or len(floats) != 2:
-            return None
-        n = outs[ints[0]].size
-        is_boxes = [outs[i].size == 4 * n and outs[i].shape[-1:] == (4,) for i in floats]
-        if is_boxes[0] == is_boxes[1]:
-            return None
-        b, s = (floats[0], floats[1]) if is_boxes[0] else (floats[1], floats[0])
-        return {"boxes": b, "scores": s, "labels": ints[0]} if outs[s].size == n else None
-
-    def _match_torchvision(self, outs: list[np.ndarray]):
-        def squeeze(a: np.ndarray, ndim: int) -> np.ndarray:
-            return a[0] if a.ndim == ndim + 1 and a.shape[0] == 1 else a
-
-        roles = self._roles_by_name() or self._roles_by_type(outs)
-        if roles is None:
-            got = ", ".join(f"{o.name} {a.shape} {a.dtype}" for o, a in zip(self.outputs, outs, strict=True))
-            raise InputError(
-                f"cannot find torchvision-style outputs boxes (N, 4) float, scores (N,) float, "
-                f"labels (N,) int among [{got}]",
-                path=self.path,
-            )
-        boxes = squeeze(outs[roles["boxes"]], 2)
-        scores = squeeze(outs[roles["scores"]], 1)
-        labels = squeeze(outs[roles["labels"]], 1)
-        n = boxes.shape[0] if boxes.ndim == 2 else -1
-        if boxes.shape != (n, 4) or scores.shape != (n,) or labels.shape != (n,):
-            raise InputError(
-                f"torchvision-style outputs disagree: boxes {boxes.shape}, scores {scores.shape}, "
-                f"labels {labels.shape}; expected (N, 4), (N,), (N,)",
-                path=self.path,
-            )
-        if not np.issubdtype(labels.dtype, np.integer) and not np.all(labels == np.round(labels)):
-            raise InputError("torchvision-style labels must be integer class ids", path=self.path)
-        return boxes, scores, labels.astype(np.int64)
 
     def __call__(self, image: np.ndarray) -> Detections:
         """Detect in one ``(H, W, 3)`` RGB image (uint8 or float in [0, 1])."""

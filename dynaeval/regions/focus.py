@@ -7,7 +7,7 @@ no box (or no moving pixel) carries the reason instead, and its focused (masked)
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Executor
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -15,8 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.errors import InputError
 from dynaeval.boxes import clip_boxes
+from dynaeval.errors import InputError
 from dynaeval.regions.expand import ExpandConfig, expand_boxes
 
 FOCUS_SOURCES = ("detector", "motion", "boxes", "none")
@@ -104,7 +104,7 @@ def open_sources(config: FocusConfig) -> RegionSources:
 
         bf = read_boxes_file(config.boxes_file)
         src.boxes = bf.boxes
-        from dynaeval.regions.detector import file_sha256
+        from dynaeval.runtime import file_sha256
 
         settings["boxes_file"] = {
             "path": str(config.boxes_file),
@@ -149,26 +149,11 @@ def camera_regions(
     Returns:
         One ``FrameRegions`` per frame.
     """
-    from dynaeval.regions.motion import LazyFrames, MotionConfig, iter_motion_masks, mask_boxes
-
     cfg = sources.config
     h, w = shape
     out = [FrameRegions() for _ in frames]
     if cfg.masked or cfg.source == "motion":
-        if len(frames) < MIN_MOTION_FRAMES:
-            for r in out:
-                r.mask_reason = (
-                    f"motion masks need >= {MIN_MOTION_FRAMES} frames of a static camera, "
-                    f"camera {camera!r} has {len(frames)}"
-                )
-        else:
-            lazy = LazyFrames(list(range(len(frames))), load_gt)
-            masks = iter_motion_masks(lazy, MotionConfig(kind=cfg.motion_kind), executor)
-            for r, m in zip(out, masks, strict=True):
-                if m.any():
-                    r.mask = m
-                else:
-                    r.mask_reason = "no moving pixel in the ground truth"
+        _add_motion_masks(out, camera, load_gt, cfg.motion_kind, executor)
     detections = None
     if cfg.source == "detector":
         def detect(i: int):  # noqa: ANN202
@@ -177,39 +162,73 @@ def camera_regions(
         indices = range(len(frames))
         detections = executor.map(detect, indices) if executor else map(detect, indices)
     for name, r in zip(frames, out, strict=True):
-        if cfg.source == "none":
-            r.boxes_reason = "no focus regions requested (--focus none)"
+        raw = _frame_boxes(r, camera, name, sources, detections)
+        if raw is None:
             continue
-        if cfg.source == "boxes":
-            from dynaeval.regions.boxes_file import frame_key, records_to_boxes
-
-            records = sources.boxes.get(frame_key(camera, name))
-            if records is None:
-                r.boxes_reason = f"frame {frame_key(camera, name)!r} is not in the boxes file"
-                continue
-            raw = records_to_boxes(records)
-            r.records = list(records)
-        elif cfg.source == "detector":
-            found = next(detections)
-            raw = found.boxes
-            r.records = found.records()
-        else:  # motion
-            if r.mask is None:
-                r.boxes_reason = r.mask_reason
-                continue
-            raw = mask_boxes(r.mask, min_area=16)
         raw = clip_boxes(raw, h, w)
         r.raw_boxes = raw
         if len(raw) == 0:
-            r.boxes_reason = {
-                "detector": "the detector found no object in the ground truth",
-                "boxes": "the boxes file lists no box for this frame",
-                "motion": "no moving region in the ground truth",
-            }[cfg.source]
+            r.boxes_reason = _NO_BOX_REASON[cfg.source]
             continue
         r.boxes = expand_boxes(raw, cfg.expand, h, w)
     return out
 
+
+_NO_BOX_REASON = {
+    "detector": "the detector found no object in the ground truth",
+    "boxes": "the boxes file lists no box for this frame",
+    "motion": "no moving region in the ground truth",
+}
+
+
+def _add_motion_masks(out: list[FrameRegions], camera: str, load_gt: Callable[[int], np.ndarray],
+                      kind: str, executor: Executor | None) -> None:
+    """Set each frame's motion mask, or the reason it has none (too few frames, no motion)."""
+    from dynaeval.regions.motion import LazyFrames, MotionConfig, iter_motion_masks
+
+    if len(out) < MIN_MOTION_FRAMES:
+        for r in out:
+            r.mask_reason = (
+                f"motion masks need >= {MIN_MOTION_FRAMES} frames of a static camera, "
+                f"camera {camera!r} has {len(out)}"
+            )
+        return
+    lazy = LazyFrames(list(range(len(out))), load_gt)
+    masks = iter_motion_masks(lazy, MotionConfig(kind=kind), executor)
+    for r, m in zip(out, masks, strict=True):
+        if m.any():
+            r.mask = m
+        else:
+            r.mask_reason = "no moving pixel in the ground truth"
+
+
+def _frame_boxes(r: FrameRegions, camera: str, name: str, sources: RegionSources,
+                 detections: Iterator[Any] | None) -> np.ndarray | None:
+    """The raw boxes of one frame from the focus source (setting ``r.records``), or None with
+    ``r.boxes_reason`` set. ``detections``: the detector's results, one per frame, in order."""
+    source = sources.config.source
+    if source == "none":
+        r.boxes_reason = "no focus regions requested (--focus none)"
+        return None
+    if source == "boxes":
+        from dynaeval.regions.boxes_file import frame_key, records_to_boxes
+
+        records = sources.boxes.get(frame_key(camera, name))
+        if records is None:
+            r.boxes_reason = f"frame {frame_key(camera, name)!r} is not in the boxes file"
+            return None
+        r.records = list(records)
+        return records_to_boxes(records)
+    if source == "detector":
+        found = next(detections)
+        r.records = found.records()
+        return found.boxes
+    if r.mask is None:  # motion
+        r.boxes_reason = r.mask_reason
+        return None
+    from dynaeval.regions.motion import mask_boxes
+
+    return mask_boxes(r.mask, min_area=16)
 
 
 def detect_ground_truth(
