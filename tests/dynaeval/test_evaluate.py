@@ -293,3 +293,30 @@ def test_detector_regions_on_the_pool_equal_the_sequential_ones():
             for w in (1, 2)]
     assert runs[0]["frames"] == runs[1]["frames"] and runs[0]["summary"] == runs[1]["summary"]
     assert runs[0]["summary"]["focused_psnr"] is not None  # the detector found the player
+
+
+def test_every_key_of_a_full_run_is_registered_and_documented(random_lpips):
+    """The sample scored with everything on (boxes with classes: presence; motion masks;
+    temporal terms; LPIPS on a random backbone): every metric key in the results is in the
+    registry and in docs/metrics.md, and every registered key is written."""
+    from pathlib import Path
+
+    from dynaeval.cli import sample_dir
+    from dynaeval.metrics.registry import METRICS, SPECS, frame_specs
+
+    root = sample_dir()
+    every = tuple(s.name for s in frame_specs())  # those off by default too
+    res = dynaeval.score(root / "pred", root / "gt", progress=False, metrics=every,
+                         focus=FocusConfig(source="boxes", boxes_file=str(root / "boxes.json")))
+    keys = set(res["metrics"]) | set(res["summary"]) - {"n_frames"}
+    keys |= {k for row in res["frames"] for k in row} - {"camera", "frame", "index", "pred", "gt",
+                                                          "objects"}
+    # a metric whose extra is not installed here is reported unavailable, with its reason
+    unavailable = {w["metric"] for w in res["warnings"] if "not computed" in w["reason"]}
+    assert unavailable <= {s.name for s in SPECS.values() if s.extra not in (None, "lpips")}
+    expected = set(METRICS) - {k for n in unavailable for k in SPECS[n].keys()}
+    assert keys == expected, (keys ^ expected)
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "metrics.md").read_text()
+    undocumented = [k for k in keys if f"`{k}`" not in doc]
+    assert not undocumented, f"not in docs/metrics.md: {undocumented}"
+    assert res["settings"]["lpips"]["enabled"] and res["summary"]["tlp"] is not None
