@@ -1,26 +1,16 @@
 """The region a metric scores: a mask or boxes -> one boolean mask, or clipped boxes.
 
-Numpy only. The image checks (``check_pair``, ``check_finite``, ``check_data_range``,
-``to_numpy``, ``is_torch_tensor``) live in ``dynaeval.validation`` and the box geometry
-(``grow_box``) in ``dynaeval.boxes``; they are re-exported here until every metric imports them
-from there.
+Numpy only. The image checks live in the ground floor's ``dynaeval.validation``, the box
+geometry in ``dynaeval.boxes``.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-# grow_box, check_data_range, check_finite, check_pair and to_numpy are re-exported until pixel,
-# structural, protocols, presence and accumulate import them from the ground floor.
-from dynaeval.boxes import boxes_to_mask, clip_boxes, grow_box  # noqa: F401
+from dynaeval.boxes import boxes_to_mask, clip_boxes
 from dynaeval.errors import EmptyRegionError, InputError
-from dynaeval.validation import (  # noqa: F401
-    check_data_range,
-    check_finite,
-    check_pair,
-    is_torch_tensor,
-    to_numpy,
-)
+from dynaeval.validation import is_torch_tensor
 
 
 def region_mask(mask: object, boxes: object, height: int, width: int) -> np.ndarray | None:

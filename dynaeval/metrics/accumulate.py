@@ -22,7 +22,7 @@ import numpy as np
 
 from dynaeval.errors import InputError
 from dynaeval.metrics.registry import FrameContext, FrameFn, default_frame_metrics, frame_specs
-from dynaeval.metrics._common import is_torch_tensor
+from dynaeval.validation import is_torch_tensor
 
 SUPPORTED = tuple(s.name for s in frame_specs())
 """Names ``ImageMetrics`` accepts: every per-frame metric of the registry."""
@@ -81,7 +81,7 @@ class ImageMetrics:
         pretrained_backbone: bool = True,
     ) -> None:
         from dynaeval.metrics.protocols import check_lpips_net, get_protocol
-        from dynaeval.metrics._common import check_data_range
+        from dynaeval.validation import check_data_range
 
         metrics = default_frame_metrics() if metrics is None else tuple(metrics)
         unknown = [m for m in metrics if m not in SUPPORTED]

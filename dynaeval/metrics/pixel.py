@@ -13,13 +13,8 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from dynaeval.errors import InputError
-from dynaeval.metrics._common import (
-    check_data_range,
-    check_finite,
-    check_pair,
-    clipped_boxes,
-    region_mask,
-)
+from dynaeval.metrics._common import clipped_boxes, region_mask
+from dynaeval.validation import check_data_range, check_finite, check_pair
 
 # float64 differences are formed in chunks of this many values (32 KB): the buffer stays in L1/L2
 # cache, so the exact float64 accumulation costs little more than reading both images once.

@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from dynaeval.errors import InputError
-from dynaeval.metrics._common import check_data_range, check_pair
+from dynaeval.validation import check_data_range, check_pair
 
 PROTOCOL_NAMES = ("dynaeval", "nerfbaselines", "nerfstudio")
 

@@ -25,13 +25,9 @@ from typing import Any
 import numpy as np
 
 from dynaeval.errors import EmptyRegionError, InputError
-from dynaeval.metrics._common import (
-    check_data_range,
-    check_pair,
-    clipped_boxes,
-    grow_box,
-    region_mask,
-)
+from dynaeval.boxes import grow_box
+from dynaeval.metrics._common import clipped_boxes, region_mask
+from dynaeval.validation import check_data_range, check_pair
 
 SIGMA = 1.5
 """Standard deviation of the Gaussian window in pixels."""

@@ -20,7 +20,7 @@ from dynaeval.metrics import (
     quantize,
     squared_error_stats,
 )
-from dynaeval.regions.boxes import boxes_to_mask
+from dynaeval.boxes import boxes_to_mask
 
 ATOL_DB = 1e-9
 
@@ -254,7 +254,7 @@ def test_overflowing_squared_error_is_an_error():
 @given(st.lists(st.tuples(st.integers(-5, 30), st.integers(-5, 30), st.integers(1, 20), st.integers(1, 20)), min_size=1, max_size=6))
 def test_disjoint_rectangles_cover_the_union_once(raw):
     from dynaeval.metrics.pixel import disjoint_rectangles
-    from dynaeval.regions.boxes import clip_boxes
+    from dynaeval.boxes import clip_boxes
 
     boxes = clip_boxes(np.array([[x, y, x + w, y + h] for x, y, w, h in raw]), 25, 30)
     cover = np.zeros((25, 30), int)
