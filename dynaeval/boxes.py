@@ -59,28 +59,33 @@ def mask_to_box(mask: np.ndarray) -> np.ndarray | None:
     return np.array([xs.min(), ys.min(), xs.max() + 1, ys.max() + 1], dtype=np.int64)
 
 
-def grow_box(box: np.ndarray, min_h: int, min_w: int, height: int, width: int) -> np.ndarray:
+def grow_box(box: np.ndarray, min_h: int, min_w: int, height: int, width: int, *,
+             odd_pixel: str = "after") -> np.ndarray:
     """Grow a box symmetrically to at least ``min_h x min_w``, shifted to stay inside the image.
 
     ``box``: ``[x_min, y_min, x_max, y_max]`` int px, max exclusive, inside a ``height x width``
     image. Returns a ``(4,)`` int64 box. The added pixels are the real neighbours of the box (never
-    zero padding); when the extra size is odd, the extra pixel goes after the box (right / below).
-    If the image itself is smaller than the minimum in a dimension, that dimension becomes the
-    whole image. A side already at least the minimum is left as is.
+    zero padding). When an odd number of pixels is added, ``odd_pixel`` says where the extra one
+    goes: ``"after"`` (right / below; SSIM and LPIPS crops) or ``"before"`` (left / above; the tLP
+    crop). If the image itself is smaller than the minimum in a dimension, that dimension becomes
+    the whole image. A side already at least the minimum is left as is.
     """
+    if odd_pixel not in ("after", "before"):
+        raise InputError(f"odd_pixel must be 'after' or 'before', got {odd_pixel!r}")
+    after = odd_pixel == "after"
     x0, y0, x1, y1 = (int(v) for v in box)
-    x0, x1 = _grow_1d(x0, x1, min_w, width)
-    y0, y1 = _grow_1d(y0, y1, min_h, height)
+    x0, x1 = _grow_1d(x0, x1, min_w, width, after)
+    y0, y1 = _grow_1d(y0, y1, min_h, height, after)
     return np.array([x0, y0, x1, y1], dtype=np.int64)
 
 
-def _grow_1d(lo: int, hi: int, size: int, extent: int) -> tuple[int, int]:
+def _grow_1d(lo: int, hi: int, size: int, extent: int, after: bool) -> tuple[int, int]:
     if hi - lo >= size:
         return lo, hi
     if size >= extent:
         return 0, extent
     extra = size - (hi - lo)
-    lo -= extra // 2
+    lo -= extra // 2 if after else (extra + 1) // 2
     hi = lo + size
     if lo < 0:
         lo, hi = 0, size

@@ -20,8 +20,7 @@ import numpy as np
 from dynaeval.boxes import grow_box
 from dynaeval.errors import InputError, WeightsUnavailableError
 from dynaeval.metrics._common import clipped_boxes, region_mask
-from dynaeval.runtime import new_session, onnx_providers, torch_device
-from dynaeval.runtime import resolve_device as resolve_device  # re-export: evaluate.py, temporal.py
+from dynaeval.runtime import new_session, onnx_providers, resolve_device, torch_device
 from dynaeval.validation import check_pair
 
 LPIPS_NETS = ("alex", "vgg")

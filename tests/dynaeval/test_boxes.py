@@ -85,6 +85,33 @@ def test_grow_box_contains_the_box_and_stays_inside(h, w, minimum, data):
     assert gy1 - gy0 == max(y1 - y0, min(minimum, h))
 
 
+def _tlp_crop_reference(box, min_side, h, w):
+    """The tLP crop rule as metrics/temporal wrote it, before it used grow_box."""
+    box = list(box)
+    for lo, hi, size, idx in ((box[0], box[2], w, 0), (box[1], box[3], h, 1)):
+        side = min(max(hi - lo, min_side), size)
+        start = min(max((lo + hi - side) // 2, 0), size - side)
+        box[idx], box[idx + 2] = start, start + side
+    return box
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.integers(1, 40), st.integers(1, 40), st.integers(0, 50), st.data())
+def test_grow_box_odd_pixel_before_is_the_tlp_crop(h, w, minimum, data):
+    x0 = data.draw(st.integers(0, w - 1))
+    y0 = data.draw(st.integers(0, h - 1))
+    box = [x0, y0, data.draw(st.integers(x0 + 1, w)), data.draw(st.integers(y0 + 1, h))]
+    ours = grow_box(np.array(box), minimum, minimum, h, w, odd_pixel="before").tolist()
+    assert ours == _tlp_crop_reference(box, minimum, h, w)
+
+
+def test_grow_box_odd_pixel():
+    box = np.array([10, 10, 13, 20])
+    assert grow_box(box, 8, 8, 30, 40, odd_pixel="before").tolist() == [7, 10, 15, 20]
+    with pytest.raises(InputError, match="odd_pixel must be 'after' or 'before', got 'left'"):
+        grow_box(box, 8, 8, 30, 40, odd_pixel="left")
+
+
 def test_box_iou_matrix():
     a = np.array([[0, 0, 2, 2], [0, 0, 0, 0]], float)
     b = np.array([[1, 1, 3, 3], [0, 0, 2, 2], [5, 5, 6, 6]], float)
