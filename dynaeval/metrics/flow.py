@@ -25,7 +25,6 @@ import numpy as np
 
 from dynaeval.errors import InputError
 from dynaeval.validation import as_image
-from dynaeval.validation import as_image as check_image  # noqa: F401  (old name: temporal.py)
 
 FLOW_METHODS = ("dis", "farneback", "tvl1")
 DIS_PRESETS = ("ultrafast", "fast", "medium")

@@ -22,17 +22,11 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from dynaeval.boxes import clip_boxes, mask_to_box
+from dynaeval.boxes import grow_box, mask_to_box
 from dynaeval.errors import EmptyRegionError, InputError, WeightsUnavailableError
-from dynaeval.metrics.flow import (
-    FlowCache,
-    FlowConfig,
-    check_flow,
-    check_image,
-    valid_warp_mask,
-    warp,
-)
+from dynaeval.metrics.flow import FlowCache, FlowConfig, check_flow, valid_warp_mask, warp
 from dynaeval.metrics.registry import result_key
+from dynaeval.validation import as_image
 
 LpipsFn = Callable[[np.ndarray, np.ndarray], float]
 """``(a, b) -> float``: LPIPS of two ``(H, W, 3)`` float32 frames in ``[0, 1]``."""
@@ -58,8 +52,8 @@ def check_region(
 
 
 def check_pair(a: np.ndarray, b: np.ndarray, names: tuple[str, str]) -> tuple[np.ndarray, np.ndarray]:
-    """Two frames validated by ``check_image`` (float32, uint8 / 255) that must have one shape."""
-    a, b = check_image(a, names[0]), check_image(b, names[1])
+    """Two frames validated by ``as_image`` (float32, uint8 / 255) that must have one shape."""
+    a, b = as_image(a, names[0]), as_image(b, names[1])
     if a.shape != b.shape:
         raise InputError(
             f"{names[0]} and {names[1]} must have one shape, got {a.shape} and {b.shape}"
@@ -70,15 +64,15 @@ def check_pair(a: np.ndarray, b: np.ndarray, names: tuple[str, str]) -> tuple[np
 def paired_frames(
     pred_frames: Iterable[np.ndarray], gt_frames: Iterable[np.ndarray]
 ) -> Iterator[tuple[np.ndarray, np.ndarray]]:
-    """``(pred_i, gt_i)`` of two sequences, each validated (``check_image``) and of one shape.
+    """``(pred_i, gt_i)`` of two sequences, each validated (``as_image``) and of one shape.
 
     Raises InputError when the sequences differ in length or a pair in shape.
     """
     try:
         for i, (p, g) in enumerate(zip(pred_frames, gt_frames, strict=True)):
             p, g = (
-                check_image(p, f"prediction frame {i}"),
-                check_image(g, f"ground-truth frame {i}"),
+                as_image(p, f"prediction frame {i}"),
+                as_image(g, f"ground-truth frame {i}"),
             )
             if p.shape != g.shape:
                 raise InputError(
@@ -180,21 +174,13 @@ def default_lpips(net: str = "alex", device: str | None = None, backend: str = "
 
 
 def _crop_box(region: np.ndarray, min_side: int) -> np.ndarray:
-    """Tight box of ``region`` grown, centred, to ``min_side`` px per side inside the frame.
-
-    Not ``dynaeval.boxes.grow_box``: for an odd number of added pixels this puts the extra one
-    before the box (grow_box: after it), and focused_tlp's numbers depend on the crop.
-    """
+    """Tight box of ``region`` grown, centred, to ``min_side`` px per side inside the frame (an
+    odd extra pixel goes before the box: the crop focused_tlp has always used)."""
     h, w = region.shape
     box = mask_to_box(region)
     if box is None:
         raise EmptyRegionError("tLP: the region holds no pixel")
-    x0, y0, x1, y1 = (int(v) for v in box)
-    for lo, hi, size, idx in ((x0, x1, w, 0), (y0, y1, h, 1)):
-        side = min(max(hi - lo, min_side), size)
-        start = min(max((lo + hi - side) // 2, 0), size - side)
-        box[idx], box[idx + 2] = start, start + side
-    return clip_boxes(box, h, w)[0]
+    return grow_box(box, min_side, min_side, h, w, odd_pixel="before")
 
 
 def tlp(

@@ -91,7 +91,7 @@ def _export(args) -> int:
 
 
 def _evaluate(args) -> int:
-    from dynaeval.regions.detector import file_sha256
+    from dynaeval.runtime import file_sha256
     from reference_models.detector.evaluate import EVAL_SETS, TINY_SETS, evaluate, to_markdown
 
     sets = TINY_SETS if args.size == "tiny" else EVAL_SETS

@@ -1,6 +1,6 @@
 """Training of ``CenterNetSmall`` on rendered views: targets, loss, the loop, checkpoints.
 
-Each view is letterboxed exactly as the runtime does (``dynaeval.regions.detector.letterbox`` to a
+Each view is letterboxed exactly as the runtime does (``dynaeval.regions.yolo.letterbox`` to a
 square of ``INPUT_SIZE`` px, times a random scale in ``scale_range``), then a ``crop`` x ``crop``
 window is cut (centred near a random object with probability ``object_crop_p``), flipped and
 colour-jittered. Ground-truth boxes that are mostly occluded (``visible < min_visible``), smaller
@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dynaeval.regions.detector import letterbox
+from dynaeval.regions.yolo import letterbox
 from reference_models.detector.model import CLASS_NAMES, INPUT_SIZE, STRIDE
 
 MIN_VISIBLE = 0.3

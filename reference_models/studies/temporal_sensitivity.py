@@ -35,7 +35,7 @@ from dynaeval.metrics import lpips as lpips_metric
 from dynaeval.metrics import psnr_from_stats, squared_error_stats, ssim
 from dynaeval.metrics.flow import FlowCache, FlowConfig, optical_flow
 from dynaeval.metrics.temporal import TemporalConfig, temporal_metrics
-from dynaeval.regions import mask_to_box
+from dynaeval.boxes import mask_to_box
 from reference_models.common.paths import docs_dir
 from reference_models.studies._doc import replace_block
 
