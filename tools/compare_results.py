@@ -1,0 +1,76 @@
+"""compare_results.py BEFORE AFTER [ROOT_BEFORE ROOT_AFTER]: every results JSON of BEFORE against
+AFTER, number for number.
+
+With two checkout roots, paths under ROOT_BEFORE in BEFORE count as equal to the same paths under
+ROOT_AFTER (``dynaeval demo`` scores the sample inside its own checkout).
+
+Compares every field exactly (floats with ``==``) except ``created`` and ``timing``, checks that
+``summary``, ``metrics`` and ``counts`` keep their key order (the order of the printed tables),
+and that the printed tables (``*.txt`` beside the JSON) are the same text. Prints every
+difference; exits 1 when there is one. Written for the before/after check of a refactor
+(``tools/score_sample_configs.sh``, docs/architecture.md).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+IGNORED = ("created", "timing")
+ORDERED = ("summary", "metrics", "counts")
+
+
+def differences(a: object, b: object, path: str = "") -> list[str]:
+    """Every place where two JSON values differ, as ``path: before != after`` lines."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        out = []
+        for k in [*a, *(k for k in b if k not in a)]:
+            if not path and k in IGNORED:
+                continue
+            if k not in a or k not in b:
+                side = "after" if k not in a else "before"
+                out.append(f"{path}/{k}: only {side}: {str(b.get(k, a.get(k)))[:120]}")
+            else:
+                out += differences(a[k], b[k], f"{path}/{k}")
+        return out
+    if isinstance(a, list) and isinstance(b, list):
+        if len(a) != len(b):
+            return [f"{path}: length {len(a)} != {len(b)}"]
+        return [d for i, (x, y) in enumerate(zip(a, b, strict=True))
+                for d in differences(x, y, f"{path}[{i}]")]
+    return [] if a == b else [f"{path}: {str(a)[:150]!r} != {str(b)[:150]!r}"]
+
+
+def main(before: Path, after: Path, roots: tuple[str, str] | None = None) -> int:
+    bad = 0
+    for f in sorted(before.glob("*.json")):
+        g = after / f.name
+        if not g.exists():
+            print(f"{f.name}: missing after")
+            bad += 1
+            continue
+        text = f.read_text()
+        if roots:
+            text = text.replace(json.dumps(roots[0])[1:-1], json.dumps(roots[1])[1:-1])
+        a, b = json.loads(text), json.loads(g.read_text())
+        out = differences(a, b)
+        out += [f"/{s}: key order differs" for s in ORDERED
+                if s in a and list(a[s]) != list(b.get(s, {}))]
+        print(f"{f.name}: {'same' if not out else f'{len(out)} differences'}")
+        for line in out[:30]:
+            print("   ", line)
+        bad += bool(out)
+    for f in sorted(before.glob("*.txt")):
+        g = after / f.name
+        if g.exists() and g.read_text() != f.read_text():
+            print(f"{f.name}: printed table differs")
+            bad += 1
+    return 1 if bad else 0
+
+
+if __name__ == "__main__":
+    if len(sys.argv) not in (3, 5):
+        sys.exit(__doc__)
+    roots = (sys.argv[3], sys.argv[4]) if len(sys.argv) == 5 else None
+    sys.exit(main(Path(sys.argv[1]), Path(sys.argv[2]), roots))
