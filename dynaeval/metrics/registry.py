@@ -204,6 +204,15 @@ SPECS: dict[str, MetricSpec] = {
             ignored_settings=("enabled", "device", "backend", "unavailable"), doc="LPIPS",
         ),
         MetricSpec(
+            "flip", "frame", False, (0.0, 1.0), "",
+            "mean of the LDR-FLIP error map (NVIDIA's flip-evaluator, ground truth as the "
+            "reference, FLIP's default observer: 67.02 pixels per degree)",
+            regions=_FRAME_REGIONS, default=False, extra="video",
+            build="dynaeval.metrics.flip:build_flip",
+            settings="dynaeval.metrics.flip:flip_settings",
+            ignored_settings=("enabled", "unavailable"), doc="FLIP",
+        ),
+        MetricSpec(
             "presence", "object", True, (0.0, 1.0), "",
             "fraction of the frame's ground-truth objects of the class the prediction shows "
             "(tight-box NCC and PSNR against calibrated thresholds, plus the detector when it "
