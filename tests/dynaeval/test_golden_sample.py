@@ -47,3 +47,15 @@ def test_cli_scores_the_sample_as_before(tmp_path):
                  f"boxes:{root / 'boxes.json'}", "--no-lpips", "-q", "-o", str(out)])
     assert code == 0
     assert _comparable(json.loads(out.read_text())) == _comparable(json.loads(GOLDEN.read_text()))
+
+
+def test_library_default_equals_cli_default(tmp_path):
+    """``dynaeval.score(pred, gt)`` and ``dynaeval score pred gt``, both with no other option,
+    give the same document (the shipped detector's boxes, motion masks, presence, temporal)."""
+    root = sample_dir()
+    out = tmp_path / "cli.json"
+    assert main(["score", str(root / "pred"), str(root / "gt"), "-q", "-o", str(out)]) == 0
+    lib = dynaeval.score(root / "pred", root / "gt", progress=False)
+    cli = json.loads(out.read_text())
+    assert cli["settings"]["focus"]["source"] == "detector" and "presence_ball" in cli["summary"]
+    assert _comparable(cli) == _comparable(json.loads(json.dumps(lib)))
