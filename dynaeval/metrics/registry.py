@@ -148,6 +148,13 @@ class MetricSpec:
     leaderboard does not compare them."""
     doc: str = ""
     """Heading of its section in docs/metrics.md."""
+    region_rules: tuple[tuple[str, str], ...] = ()
+    """Frame metrics: how its focused / masked variants reduce, ``(("focused", rule), ...)``;
+    empty: the rules of PSNR, SSIM and LPIPS (``REGION_RULES``)."""
+
+    def rule(self, region: str) -> str | None:
+        """How the ``region`` variant is reduced (None for the whole frame)."""
+        return dict(self.region_rules or REGION_RULES.items()).get(region)
 
     def key(self, variant: str = "whole") -> str:
         """Result key of a variant: a region (``focused`` -> ``focused_psnr``) or a class."""
@@ -211,6 +218,10 @@ SPECS: dict[str, MetricSpec] = {
             build="dynaeval.metrics.flip:build_flip",
             settings="dynaeval.metrics.flip:flip_settings",
             ignored_settings=("enabled", "unavailable"), doc="FLIP",
+            region_rules=(
+                ("focused", "mean of the whole frame's FLIP map over the union of the boxes"),
+                ("masked", "mean of the whole frame's FLIP map over the mask's pixels"),
+            ),
         ),
         MetricSpec(
             "presence", "object", True, (0.0, 1.0), "",
@@ -269,8 +280,8 @@ def _infos() -> dict[str, MetricInfo]:
     for spec, variant in _ordered(list(SPECS.values())):
         key = spec.key(variant)
         where = f"class {variant}" if spec.classes else f"over the {_WHERE[variant]}"
-        if spec.kind == "frame" and variant in REGION_RULES:
-            where += f" ({REGION_RULES[variant]})"
+        if spec.kind == "frame" and spec.rule(variant):
+            where += f" ({spec.rule(variant)})"
         out[key] = MetricInfo(key, spec.higher_is_better, spec.range, spec.unit,
                               f"{spec.description}; {where}", spec.name, variant, spec.kind,
                               spec.precision)

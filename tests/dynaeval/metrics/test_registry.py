@@ -75,3 +75,11 @@ def test_build_frame_metrics_orders_keys_region_major_and_records_settings(rng):
     with pytest.raises(KeyError, match="unknown per-frame metric"):
         build_frame_metrics(FrameContext(), ("psnr", "tof"))
 
+
+
+def test_each_metric_says_how_its_regions_reduce():
+    assert SPECS["ssim"].rule("focused").startswith("SSIM/LPIPS: box-area-weighted mean over crops")
+    assert SPECS["psnr"].rule("whole") is None
+    assert "FLIP map over the union of the boxes" in SPECS["flip"].rule("focused")
+    assert "FLIP map over the union" in METRICS["focused_flip"].description
+    assert "crops" not in METRICS["masked_flip"].description
