@@ -14,7 +14,7 @@ from typing import Any
 
 from dynaeval import __version__
 from dynaeval.errors import InputError
-from dynaeval.io.atomic import refuse_existing
+from dynaeval.io.atomic import check_writable
 from dynaeval.io.frames import parse_shard
 
 EXIT_OK, EXIT_BUG, EXIT_INPUT = 0, 1, 2
@@ -39,10 +39,15 @@ def _defaults() -> Any:
 
 
 def _add_metric_flags(p: argparse.ArgumentParser) -> None:
-    """``--no-NAME`` for every per-frame metric that runs by default, ``--NAME`` for the others
-    (from the registry)."""
+    """``--metrics NAME ...`` (exactly these), ``--no-NAME`` for every per-frame metric that runs
+    by default, ``--NAME`` for the others (from the registry)."""
     from dynaeval.metrics.registry import frame_specs
 
+    names = [s.name for s in frame_specs()]
+    p.add_argument("--metrics", nargs="+", choices=names, metavar="NAME",
+                   help=f"compute exactly these per-frame metrics ({', '.join(names)}), instead of "
+                        "the defaults adjusted by --no-NAME / --NAME (which it cannot be combined "
+                        "with)")
     for spec in frame_specs():
         extra = f" (needs pip install 'dynaeval[{spec.extra}]')" if spec.extra else ""
         if spec.default:
@@ -118,18 +123,49 @@ def _add_score_options(p: argparse.ArgumentParser) -> None:
                         "'dynaeval merge' combines the N results into the unsharded numbers")
 
 
+def _metrics_from_args(args: argparse.Namespace) -> tuple[str, ...]:
+    """The per-frame metrics asked for: ``--metrics`` exactly (in registry order), else the
+    registry's defaults minus ``--no-NAME`` plus ``--NAME``.
+
+    Raises:
+        InputError: ``--metrics`` given together with a ``--no-NAME`` / ``--NAME`` flag.
+    """
+    from dynaeval.metrics.registry import frame_specs
+
+    specs = frame_specs()
+    chosen = getattr(args, "metrics", None)
+    if chosen:
+        flags = [f"--no-{s.name.replace('_', '-')}" for s in specs
+                 if getattr(args, f"no_{s.name}", False)]
+        flags += [f"--{s.name.replace('_', '-')}" for s in specs
+                  if getattr(args, f"with_{s.name}", False)]
+        if flags:
+            raise InputError(f"--metrics sets the metrics exactly and cannot be combined with "
+                             f"{', '.join(flags)}: drop {'it' if len(flags) == 1 else 'them'} "
+                             "or --metrics")
+        return tuple(s.name for s in specs if s.name in chosen)
+    return tuple(s.name for s in specs
+                 if (s.default and not getattr(args, f"no_{s.name}", False))
+                 or (not s.default and getattr(args, f"with_{s.name}", False)))
+
+
 def config_from_args(args: argparse.Namespace) -> Any:
     """The ``ScoreConfig`` of parsed ``score``/``demo`` arguments (options a command lacks keep
-    the library's defaults)."""
+    the library's defaults).
+
+    Raises:
+        InputError: conflicting options (``--metrics`` with ``--no-NAME``; ``--detector``
+            without ``--focus detector``), or a value ``ScoreConfig`` refuses.
+    """
     from dataclasses import replace
 
-    from dynaeval.metrics.registry import frame_specs
     from dynaeval.regions.focus import FocusConfig
 
     d = _defaults()
-    metrics = tuple(s.name for s in frame_specs()
-                    if (s.default and not getattr(args, f"no_{s.name}", False))
-                    or (not s.default and getattr(args, f"with_{s.name}", False)))
+    metrics = _metrics_from_args(args)
+    if getattr(args, "detector", None) and getattr(args, "focus", d.focus.source) != "detector":
+        raise InputError(f"--detector is only used with --focus detector (got --focus "
+                         f"{args.focus}): drop --detector, or pass --focus detector")
     opt = lambda name: getattr(args, name, getattr(d, name))  # noqa: E731
     return replace(
         d, method=getattr(args, "method", None), scene=getattr(args, "scene", None),
@@ -242,12 +278,15 @@ def _run_score(pred: str, gt: str | None, args: argparse.Namespace, *, overwrite
     from dynaeval.report import summary_table, write_json_atomic
 
     output = getattr(args, "output", None)
-    refuse_existing(output, overwrite=overwrite, what="results file")  # before the long run
     report = getattr(args, "report", None)
+    config = config_from_args(args)
+    inputs = [pred, gt, config.focus.boxes_file, config.focus.detector_model]
+    # every output checked before the long run (and before reading a frame)
+    check_writable(output, overwrite=overwrite, what="results file", inputs=inputs)
+    check_writable(report, overwrite=overwrite, what="report folder", inputs=inputs, folder=True)
     if report and (Path(report) / "index.html").exists() and not overwrite:
         raise InputError("report exists; pass --overwrite or choose another --report folder",
                          path=Path(report) / "index.html")
-    config = config_from_args(args)
     if args.command == "demo":
         from dataclasses import replace
 
@@ -283,7 +322,11 @@ def _run_detect(args: argparse.Namespace) -> int:
     from dynaeval.regions import write_boxes_file
     from dynaeval.regions.focus import detect_ground_truth
 
-    refuse_existing(args.output, overwrite=args.overwrite, what="boxes file")
+    if args.detector and args.source != "detector":
+        raise InputError(f"--detector is only used with --source detector (got --source "
+                         f"{args.source}): drop --detector, or pass --source detector")
+    check_writable(args.output, overwrite=args.overwrite, what="boxes file",
+                   inputs=[args.gt, args.detector], create_folders=True)
     mapping, source = detect_ground_truth(args.gt, source=args.source,
                                           detector_model=args.detector, device=args.device,
                                           progress=not args.quiet)
@@ -299,14 +342,15 @@ def _run_leaderboard(args: argparse.Namespace) -> int:
     from dynaeval.io.atomic import write_text_atomic
     from dynaeval.report.leaderboard import build_leaderboard, render
 
-    refuse_existing(args.output, overwrite=args.overwrite)
+    check_writable(args.output, overwrite=args.overwrite, what="leaderboard file",
+                   inputs=args.results)
     board = build_leaderboard(args.results, force=args.force, metrics=args.metrics)
     text = render(board, args.format, args.by)
     for f in sorted({f["field"] for f in board["forced"]}):
         print(f"dynaeval: warning: combined despite differing setting {f!r} (--force)",
               file=sys.stderr)
     if args.output:
-        write_text_atomic(args.output, text, overwrite=args.overwrite)
+        write_text_atomic(args.output, text, overwrite=args.overwrite, what="leaderboard file")
         print(f"leaderboard written to {args.output}", file=sys.stderr)
     else:
         sys.stdout.write(text)
@@ -323,7 +367,8 @@ def main(argv: list[str] | None = None) -> int:
             from dynaeval.report import write_json_atomic
             from dynaeval.report.merge import merge_results
 
-            refuse_existing(args.output, overwrite=args.overwrite, what="results file")
+            check_writable(args.output, overwrite=args.overwrite, what="results file",
+                           inputs=args.parts)
             merged = merge_results(args.parts)
             write_json_atomic(args.output, merged, overwrite=args.overwrite)
             print(f"{len(args.parts)} shards, {merged['summary']['n_frames']} frames merged into "
