@@ -4,9 +4,15 @@ Supported: PNG (8 and 16 bit), JPEG, TIFF (8/16 bit, float), WebP, BMP via OpenC
 via the ``OpenEXR`` package. Grayscale stays one channel ``(H, W, 1)``; RGB is returned in RGB order
 (OpenCV's BGR is converted); RGBA is composited over a background colour (see ``composite_alpha``).
 
-Value range: uint8 / 255, uint16 / 65535; float files (EXR, float TIFF) are taken as they are, which
-means linear HDR values above 1 stay above 1 (PSNR/SSIM with ``data_range=1`` then say so; LPIPS
-refuses them). The range is never guessed from the pixel values.
+The format is taken from the file's content (its first bytes), not its name: a PNG named ``.jpg``
+is read as the PNG it is. The extension only decides which files are images.
+
+Value range (**one rule for every path**: the metrics, the detector, motion masks and temporal
+terms all see the image as read here): uint8 / 255, uint16 / 65535; float files (EXR, float TIFF)
+must hold values in [0, 1]. Values within ``FLOAT_TOLERANCE`` outside it (a renderer's rounding,
+1.0000002) are clipped to [0, 1]; a float file with values further out (linear HDR above 1, a
+float TIFF of 1e30) is an ``InputError`` naming the file and its min/max, with the fix (tone-map
+or clip it to [0, 1], or save 8/16-bit). The range is never guessed from the pixel values.
 """
 
 from __future__ import annotations
@@ -23,6 +29,12 @@ IMAGE_EXTENSIONS = frozenset(
 )
 
 BACKGROUNDS = {"white": 1.0, "black": 0.0}
+
+FLOAT_TOLERANCE = 1e-3
+"""Float pixels this far outside [0, 1] are clipped (rounding); further out is an InputError."""
+
+_EXR_MAGIC = b"\x76\x2f\x31\x01"
+_JPEG_MAGIC = b"\xff\xd8\xff"
 
 
 def to_float(image: np.ndarray, path: str | Path | None = None) -> np.ndarray:
@@ -77,31 +89,52 @@ def _read_exr(path: Path) -> np.ndarray:
     )
 
 
-def _jpeg_complete(path: Path) -> bool:
-    """True when a JPEG file ends with its end-of-image marker (OpenCV decodes truncated JPEGs
+def _jpeg_complete(raw: bytes) -> bool:
+    """True when JPEG bytes end with the end-of-image marker (OpenCV decodes truncated JPEGs
     silently, filling the missing part with grey)."""
-    with open(path, "rb") as f:
-        f.seek(0, 2)
-        size = f.tell()
-        f.seek(max(0, size - 64))
-        tail = f.read()
-    return b"\xff\xd9" in tail
+    return b"\xff\xd9" in raw[-64:]
+
+
+def _read_bytes(path: Path) -> bytes:
+    try:
+        return path.read_bytes()
+    except PermissionError as err:
+        raise InputError("cannot read the file: permission denied (check its permissions, "
+                         "e.g. chmod a+r)", path=path) from err
+    except OSError as err:
+        raise InputError(f"cannot read the file ({err.strerror or err})", path=path) from err
+
+
+def check_float_range(image: np.ndarray, path: str | Path | None = None) -> np.ndarray:
+    """A float image read from a file, in [0, 1]: values within ``FLOAT_TOLERANCE`` outside it
+    are clipped; further out raise InputError with the file's min/max and the fix."""
+    lo, hi = float(image.min()), float(image.max())
+    if lo >= 0.0 and hi <= 1.0:
+        return image
+    if lo < -FLOAT_TOLERANCE or hi > 1.0 + FLOAT_TOLERANCE:
+        raise InputError(
+            f"float pixel values must be in [0, 1], this file holds values in [{lo:.4g}, "
+            f"{hi:.4g}]; tone-map or clip it to [0, 1] (e.g. np.clip(x, 0, 1)), or save it as "
+            "8/16-bit PNG",
+            path=path,
+        )
+    return np.clip(image, 0.0, 1.0)
 
 
 def read_image(path: str | Path, *, background: str | float = "white") -> np.ndarray:
     """Read one image file as float32 in [0, 1] (float files: as stored).
 
     Args:
-        path: image file; the format is taken from the extension.
+        path: image file with an image extension; the format is taken from its content.
         background: colour that RGBA images are composited over (``composite_alpha``); images
             without alpha are unaffected.
 
     Returns:
-        (H, W, 3) or (H, W, 1) float32 array, RGB order. Grey+alpha gives (H, W, 1).
+        (H, W, 3) or (H, W, 1) float32 array in [0, 1], RGB order. Grey+alpha gives (H, W, 1).
 
     Raises:
-        InputError: the file is missing, unreadable, truncated, of an unsupported type, or holds
-            NaN/Inf values.
+        InputError: the file is missing, unreadable (permissions), truncated, of an unsupported
+            type, holds NaN/Inf values, or float values outside [0, 1] (module docstring).
     """
     import cv2
 
@@ -114,25 +147,28 @@ def read_image(path: str | Path, *, background: str | float = "white") -> np.nda
             f"unsupported image extension {ext!r}; expected one of {sorted(IMAGE_EXTENSIONS)}",
             path=path,
         )
-    if ext == ".exr":
+    data = _read_bytes(path)
+    if data.startswith(_EXR_MAGIC):
         image = _read_exr(path)
     else:
-        if ext in (".jpg", ".jpeg") and not _jpeg_complete(path):
+        if data.startswith(_JPEG_MAGIC) and not _jpeg_complete(data):
             raise InputError("truncated JPEG (no end-of-image marker)", path=path)
-        raw = np.fromfile(path, dtype=np.uint8)
-        image = cv2.imdecode(raw, cv2.IMREAD_UNCHANGED) if raw.size else None
+        image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED) if data else None
         if image is None:
             raise InputError("cannot decode image (corrupt, truncated or not an image)", path=path)
         if image.ndim == 3 and image.shape[2] == 3:
             image = image[..., ::-1]
         elif image.ndim == 3 and image.shape[2] == 4:
             image = image[..., [2, 1, 0, 3]]
+    stored_float = np.issubdtype(image.dtype, np.floating)
     image = to_float(np.ascontiguousarray(image), path=path)
     if image.ndim == 2:
         image = image[..., None]
     if not np.all(np.isfinite(image)):
         bad = int(np.count_nonzero(~np.isfinite(image)))
         raise InputError(f"{bad} pixel values are NaN or Inf", path=path)
+    if stored_float:  # integers divided by their maximum are in [0, 1] already
+        image = check_float_range(image, path)
     if image.shape[2] == 4:
         image = composite_alpha(image, background)
     elif image.shape[2] == 2:  # grey + alpha

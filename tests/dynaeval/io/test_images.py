@@ -67,13 +67,29 @@ def test_jpeg_and_tiff_read(tmp_path, rgb8):
     np.testing.assert_allclose(read_image(tmp_path / "a.tif"), rgb8[..., ::-1] / 255, atol=1e-7)
 
 
-def test_exr_float_read_as_stored(tmp_path, rng):
-    OpenEXR = pytest.importorskip("OpenEXR")
-    rgb = rng.random((4, 5, 3), dtype=np.float32) * 2  # HDR values above 1 stay above 1
+def _write_exr(OpenEXR, path, rgb) -> None:  # noqa: ANN001, N803
     hdr = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
     with OpenEXR.File(hdr, {"RGB": rgb}) as f:
-        f.write(str(tmp_path / "a.exr"))
+        f.write(str(path))
+
+
+def test_exr_float_read_as_stored(tmp_path, rng):
+    OpenEXR = pytest.importorskip("OpenEXR")
+    rgb = rng.random((4, 5, 3), dtype=np.float32)
+    _write_exr(OpenEXR, tmp_path / "a.exr", rgb)
     np.testing.assert_array_equal(read_image(tmp_path / "a.exr"), rgb)
+
+
+def test_exr_hdr_above_one_is_refused_naming_file_and_range(tmp_path, rng):
+    """Issue 16 item 8: one range rule at reading time (HDR values used to pass under
+    ``--focus none`` and be refused by the detector)."""
+    OpenEXR = pytest.importorskip("OpenEXR")
+    rgb = rng.random((4, 5, 3), dtype=np.float32) * 2
+    rgb[0, 0, 0] = 2.0
+    _write_exr(OpenEXR, tmp_path / "a.exr", rgb)
+    with pytest.raises(InputError, match=r"a\.exr: float pixel values must be in \[0, 1\], .*"
+                                         r"\[.*, 2\]; tone-map or clip"):
+        read_image(tmp_path / "a.exr")
 
 
 def test_exr_with_nan_is_an_error_naming_the_file(tmp_path):
@@ -133,3 +149,74 @@ def test_unknown_extension(tmp_path):
     (tmp_path / "x.gif").write_bytes(b"GIF89a")
     with pytest.raises(InputError, match="unsupported image extension '.gif'"):
         read_image(tmp_path / "x.gif")
+
+
+# --- issue 16: inputs users really have ------------------------------------------------------
+
+
+def test_unreadable_image_is_an_input_error_naming_it(tmp_path, rgb8, monkeypatch):
+    """Item 6: a PermissionError (the tests may run as root, where chmod 000 still reads, so
+    the refusal is simulated) becomes InputError naming the file, not a traceback."""
+    cv2.imwrite(str(tmp_path / "a.png"), rgb8)
+    real = type(tmp_path).read_bytes
+
+    def refuse(self):  # noqa: ANN001, ANN202
+        if self.name == "a.png":
+            raise PermissionError(13, "Permission denied", str(self))
+        return real(self)
+
+    monkeypatch.setattr(type(tmp_path), "read_bytes", refuse)
+    with pytest.raises(InputError, match=r"a\.png: cannot read the file: permission denied"):
+        read_image(tmp_path / "a.png")
+
+
+def test_huge_float_tiff_is_refused_naming_file_and_min_max(tmp_path):
+    """Item 8: a float TIFF of 1e30 used to reach SSIM (RuntimeError: ssim is NaN)."""
+    img = np.full((12, 12, 3), 1e30, np.float32)
+    img[0, 0] = 0.25
+    cv2.imwrite(str(tmp_path / "huge.tif"), img)
+    with pytest.raises(InputError, match=r"huge\.tif: float pixel values must be in \[0, 1\], "
+                                         r"this file holds values in \[0\.25, 1e\+30\]"):
+        read_image(tmp_path / "huge.tif")
+
+
+def test_negative_float_tiff_is_refused(tmp_path):
+    cv2.imwrite(str(tmp_path / "neg.tif"), np.full((4, 4), -0.5, np.float32))
+    with pytest.raises(InputError, match=r"neg\.tif: float pixel values must be in \[0, 1\]"):
+        read_image(tmp_path / "neg.tif")
+
+
+def test_float_rounding_just_outside_unit_range_is_clipped(tmp_path):
+    """Within FLOAT_TOLERANCE (a renderer's rounding) values are clipped, so every path (the
+    detector and motion masks check [0, 1] exactly) sees the same image."""
+    img = np.array([[1.0004, -0.0004, 0.5]], np.float32)
+    cv2.imwrite(str(tmp_path / "r.tif"), img)
+    np.testing.assert_array_equal(read_image(tmp_path / "r.tif")[..., 0], [[1.0, 0.0, 0.5]])
+
+
+def test_float_tiff_in_unit_range_is_read_exactly(tmp_path, rng):
+    img = rng.random((5, 6, 3), dtype=np.float32)
+    cv2.imwrite(str(tmp_path / "f.tif"), img)
+    np.testing.assert_array_equal(read_image(tmp_path / "f.tif"), img[..., ::-1])
+
+
+def test_png_named_jpg_is_decoded_by_content(tmp_path, rgb8):
+    """Item 12: a valid PNG named .jpg used to be refused as a "truncated JPEG"."""
+    ok, buf = cv2.imencode(".png", rgb8[..., ::-1])
+    (tmp_path / "a.jpg").write_bytes(buf.tobytes())
+    np.testing.assert_array_equal(read_image(tmp_path / "a.jpg"), rgb8 / np.float32(255))
+
+
+def test_truncated_jpeg_is_still_named(tmp_path, rgb8):
+    ok, buf = cv2.imencode(".jpg", rgb8)
+    (tmp_path / "t.png").write_bytes(buf.tobytes()[: len(buf) // 2])  # JPEG bytes, any name
+    with pytest.raises(InputError, match=r"t\.png: truncated JPEG"):
+        read_image(tmp_path / "t.png")
+
+
+def test_exr_named_png_is_read_as_exr(tmp_path, rng):
+    OpenEXR = pytest.importorskip("OpenEXR")
+    rgb = rng.random((4, 5, 3), dtype=np.float32)
+    _write_exr(OpenEXR, tmp_path / "a.exr", rgb)
+    (tmp_path / "a.exr").rename(tmp_path / "a.png")
+    np.testing.assert_array_equal(read_image(tmp_path / "a.png"), rgb)
