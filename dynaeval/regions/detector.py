@@ -288,8 +288,10 @@ class Detector:
 
     def raw(self, image: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Decoded candidates before filtering: float64 ``(N, 4)`` xyxy boxes in *original image*
-        pixels (unclipped), ``(N,)`` scores and ``(N,)`` int64 class ids."""
-        img = np.ascontiguousarray(as_image(image, "detector input", check_range=True, channels=3))
+        pixels (unclipped), ``(N,)`` scores and ``(N,)`` int64 class ids. ``image``: (H, W, 3)
+        RGB, or grayscale (H, W) / (H, W, 1), fed as grey replicated to RGB."""
+        img = np.ascontiguousarray(as_image(_grey_to_rgb(image), "detector input",
+                                            check_range=True, channels=3))
         fed, geometry = self._decoder.prepare(img, self._input_hw(), self.config.input_size)
         outs = [np.asarray(o) for o in self.session.run(None, self._feed(fed.transpose(2, 0, 1)))]
         names = [o.name for o in self.outputs]
@@ -312,6 +314,15 @@ class Detector:
         h, w = np.asarray(image).shape[:2]
         boxes, scores, cls = self.raw(image)
         return postprocess(boxes, scores, cls, self.config, self.selected_ids, self.class_names, h, w)
+
+
+def _grey_to_rgb(image: object) -> object:
+    """A grayscale numpy image ``(H, W)`` or ``(H, W, 1)`` as ``(H, W, 3)`` (the grey in each
+    channel: what an RGB detector sees of a grey photo); anything else unchanged."""
+    if isinstance(image, np.ndarray) and image.size and (
+            image.ndim == 2 or (image.ndim == 3 and image.shape[2] == 1)):
+        return np.repeat(image.reshape(*image.shape[:2], 1), 3, axis=2)
+    return image
 
 
 def postprocess(

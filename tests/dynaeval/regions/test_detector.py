@@ -424,7 +424,7 @@ def test_torchvision_outputs_unidentifiable(tmp_path):
 @pytest.mark.parametrize(
     ("image", "match"),
     [
-        (np.zeros((10, 10), np.float32), r"\(H, W, 3\) RGB"),
+        (np.zeros((10, 10, 2), np.float32), r"\(H, W, 3\) RGB"),
         (np.full((10, 10, 3), 2.0, np.float32), r"must be in \[0, 1\]"),
         (np.full((10, 10, 3), np.nan, np.float32), "NaN"),
         (np.zeros((10, 10, 3), np.int32), "uint8 or float"),
@@ -481,3 +481,16 @@ def test_exported_torchvision_retinanet_matches_torch(tmp_path):
     np.testing.assert_allclose(boxes, ref["boxes"].numpy(), rtol=1e-4, atol=1e-3)
     np.testing.assert_allclose(scores, ref["scores"].numpy(), rtol=1e-4, atol=1e-5)
     np.testing.assert_array_equal(labels, ref["labels"].numpy())
+
+
+@pytest.mark.parametrize("grey", [np.full((10, 10), 0.5, np.float32),
+                                  np.full((10, 10, 1), 128, np.uint8)])
+def test_grayscale_is_fed_as_grey_rgb(tmp_path, grey):
+    """Issue 16 item 10: a grey frame under the default detector focus is scored, not refused;
+    the detector sees what it sees of the grey replicated to RGB."""
+    p = yolo_model(tmp_path / "y.onnx", yolo_pred([(3, 3, 2, 2, 0, 0.9)]))
+    rgb = np.repeat(grey.reshape(10, 10, 1), 3, axis=2)
+    det = Detector(DetectorConfig(model=p))
+    got, want = det(grey), det(rgb)
+    np.testing.assert_array_equal(got.boxes, want.boxes)
+    assert len(got) == 1
