@@ -174,6 +174,8 @@ def parse_boxes(data: object, path: str | Path | None = None) -> BoxesFile:
 def read_boxes_file(path: str | Path) -> BoxesFile:
     """Read and strictly validate a boxes file (either layout); InputError names file and key."""
     path = Path(path)
+    if path.is_dir():
+        raise InputError("is a folder, not a boxes file (give the boxes JSON inside it)", path=path)
     if not path.is_file():
         raise InputError("boxes file not found (make one with `dynaeval detect GT -o boxes.json`)", path=path)
     try:
@@ -181,6 +183,10 @@ def read_boxes_file(path: str | Path) -> BoxesFile:
             data = json.load(f)
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise InputError(f"not valid JSON: {exc}", path=path) from exc
+    except PermissionError as exc:
+        raise InputError("boxes file is not readable (permission denied)", path=path) from exc
+    except OSError as exc:
+        raise InputError(f"cannot read the boxes file ({exc.strerror or exc})", path=path) from exc
     return parse_boxes(data, path)
 
 

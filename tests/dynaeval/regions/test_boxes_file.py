@@ -113,3 +113,41 @@ def test_missing_and_not_json(tmp_path):
     p.write_text("{not json")
     with pytest.raises(InputError, match="not valid JSON"):
         read_boxes_file(p)
+
+
+
+def _deny_open(monkeypatch, path):
+    """Opening ``path`` raises PermissionError (root reads a 0000 file, so it is simulated)."""
+    import pathlib
+
+    real = pathlib.Path.open
+
+    def denied(self, *args, **kwargs):
+        if self == path:
+            raise PermissionError(13, "Permission denied", str(self))
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(pathlib.Path, "open", denied)
+
+
+def test_folder_and_unreadable_boxes_file_name_the_file(tmp_path, monkeypatch):
+    """Issue 16 item 6: a PermissionError traceback before."""
+    with pytest.raises(InputError, match=r"is a folder, not a boxes file"):
+        read_boxes_file(tmp_path)
+    p = _write(tmp_path, GEN)
+    _deny_open(monkeypatch, p)
+    with pytest.raises(InputError, match=r"b\.json: boxes file is not readable \(permission denied\)"):
+        read_boxes_file(p)
+
+
+def test_unreadable_boxes_file_exit_2_before_scoring(tmp_path, monkeypatch, capsys):
+    from dynaeval.cli import main
+
+    from ..helpers import moving_square_scene
+
+    gt, _ = moving_square_scene(tmp_path / "gt")
+    p = _write(tmp_path, GEN)
+    _deny_open(monkeypatch, p)
+    code = main(["score", str(gt), str(gt), "--focus", f"boxes:{p}", "--no-lpips", "-q"])
+    err = capsys.readouterr().err
+    assert code == 2 and "b.json: boxes file is not readable" in err and "Traceback" not in err
