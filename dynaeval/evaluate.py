@@ -97,6 +97,7 @@ def score(
     from dynaeval.scoring import prepare_run
 
     run = prepare_run(config)
+    run.warnings.extend(pairing.warnings)  # damaged video files
     if layout.name != "folders" and config.temporal:
         run.warnings.append({"reason": (
             f"{layout.name} render folders hold separate test views; temporal metrics treat them "

@@ -32,7 +32,7 @@ import numpy as np
 
 from dynaeval.errors import InputError
 from dynaeval.io.images import IMAGE_EXTENSIONS, read_image
-from dynaeval.io.video import VIDEO_EXTENSIONS, count_frames, read_video_frame
+from dynaeval.io.video import VIDEO_EXTENSIONS, read_video_frame, scan_video
 
 ROOT_CAMERA = "."
 
@@ -87,6 +87,9 @@ class Pairing:
     """Ground-truth cameras with no prediction at all (not scored)."""
     skipped: list[dict] = field(default_factory=list)
     """With ``allow_missing``: ground-truth frames with no prediction, ``{camera, frame}``."""
+    warnings: list[dict] = field(default_factory=list)
+    """``{camera, reason}`` of the scored cameras' damaged video files (``Camera.warnings``),
+    for the results' warnings."""
 
 
 @dataclass
@@ -97,6 +100,8 @@ class Camera:
     frames: list[tuple[str, FrameRef]]
     """(frame name, reference) pairs."""
     is_video: bool = False
+    warnings: list[dict] = field(default_factory=list)
+    """``{camera, reason}``: a damaged video file (frames dropped, ``video.VideoScan``)."""
 
 
 def find_frames(root: str | Path, *, role: str = "input") -> dict[str, Camera]:
@@ -110,7 +115,8 @@ def find_frames(root: str | Path, *, role: str = "input") -> dict[str, Camera]:
         Mapping camera name -> Camera, in natural order of camera names.
 
     Raises:
-        InputError: ``root`` is not a folder, holds no frame, or a camera has two files with the
+        InputError: ``root`` is not a folder, holds no frame, a folder below it cannot be
+            listed (permissions: never skipped silently), or a camera has two files with the
             same stem (``0001.png`` and ``0001.jpg``).
     """
     root = Path(root)
@@ -120,7 +126,15 @@ def find_frames(root: str | Path, *, role: str = "input") -> dict[str, Camera]:
         raise InputError(f"{role} must be a folder of frames (or of camera folders)", path=root)
     images: dict[str, dict[str, Path]] = {}
     videos: dict[str, Path] = {}
-    for dirpath, dirnames, filenames in os.walk(root):
+
+    def unreadable(err: OSError) -> None:  # os.walk would skip the folder silently
+        raise InputError(
+            f"cannot list this {role} folder ({err.strerror or err}): its frames would be left "
+            "out; fix its permissions (e.g. chmod a+rx)",
+            path=err.filename or root,
+        )
+
+    for dirpath, dirnames, filenames in os.walk(root, onerror=unreadable):
         dirnames[:] = sorted(d for d in dirnames if not d.startswith("."))
         rel = Path(dirpath).relative_to(root).as_posix()
         for name in sorted(filenames):
@@ -150,8 +164,11 @@ def find_frames(root: str | Path, *, role: str = "input") -> dict[str, Camera]:
             raise InputError(
                 f"camera {name!r} is both a folder of images and a video file; keep one", path=path
             )
-        n = count_frames(path)
-        cameras[name] = Camera(name, [(str(i), FrameRef(path, i)) for i in range(n)], True)
+        scan = scan_video(path)
+        problem = scan.problem()
+        cameras[name] = Camera(name, [(str(i), FrameRef(path, i)) for i in range(scan.n_frames)],
+                               True, [{"camera": name, "reason": f"{path}: {problem}"}] if problem
+                               else [])
     if not cameras:
         raise InputError(
             f"no {role} frames found (looked for {', '.join(sorted(IMAGE_EXTENSIONS | VIDEO_EXTENSIONS))})",
@@ -193,6 +210,7 @@ def pair_frames(
         )
     pairs: list[FramePair] = []
     skipped: list[dict] = []
+    warnings: list[dict] = []
     for cam_name, pcam in pred.items():
         gcam = gt[cam_name]
         if pcam.is_video or gcam.is_video:
@@ -228,10 +246,11 @@ def pair_frames(
                 path=Path(pred_root) / cam_name,
             )
         skipped.extend({"camera": cam_name, "frame": name} for name in missing)
+        warnings.extend([*pcam.warnings, *gcam.warnings])
         for index, (gt_name, gt_ref), pred_ref in matched:
             pairs.append(FramePair(cam_name, gt_name, index, pred_ref, gt_ref))
     unscored = [c for c in gt if c not in pred]
-    return Pairing(pairs=pairs, unscored_cameras=unscored, skipped=skipped)
+    return Pairing(pairs=pairs, unscored_cameras=unscored, skipped=skipped, warnings=warnings)
 
 
 def parse_shard(spec: str) -> tuple[int, int]:
@@ -259,4 +278,5 @@ def select_shard(pairing: Pairing, index: int, count: int) -> Pairing:
         pairs=[p for p in pairing.pairs if p.camera in mine],
         unscored_cameras=list(pairing.unscored_cameras),
         skipped=[s for s in pairing.skipped if s["camera"] in mine],
+        warnings=[w for w in pairing.warnings if w["camera"] in mine],
     )

@@ -3,11 +3,19 @@
 Frames are decoded sequentially (seeking is not frame-exact for many codecs): a reader keeps its
 position and re-opens the file only when asked for an earlier frame, so scoring a camera in order
 decodes each frame once.
+
+Damaged files (``scan_video``): OpenCV gives no per-frame error signal (FFmpeg's decoder messages
+go to stderr only, and a frame whose bytes are damaged but still decodable, with the decoder's
+error concealment, is returned as if it were fine). What can be seen is counted: frames the
+decoder dropped, found as gaps in the frames' timestamps (their frame numbers are reported), and
+a stream that ends before the container's frame count. Damage that the decoder conceals without
+dropping a frame is **not** detected.
 """
 
 from __future__ import annotations
 
 import threading
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +25,63 @@ from dynaeval.errors import InputError
 VIDEO_EXTENSIONS = frozenset({".mp4", ".avi", ".mov", ".mkv", ".webm"})
 
 
+@dataclass
+class VideoScan:
+    """What decoding a whole video file found."""
+
+    n_frames: int
+    """Frames decoded."""
+    container_frames: int | None = None
+    """The frame count the container states (None when it states none)."""
+    dropped: list[int] = field(default_factory=list)
+    """Frame numbers (0-based, by timestamp) the decoder skipped: gaps in the timestamps."""
+
+    def problem(self) -> str | None:
+        """A sentence for the results' warnings when frames were lost, else None."""
+        parts = []
+        if self.dropped:
+            shown = ", ".join(map(str, self.dropped[:20])) + (" …" if len(self.dropped) > 20 else "")
+            parts.append(f"{len(self.dropped)} frame(s) could not be decoded (frame numbers by "
+                         f"timestamp: {shown})")
+        lost = (self.container_frames or 0) - self.n_frames - len(self.dropped)
+        if lost > 0:
+            parts.append(f"the stream ends {lost} frame(s) before the container's count "
+                         f"({self.container_frames})")
+        if not parts:
+            return None
+        return ("damaged video: " + "; ".join(parts) + f"; {self.n_frames} frames decoded and "
+                "scored, frames after a gap pair by position with the next ones (re-encode or "
+                "replace the file)")
+
+
+def scan_video(path: str | Path) -> VideoScan:
+    """Decode every frame of a video file (without converting it) and note the frames lost.
+
+    Raises:
+        InputError: the file cannot be read or opened, or holds no frame.
+    """
+    import cv2
+
+    _check_readable(path)
+    cap = cv2.VideoCapture(str(path))
+    if not cap.isOpened():
+        raise InputError("cannot open video file", path=path)
+    fps = cap.get(cv2.CAP_PROP_FPS)
+    stated = int(cap.get(cv2.CAP_PROP_FRAME_COUNT) or 0)
+    step = 1000.0 / fps if fps and fps > 0 else None
+    n = 0
+    dropped: list[int] = []
+    while cap.grab():
+        if step is not None:
+            number = round(cap.get(cv2.CAP_PROP_POS_MSEC) / step)
+            dropped.extend(range(n + len(dropped), number))
+        n += 1
+    cap.release()
+    if n == 0:
+        raise InputError("video file holds no decodable frame", path=path)
+    return VideoScan(n, stated if stated > 0 else None, dropped)
+
+
 def count_frames(path: str | Path) -> int:
     """Number of decodable frames in a video file (decodes the stream: the container's frame
     count is often wrong).
@@ -24,18 +89,19 @@ def count_frames(path: str | Path) -> int:
     Raises:
         InputError: the file cannot be opened or holds no frame.
     """
-    import cv2
+    return scan_video(path).n_frames
 
-    cap = cv2.VideoCapture(str(path))
-    if not cap.isOpened():
-        raise InputError("cannot open video file", path=path)
-    n = 0
-    while cap.grab():
-        n += 1
-    cap.release()
-    if n == 0:
-        raise InputError("video file holds no decodable frame", path=path)
-    return n
+
+def _check_readable(path: str | Path) -> None:
+    """InputError naming the file when it cannot be opened for reading (OpenCV only says no)."""
+    try:
+        with open(path, "rb"):
+            pass
+    except PermissionError as err:
+        raise InputError("cannot read the video file: permission denied (check its "
+                         "permissions, e.g. chmod a+r)", path=path) from err
+    except OSError as err:
+        raise InputError(f"cannot read the video file ({err.strerror or err})", path=path) from err
 
 
 class VideoReader:

@@ -153,3 +153,38 @@ def test_corrupt_video(tmp_path):
     (tmp_path / "pred" / "cam00.mp4").write_bytes(b"not a video")
     with pytest.raises(InputError, match=r"cam00\.mp4: cannot open video|holds no decodable frame"):
         find_frames(tmp_path / "pred")
+
+
+def _refuse_listing(monkeypatch, name: str) -> None:
+    """Make os.walk's listing of folder ``name`` fail as chmod 000 would (tests may run as root,
+    for whom chmod does not refuse)."""
+    import os
+
+    real = os.scandir
+
+    def scandir(path=".", *a):  # noqa: ANN001, ANN202
+        if Path(path).name == name:
+            raise PermissionError(13, "Permission denied", str(path))
+        return real(path, *a)
+
+    monkeypatch.setattr(os, "scandir", scandir)
+
+
+def test_unreadable_prediction_camera_folder_is_refused_not_skipped(tmp_path, monkeypatch):
+    """Issue 16 item 6: an unreadable prediction camera was treated as a camera with no
+    prediction (not scored, exit 0: lost silently)."""
+    layout(tmp_path / "gt", ["cam0/0.png", "cam1/0.png"])
+    layout(tmp_path / "pred", ["cam0/0.png", "cam1/0.png"])
+    _refuse_listing(monkeypatch, "cam1")
+    with pytest.raises(InputError, match=r"pred/cam1: cannot list this prediction folder "
+                                         r"\(Permission denied\).*chmod"):
+        pair_frames(tmp_path / "pred", tmp_path / "gt")
+
+
+def test_unreadable_ground_truth_folder_is_named(tmp_path, monkeypatch):
+    """Item 6: it used to give a misleading "no ground-truth camera"."""
+    layout(tmp_path / "gt", ["cam0/0.png"])
+    layout(tmp_path / "pred", ["cam0/0.png"])
+    _refuse_listing(monkeypatch, "gt")
+    with pytest.raises(InputError, match=r"gt: cannot list this ground truth folder"):
+        pair_frames(tmp_path / "pred", tmp_path / "gt")
