@@ -3,7 +3,9 @@
 Shards split a run by whole cameras (``dynaeval.io.frames.select_shard``), so every per-frame and
 per-camera number of a shard is the unsharded one; merging recomputes the summaries from them with
 the same function (``build_results``), which makes the merged numbers equal to an unsharded run's,
-bit for bit.
+bit for bit. A shard file stores an infinite per-frame value (PSNR of a frame equal to its ground
+truth) as ``null`` like an undefined one; its frame warning says which, and ``restore_infinite``
+puts ``inf`` back first, so the summaries, counts and warnings are the unsharded ones too.
 """
 
 from __future__ import annotations
@@ -13,7 +15,7 @@ from typing import Any
 
 from dynaeval.errors import InputError
 from dynaeval.io.frames import natural_key
-from dynaeval.report.results import FRAME_FIELDS, build_results, load_results
+from dynaeval.report.results import FRAME_FIELDS, build_results, load_results, restore_infinite
 
 
 def merge_results(paths: list[str | Path]) -> dict[str, Any]:
@@ -21,7 +23,8 @@ def merge_results(paths: list[str | Path]) -> dict[str, Any]:
 
     Raises:
         InputError: a file is unreadable or not a shard, the shards come from different runs
-            (method, scene, inputs or settings differ), a shard is missing or given twice.
+            (method, scene, inputs or settings differ), a shard is missing or given twice, or
+            two files hold the same camera (both named).
     """
     if not paths:
         raise InputError("merge needs the results files of the shards")
@@ -29,6 +32,7 @@ def merge_results(paths: list[str | Path]) -> dict[str, Any]:
     first_path, first = docs[0]
     counts = set()
     seen: dict[int, Path] = {}
+    owner: dict[str, Path] = {}
     for path, doc in docs:
         shard = doc["inputs"].get("shard")
         if not shard:
@@ -38,6 +42,13 @@ def merge_results(paths: list[str | Path]) -> dict[str, Any]:
             raise InputError(f"shard {shard['index']}/{shard['count']} given twice: also "
                              f"{seen[shard['index']]}", path=path)
         seen[shard["index"]] = path
+        cameras = [*doc["inputs"]["cameras"], *(f["camera"] for f in doc["frames"])]
+        for cam in dict.fromkeys(cameras):
+            if cam in owner:
+                raise InputError(f"camera {cam!r} is in two shards: {owner[cam]} and {path}; "
+                                 "shards of one run never overlap (score each I/N once)",
+                                 path=path)
+            owner[cam] = path
         for key in ("method", "scene", "settings", "dynaeval_version"):
             if doc[key] != first[key]:
                 raise InputError(f"shards of different runs: '{key}' differs from {first_path}",
@@ -54,6 +65,7 @@ def merge_results(paths: list[str | Path]) -> dict[str, Any]:
         raise InputError(f"shards missing: {', '.join(f'{i}/{count}' for i in missing)}")
 
     rows = [dict(f) for _, doc in docs for f in doc["frames"]]
+    restore_infinite(rows, [w for _, doc in docs for w in doc["warnings"]])
     rows.sort(key=lambda r: (natural_key(r["camera"]), r["index"]))
     frame_names = {k for r in rows for k in r if k not in FRAME_FIELDS}
     metric_names = [n for n in first["metrics"] if n in frame_names]

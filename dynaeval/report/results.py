@@ -18,9 +18,10 @@ Layout (docs/results-format.md documents every field; the JSON Schema ships as
 
 Summaries are the mean of per-frame values (every frame weighs the same, cameras with more frames
 weigh more), never a metric of the pooled error. A per-frame value that is undefined (empty region)
-or infinite (PSNR of identical images) is ``null`` with a warning; a summary over frames that
+or infinite (PSNR of identical images) is ``null`` with a warning (the warning of an infinite one
+says "value is +infinity": ``restore_infinite`` reads it back); a summary over frames that
 include an infinite value is ``null`` too (its mean is infinite), over undefined ones it is the mean
-of the defined values with ``counts`` saying how many.
+of the defined values with ``counts`` saying how many (infinite ones are counted).
 """
 
 from __future__ import annotations
@@ -64,6 +65,28 @@ def _mean(values: list[float | None]) -> tuple[float | None, int, str | None]:
 
 FRAME_FIELDS = ("camera", "frame", "index", "pred", "gt")
 """Keys of a frame row that are not metric values."""
+
+INFINITE_MARK = "value is +infinity"
+"""What the warning of an infinite per-frame value says (``scoring.score_frame``: "prediction
+equals ground truth in the scored region: value is +infinity, written as null"). A results
+file stores such a value as ``null``, like an undefined one; the warning tells them apart."""
+
+
+def restore_infinite(rows: list[dict[str, Any]], warnings: list[dict]) -> int:
+    """Put ``inf`` back, in place, into the rows of a results file where a frame warning says
+    the ``null`` stands for +infinity, so re-summarising them (``merge``) gives what the
+    unsharded run gave: a null summary with its warning, and the frame counted. Returns how many
+    values were restored."""
+    infinite = {(w["camera"], w["frame"], w["metric"]) for w in warnings
+                if "camera" in w and "frame" in w and "metric" in w
+                and INFINITE_MARK in w.get("reason", "")}
+    n = 0
+    for row in rows:
+        for name in list(row):
+            if row[name] is None and (row["camera"], row["frame"], name) in infinite:
+                row[name] = math.inf
+                n += 1
+    return n
 
 
 def place_temporal(
@@ -298,7 +321,8 @@ def _check_layout(doc: dict[str, Any], path: Path) -> None:
     except ImportError:
         return
     schema = json.loads(schema_path().read_text(encoding="utf-8"))
-    error = jsonschema.exceptions.best_match(jsonschema.Draft202012Validator(schema).iter_errors(doc))
+    validator = jsonschema.Draft202012Validator(schema)
+    error = jsonschema.exceptions.best_match(validator.iter_errors(doc))
     if error is not None:
         where = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in error.absolute_path)
         raise InputError(f"not a valid dynaeval results file: {where.lstrip('.') or 'document'}: "

@@ -82,3 +82,47 @@ def test_merge_refuses_incomplete_or_mixed(tmp_path, scene, capsys):
     with pytest.raises(InputError, match=r"whole\.json: not a shard"):
         merge_results([tmp_path / "whole.json"])
     capsys.readouterr()
+
+
+def test_merge_equals_unsharded_when_a_frame_equals_its_ground_truth(tmp_path, scene, capsys):
+    """Issue 16 item 1: a shard stores PSNR +inf as null (like an undefined value); merge
+    averaged over the nulls (a number instead of null, counts one short, warnings gone)."""
+    import shutil
+
+    pred, gt = scene
+    shutil.copy(gt / "cam1" / "0002.png", pred / "cam1" / "0002.png")  # PSNR = +inf there
+    common = ["--no-lpips", "-q", "--focus", "motion", "--no-presence"]
+    assert main(["score", str(pred), str(gt), "-o", str(tmp_path / "all.json"), *common]) == 0
+    parts = [str(tmp_path / f"part{i}.json") for i in (1, 2)]
+    for i, out in enumerate(parts, 1):
+        assert main(["score", str(pred), str(gt), "-o", out, "--shard", f"{i}/2", *common]) == 0
+    assert main(["merge", *parts, "-o", str(tmp_path / "merged.json")]) == 0
+    whole = json.loads((tmp_path / "all.json").read_text())
+    merged = json.loads((tmp_path / "merged.json").read_text())
+    assert whole["summary"]["psnr"] is None and whole["cameras"]["cam1"]["psnr"] is None
+    assert whole["counts"]["psnr"] == whole["summary"]["n_frames"]
+    for key in NUMBERS:
+        assert merged[key] == whole[key], key
+    assert sorted(map(json.dumps, merged["warnings"])) == sorted(map(json.dumps, whole["warnings"]))
+    assert any("summary is null" in w["reason"] and w["metric"] == "psnr"
+               for w in merged["warnings"])
+    capsys.readouterr()
+
+
+def test_merge_refuses_overlapping_shards_naming_both_files(tmp_path, scene, capsys):
+    """Issue 16 item 2: the same camera in two files was merged (frames twice, exit 0)."""
+    pred, gt = scene
+    common = ["--no-lpips", "-q", "--focus", "none", "--no-temporal", "--no-masked"]
+    for i in (1, 2):
+        assert main(["score", str(pred), str(gt), "-o", str(tmp_path / f"p{i}.json"), "--shard",
+                     f"{i}/2", *common]) == 0
+    doc = json.loads((tmp_path / "p1.json").read_text())
+    doc["inputs"]["shard"]["index"] = 2  # shard 1's cameras under shard 2's name
+    (tmp_path / "copy.json").write_text(json.dumps(doc))
+    with pytest.raises(InputError, match=r"copy\.json: camera 'cam0' is in two shards: "
+                                         r".*p1\.json and .*copy\.json"):
+        merge_results([tmp_path / "p1.json", tmp_path / "copy.json"])
+    code = main(["merge", str(tmp_path / "p1.json"), str(tmp_path / "copy.json"), "-o",
+                 str(tmp_path / "m.json")])
+    assert code == 2 and "is in two shards" in capsys.readouterr().err
+    assert not (tmp_path / "m.json").exists()
