@@ -20,6 +20,16 @@ class InputError(ValueError):
         super().__init__(f"{self.path}: {message}" if self.path else message)
 
 
+class UndefinedMetricError(InputError):
+    """A metric is not defined for this input, though the input itself is valid: an image smaller
+    than SSIM's 11x11 window or LPIPS's pooling.
+
+    A subclass of ``InputError`` (calling ``ssim`` on a 5x5 image directly is the caller's error),
+    but ``dynaeval.score`` records the value as ``null`` with this message as the reason and goes
+    on with the metrics that are defined (PSNR has no minimum size).
+    """
+
+
 class WeightsUnavailableError(RuntimeError):
     """Pretrained weights (e.g. LPIPS's torchvision backbone) are not on this machine.
 

@@ -20,11 +20,15 @@ from typing import Any
 import numpy as np
 
 from dynaeval.config import ScoreConfig
-from dynaeval.errors import EmptyRegionError, InputError
+from dynaeval.errors import EmptyRegionError, InputError, UndefinedMetricError
 from dynaeval.io import FramePair
 from dynaeval.io.cache import FrameCache
 from dynaeval.metrics.registry import REGION_RULES, FrameFn, keys_of
 from dynaeval.regions.focus import FrameRegions
+
+TEMPORAL_MIN_SIZE = 16
+"""Temporal terms need frames of at least this many pixels on each side: OpenCV's optical flow
+fails (or crashes) on smaller ones."""
 
 PresenceStep = Callable[[FramePair, np.ndarray, np.ndarray, FrameRegions],
                         tuple[dict[str, float | None], dict[str, str], list[dict]]]
@@ -207,10 +211,10 @@ def _metric_values(pair: FramePair, pred: np.ndarray, gt: np.ndarray, regions: F
         t0 = time.perf_counter()
         try:
             values.append((name, float(fn(pred, gt, kw)), None))
-        except InputError as err:  # e.g. a frame smaller than the SSIM window
-            raise InputError(f"{name}: {err}", path=str(pair.pred)) from err
-        except EmptyRegionError as err:
+        except (EmptyRegionError, UndefinedMetricError) as err:  # e.g. smaller than SSIM's window
             values.append((name, None, str(err)))
+        except InputError as err:
+            raise InputError(f"{name}: {err}", path=str(pair.pred)) from err
         elapsed[name] = time.perf_counter() - t0
     return values
 
@@ -218,7 +222,18 @@ def _metric_values(pair: FramePair, pred: np.ndarray, gt: np.ndarray, regions: F
 def score_frame(pair: FramePair, regions: FrameRegions, run: Run,
                 cache: FrameCache) -> tuple[dict[str, Any], list[dict]]:
     """The results row of one frame (its metric values; inf kept, None for undefined) and its
-    warnings."""
+    warnings. An InputError that names no file is raised again naming the pair's files."""
+    try:
+        return _score_frame(pair, regions, run, cache)
+    except InputError as err:
+        if err.path is not None:
+            raise
+        raise InputError(f"camera {pair.camera!r} frame {pair.frame!r} (ground truth {pair.gt}): "
+                         f"{err}", path=str(pair.pred)) from err
+
+
+def _score_frame(pair: FramePair, regions: FrameRegions, run: Run,
+                 cache: FrameCache) -> tuple[dict[str, Any], list[dict]]:
     t0 = time.perf_counter()
     pred, gt = load_pair(pair, run.config, cache)
     elapsed = {"read": time.perf_counter() - t0}
@@ -263,14 +278,27 @@ def camera_regions_of(camera: str, pairs: list[FramePair], run: Run,
     from dynaeval.regions.focus import camera_regions
 
     t0 = time.perf_counter()
-    first_gt = load_gt(pairs[0], run.config, cache)
-    regions = camera_regions(
-        camera, [p.frame for p in pairs],
-        lambda i: load_gt(pairs[i], run.config, cache),
-        first_gt.shape[:2], run.sources, run.pool,
-    )
+    try:
+        first_gt = load_gt(pairs[0], run.config, cache)
+        regions = camera_regions(
+            camera, [p.frame for p in pairs],
+            lambda i: load_gt(pairs[i], run.config, cache),
+            first_gt.shape[:2], run.sources, run.pool, paths=[p.gt for p in pairs],
+        )
+    except InputError as err:
+        if err.path is not None:
+            raise
+        raise InputError(f"camera {camera!r}: regions of the ground truth: {err}",
+                         path=str(pairs[0].gt.path.parent)) from err
     run.add_time({"regions": time.perf_counter() - t0})
     return regions
+
+
+def _not_video_warning(camera: str, pairs: list[FramePair], err: Any) -> dict:
+    """The one warning of a camera whose frames differ in shape, naming the first odd file."""
+    return {"camera": camera, "reason": (
+        f"{err.reason()}: {pairs[err.index].gt} differs from {pairs[0].gt}; its frames are "
+        "scored one by one, its temporal and motion-mask values are null")}
 
 
 def score_camera(camera: str, pairs: list[FramePair], run: Run, *,
@@ -296,14 +324,45 @@ def score_camera(camera: str, pairs: list[FramePair], run: Run, *,
     outputs = list(run.pool.map(work, items)) if run.pool else [work(it) for it in items]
     rows = [row for row, _ in outputs]
     warnings = [w for _, ws in outputs for w in ws]
+    differ = regions[0].not_video if regions else None
     temporal = None
     if run.temporal is not None:
         # the camera's pairs run on the pool (flows dominate: 3 per pair); the frames are
         # decoded here meanwhile, and the next camera starts when they are done
         t0 = time.perf_counter()
-        temporal = temporal_of_camera(pairs, regions, run, cache)
+        temporal, differ = _temporal_or_reason(camera, pairs, regions, run, cache, differ)
         run.add_time({"temporal": time.perf_counter() - t0})
+    if differ is not None:
+        warnings.insert(0, _not_video_warning(camera, pairs, differ))
     return CameraScores(rows, warnings, temporal)
+
+
+def _temporal_or_reason(camera: str, pairs: list[FramePair], regions: list[FrameRegions],
+                        run: Run, cache: FrameCache, differ: Any) -> tuple[dict[str, dict], Any]:
+    """The camera's temporal terms, or every term null with the reason: frames that differ in
+    shape (``differ``: the ``FramesDiffer`` found by the regions, or found here), frames too
+    small for optical flow. InputErrors that name no file are raised naming the camera."""
+    from dynaeval.regions.focus import FramesDiffer
+
+    def nulls(reason: str) -> dict[str, dict]:
+        return {n: {"value": None, "reason": reason} for n in keys_of("pair", "camera")}
+
+    if differ is not None:
+        return nulls(differ.reason()), differ
+    h, w = load_gt(pairs[0], run.config, cache).shape[:2]
+    if min(h, w) < TEMPORAL_MIN_SIZE:
+        return nulls(f"temporal terms need frames of at least {TEMPORAL_MIN_SIZE}x"
+                     f"{TEMPORAL_MIN_SIZE} pixels (optical flow), camera {camera!r} has "
+                     f"{w}x{h}"), None
+    try:
+        return temporal_of_camera(pairs, regions, run, cache), None
+    except FramesDiffer as err:
+        return nulls(err.reason()), err
+    except InputError as err:
+        if err.path is not None:
+            raise
+        raise InputError(f"camera {camera!r}: temporal terms: {err}",
+                         path=str(pairs[0].pred.path.parent)) from err
 
 
 def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], run: Run,
@@ -324,9 +383,13 @@ def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], run:
     if config.focus.source != "none" and all(r.boxes is not None for r in regions):
         region_masks = [r.boxes for r in regions]
     tcfg = run.temporal if "lpips" in run.fns else replace(run.temporal, tlp=False)
+    from dynaeval.regions.focus import same_shape
+
+    gt_of = same_shape(lambda i: load_gt(pairs[i], config, cache),
+                       load_gt(pairs[0], config, cache).shape)
     return temporal_metrics(
         (load_pair(p, config, cache)[0] for p in pairs),
-        (load_gt(p, config, cache) for p in pairs),
+        (gt_of(i) for i in range(len(pairs))),
         static_mask=static,
         region_masks=region_masks,
         config=tcfg,

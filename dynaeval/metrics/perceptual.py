@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from dynaeval.boxes import grow_box
-from dynaeval.errors import InputError, WeightsUnavailableError
+from dynaeval.errors import InputError, UndefinedMetricError, WeightsUnavailableError
 from dynaeval.metrics._common import clipped_boxes, region_mask
 from dynaeval.runtime import new_session, onnx_providers, resolve_device, torch_device
 from dynaeval.validation import check_pair
@@ -281,7 +281,7 @@ def _prepare(pred: object, gt: object, net: str) -> tuple[np.ndarray, np.ndarray
     g = _check_lpips_image(g, "gt")
     h, w = p.shape[:2]
     if min(h, w) < MIN_SIZE[net]:
-        raise InputError(
+        raise UndefinedMetricError(
             f"LPIPS ({net}) needs images of at least {MIN_SIZE[net]}x{MIN_SIZE[net]} pixels "
             f"(the backbone's pooling), got {h}x{w}; score larger images or skip LPIPS"
         )
@@ -354,7 +354,8 @@ def lpips(
         LPIPS as a float >= 0 (0 for identical images).
 
     Raises:
-        InputError: shapes, range, channels, size, NaN/Inf, bad mask/boxes/mode/net/backend.
+        InputError: shapes, range, channels, NaN/Inf, bad mask/boxes/mode/net/backend.
+        UndefinedMetricError: (an InputError) the image is smaller than MIN_SIZE[net].
         EmptyRegionError: the region holds no pixel.
         WeightsUnavailableError: the pretrained backbone is not in torchvision's cache.
     """

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.errors import EmptyRegionError, InputError
+from dynaeval.errors import EmptyRegionError, InputError, UndefinedMetricError
 from dynaeval.boxes import grow_box
 from dynaeval.metrics._common import clipped_boxes, region_mask
 from dynaeval.validation import check_data_range, check_pair
@@ -51,10 +51,10 @@ def gaussian_window(sigma: float = SIGMA, truncate: float = TRUNCATE) -> np.ndar
 
 def _check_size(h: int, w: int) -> None:
     if h < WIN_SIZE or w < WIN_SIZE:
-        raise InputError(
+        raise UndefinedMetricError(
             f"SSIM needs images of at least {WIN_SIZE}x{WIN_SIZE} pixels (its Gaussian window, "
-            f"sigma {SIGMA}, has {WIN_SIZE} taps); got {h}x{w} (HxW). Score larger images, or "
-            "leave SSIM out for this input (PSNR has no minimum size)"
+            f"sigma {SIGMA}, has {WIN_SIZE} taps); got {h}x{w} (HxW): SSIM is undefined for this "
+            "image (dynaeval.score records null; PSNR has no minimum size)"
         )
 
 
@@ -313,7 +313,8 @@ def ssim(
         SSIM as a float in [-1, 1]; 1.0 for identical images.
 
     Raises:
-        InputError: shapes differ, image smaller than 11x11, NaN/Inf, bad mask/boxes/mode.
+        InputError: shapes differ, NaN/Inf, bad mask/boxes/mode.
+        UndefinedMetricError: (an InputError) the image is smaller than 11x11.
         EmptyRegionError: the region holds no pixel (or none whose window fits, in map mode).
     """
     if region_mode is not None and region_mode not in REGION_MODES:

@@ -22,6 +22,42 @@ from dynaeval.regions.expand import ExpandConfig, expand_boxes
 FOCUS_SOURCES = ("detector", "motion", "boxes", "none")
 MIN_MOTION_FRAMES = 3
 """Motion masks compare a frame with the temporal median: fewer frames give no stable median."""
+NOT_A_VIDEO = "not a video: frames differ in size/channels"
+"""Why a camera whose frames differ in shape (a static scene's test set, photos) has no motion
+mask and no temporal term: its per-frame metrics are scored, frame by frame."""
+
+
+class FramesDiffer(Exception):
+    """Frame ``index`` of a camera has another shape than frame 0: the camera is no video.
+
+    Not an error of the input: ``camera_regions`` and ``dynaeval.scoring`` catch it and score
+    the frames one by one (motion masks and temporal terms null with ``NOT_A_VIDEO``).
+    """
+
+    def __init__(self, index: int, shape: tuple[int, ...], first: tuple[int, ...]) -> None:
+        self.index, self.shape, self.first = index, tuple(shape), tuple(first)
+        super().__init__(f"frame {index} is {_hwc(self.shape)}, frame 0 is {_hwc(self.first)}")
+
+    def reason(self) -> str:
+        """``NOT_A_VIDEO`` with the two shapes."""
+        return f"{NOT_A_VIDEO} ({self})"
+
+
+def _hwc(shape: tuple[int, ...]) -> str:
+    h, w = shape[:2]
+    c = shape[2] if len(shape) > 2 else 1
+    return f"{w}x{h} px, {c} channel(s)"
+
+
+def same_shape(load: Callable[[int], np.ndarray], first: tuple[int, ...]) -> Callable[[int], np.ndarray]:
+    """``load`` that raises ``FramesDiffer`` when frame ``i``'s shape is not ``first``."""
+    def checked(i: int) -> np.ndarray:
+        frame = load(i)
+        if frame.shape != first:
+            raise FramesDiffer(i, frame.shape, first)
+        return frame
+
+    return checked
 
 
 @dataclass(frozen=True)
@@ -77,6 +113,9 @@ class FrameRegions:
     records: list[dict] | None = None
     """The objects behind ``raw_boxes`` with their classes (boxes-file or detector records
     ``{class, id, box, ...}``); None for motion boxes, which have no class."""
+    not_video: FramesDiffer | None = None
+    """Set on every frame of a camera whose frames differ in shape (the first difference; its
+    ``reason()`` is the text): no motion mask, no temporal term; None for a video."""
 
 
 @dataclass
@@ -133,6 +172,7 @@ def camera_regions(
     shape: tuple[int, int],
     sources: RegionSources,
     executor: Executor | None = None,
+    paths: Sequence[object] | None = None,
 ) -> list[FrameRegions]:
     """Regions of every frame of one camera, computed from its ground truth.
 
@@ -140,31 +180,67 @@ def camera_regions(
         camera: camera name (boxes-file keys are ``"<camera>/<frame>"``).
         frames: frame names in temporal order.
         load_gt: ``i -> (H, W, C) float32`` ground truth of frame ``i`` in [0, 1].
-        shape: (H, W) of the frames.
+        shape: (H, W) of frame 0.
         sources: from ``open_sources``.
         executor: optional thread executor: ISG motion masks and detector runs of the frames are
             computed on it (``load_gt`` and the detector must be thread-safe; the regions are
             those of the sequential run).
+        paths: the ground-truth file of each frame, named in the detector's errors.
 
     Returns:
-        One ``FrameRegions`` per frame.
+        One ``FrameRegions`` per frame. When the frames differ in shape (not a video: a static
+        scene's test set, photos), every frame's boxes are found and clipped on its own, there
+        is no motion mask (reason ``NOT_A_VIDEO``) and every ``FrameRegions.not_video`` says so.
     """
+    try:
+        return _camera_regions(camera, frames, load_gt, sources, executor, paths, video=True)
+    except FramesDiffer as err:
+        out = _camera_regions(camera, frames, load_gt, sources, executor, paths, video=False)
+        for r in out:
+            r.not_video = err
+            if r.mask_reason == NOT_A_VIDEO:
+                r.mask_reason = err.reason()
+            if r.boxes_reason == NOT_A_VIDEO:
+                r.boxes_reason = err.reason()
+        return out
+
+
+def _camera_regions(camera: str, frames: Sequence[str], load_gt: Callable[[int], np.ndarray],
+                    sources: RegionSources, executor: Executor | None,
+                    paths: Sequence[object] | None, *, video: bool) -> list[FrameRegions]:
+    """``camera_regions``; ``video``: the frames are checked to share frame 0's shape
+    (``FramesDiffer`` otherwise) and get motion masks; False: each frame on its own."""
     cfg = sources.config
-    h, w = shape
+    first = load_gt(0).shape
+    load = same_shape(load_gt, first) if video else load_gt
     out = [FrameRegions() for _ in frames]
-    if cfg.masked or cfg.source == "motion":
-        _add_motion_masks(out, camera, load_gt, cfg.motion_kind, executor)
+    if (cfg.masked or cfg.source == "motion") and video:
+        _add_motion_masks(out, camera, load, cfg.motion_kind, executor)
+    elif cfg.masked or cfg.source == "motion":
+        for r in out:
+            r.mask_reason = NOT_A_VIDEO
     detections = None
     if cfg.source == "detector":
         def detect(i: int):  # noqa: ANN202
-            return sources.detector(load_gt(i))
+            frame = load(i)
+            try:
+                return frame.shape[:2], sources.detector(frame)
+            except InputError as err:
+                if err.path is not None or paths is None:
+                    raise
+                raise InputError(f"camera {camera!r} frame {frames[i]!r}: {err}",
+                                 path=str(paths[i])) from err
 
         indices = range(len(frames))
         detections = executor.map(detect, indices) if executor else map(detect, indices)
-    for name, r in zip(frames, out, strict=True):
+    for i, (name, r) in enumerate(zip(frames, out, strict=True)):
         raw = _frame_boxes(r, camera, name, sources, detections)
         if raw is None:
             continue
+        if isinstance(raw, tuple):  # the detector: (frame's (H, W), boxes)
+            (h, w), raw = raw
+        else:
+            h, w = first[:2] if video else load(i).shape[:2]
         raw = clip_boxes(raw, h, w)
         r.raw_boxes = raw
         if len(raw) == 0:
@@ -203,9 +279,10 @@ def _add_motion_masks(out: list[FrameRegions], camera: str, load_gt: Callable[[i
 
 
 def _frame_boxes(r: FrameRegions, camera: str, name: str, sources: RegionSources,
-                 detections: Iterator[Any] | None) -> np.ndarray | None:
+                 detections: Iterator[Any] | None) -> np.ndarray | tuple | None:
     """The raw boxes of one frame from the focus source (setting ``r.records``), or None with
-    ``r.boxes_reason`` set. ``detections``: the detector's results, one per frame, in order."""
+    ``r.boxes_reason`` set. ``detections``: ``(frame's (H, W), Detections)``, one per frame, in
+    order; the detector's boxes come back with the frame's size, ``((H, W), boxes)``."""
     source = sources.config.source
     if source == "none":
         r.boxes_reason = "no focus regions requested (--focus none)"
@@ -220,9 +297,9 @@ def _frame_boxes(r: FrameRegions, camera: str, name: str, sources: RegionSources
         r.records = list(records)
         return records_to_boxes(records)
     if source == "detector":
-        found = next(detections)
+        hw, found = next(detections)
         r.records = found.records()
-        return found.boxes
+        return hw, found.boxes
     if r.mask is None:  # motion
         r.boxes_reason = r.mask_reason
         return None

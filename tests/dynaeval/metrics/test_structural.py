@@ -280,3 +280,15 @@ def test_flat_dark_and_bright_windows_keep_the_constants_exact(rng, level):
     b = np.clip(a + 2e-3 * rng.standard_normal(a.shape), 0, 1)
     assert abs(ssim(a, b) - _sk(a, b)) < TOL
     np.testing.assert_allclose(ssim_map(a, b), ssim_reference(a, b), rtol=0, atol=1e-5)
+
+
+def test_too_small_is_an_undefined_metric_not_a_bad_input():
+    """Issue 16 item 11: ``dynaeval.score`` records null for it and goes on (a distinct class,
+    still an InputError for a direct call)."""
+    from dynaeval.errors import UndefinedMetricError
+
+    with pytest.raises(UndefinedMetricError, match=r"at least 11x11 pixels.*got 5x5.*undefined"):
+        ssim(np.zeros((5, 5)), np.zeros((5, 5)))
+    with pytest.raises(InputError, match="same shape") as info:
+        ssim(np.zeros((12, 12)), np.zeros((12, 13)))
+    assert not isinstance(info.value, UndefinedMetricError)
