@@ -103,18 +103,23 @@ def flatten_settings(settings: dict[str, Any], prefix: str = "") -> dict[str, An
     return out
 
 
-def _skipped_sections(a: dict[str, Any], b: dict[str, Any]) -> list[str]:
-    """Sections whose metrics exist in at most one of the files, so there is nothing to compare:
-    a section present in one file only (``temporal`` of a ``--no-temporal`` run) or switched off
-    in either (``lpips.enabled`` false: LPIPS did not run)."""
+def _skipped_sections(a: dict[str, Any], b: dict[str, Any], prefix: str = "") -> list[str]:
+    """Sections, at any depth, whose metrics exist in at most one of the files, so there is
+    nothing to compare: a section present in one file only (``temporal`` of a ``--no-temporal``
+    run, ``focus.motion`` of a ``--no-masked`` one) or switched off in either (``lpips.enabled``
+    false: LPIPS did not run). Sections present in both are searched the same way."""
     out = []
     for key in {*a, *b}:
         va, vb = a.get(key), b.get(key)
         if isinstance(va, dict) or isinstance(vb, dict):
-            if va is None or vb is None:
-                out.append(key + ".")
+            name = f"{prefix}{key}."
+            if not isinstance(va, dict) or not isinstance(vb, dict):
+                if va is None or vb is None:
+                    out.append(name)
             elif va.get("enabled") is False or vb.get("enabled") is False:
-                out.append(key + ".")
+                out.append(name)
+            else:
+                out.extend(_skipped_sections(va, vb, name))
     return out
 
 
@@ -125,8 +130,9 @@ def settings_differences(
     """Number-changing settings that differ between two results' ``settings``:
     ``[(field, value in a, value in b)]`` (``None`` where a field is absent), in field order.
 
-    Not compared: ``IGNORED_SETTINGS`` and sections of metrics that ran in at most one of the
-    two files (a section absent from one, or with ``enabled: false`` in either); fields starting
+    Not compared: ``IGNORED_SETTINGS`` and sections (at any depth: ``temporal``,
+    ``focus.motion``) of metrics that ran in at most one of the two files (a section absent from
+    one, or with ``enabled: false`` in either); fields starting
     with a prefix in ``skip``; with ``only``, every field not starting with one of its prefixes."""
     fa, fb = flatten_settings(a), flatten_settings(b)
     skipped = (*_skipped_sections(a, b), *skip)

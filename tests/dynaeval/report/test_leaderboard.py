@@ -236,3 +236,22 @@ def test_boxes_files_are_compared_within_a_scene_only():
     bad = [doc("a", "s1", "x"), doc("a", "s2", "y"), doc("b", "s2", "z")]
     with pytest.raises(InputError, match=r"'focus.boxes_file.sha256' is 'y' in 2 but 'z' in 3"):
         _check(bad, ["1", "2", "3"], force=False)
+
+
+def test_no_masked_run_beside_a_full_run_is_comparable(tmp_path, capsys):
+    """Issue 16 item 14: focus.motion exists only where the masks were computed; a --no-masked
+    run was refused ('focus.motion.kind' is 'isg' in ... but None in ...)."""
+    full = json.loads(json.dumps(SETTINGS))
+    full["focus"]["motion"] = {"kind": "isg", "min_frames": 3}
+    assert settings_differences(full, SETTINGS) == []
+    assert settings_differences(SETTINGS, full) == []
+    other_kind = json.loads(json.dumps(full))
+    other_kind["focus"]["motion"]["kind"] = "ist"  # both ran masks: still compared
+    assert settings_differences(full, other_kind) == [("focus.motion.kind", "isg", "ist")]
+    presence_off = dict(json.loads(json.dumps(SETTINGS)), presence={"enabled": False, "margin": 2})
+    presence_on = dict(json.loads(json.dumps(SETTINGS)), presence={"enabled": True, "margin": 1})
+    assert settings_differences(presence_on, presence_off) == []
+    a = _write(tmp_path / "a.json", "A", "s", [30.0, 31.0], settings=full)
+    b = _write(tmp_path / "b.json", "B", "s", [29.0, 30.0])
+    assert main(["leaderboard", a, b]) == 0
+    assert "| A | s |" in capsys.readouterr().out
