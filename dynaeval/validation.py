@@ -6,6 +6,10 @@
   the image is wanted in ``[0, 1]``. uint8 is divided by 255, uint16 by 65535 (the dtype's
   maximum); floats are taken as they are (``check_range=True`` refuses values outside
   ``[0, 1]``); other integer types and bool are refused, since their range is unknown.
+* image files: ``dynaeval.io.images.read_image`` applies the rule once, at reading time, so every
+  path (``--focus none``, detector, motion masks, temporal terms) sees the same image: float
+  files outside [0, 1] by more than ``FLOAT_TOLERANCE`` are an InputError naming the file and its
+  min/max, rounding within it is clipped. Arrays passed to the library are checked here.
 * ``to_unit=False`` (PSNR, SSIM, presence, LPIPS's pair check: metrics with an explicit
   ``data_range``): values are in ``[0, data_range]`` and are returned as they are; integer and
   float16 input is upcast to float32, **never divided**. So uint8 scored with ``data_range=255``
