@@ -330,7 +330,7 @@ def _run_detect(args: argparse.Namespace) -> int:
     mapping, source = detect_ground_truth(args.gt, source=args.source,
                                           detector_model=args.detector, device=args.device,
                                           progress=not args.quiet)
-    write_boxes_file(args.output, mapping, source)
+    write_boxes_file(args.output, mapping, source, overwrite=args.overwrite)
     n_boxes = sum(len(v) for v in mapping.values())
     empty = sum(not v for v in mapping.values())
     print(f"{n_boxes} boxes in {len(mapping)} frames ({empty} without any) written to "

@@ -209,18 +209,22 @@ def write_boxes_file(
     path: str | Path,
     boxes: Mapping[str, Iterable[Mapping[str, Any]]],
     source: Mapping[str, Any] | None = None,
+    *,
+    overwrite: bool = True,
 ) -> Path:
     """Write ``boxes`` in the wrapper layout, atomically (``dynaeval.io.atomic``).
 
     The records are validated first (same rules as reading), so a written file always reads back.
-    A failed write leaves any existing file at ``path`` untouched. Returns the path.
+    A failed write leaves any existing file at ``path`` untouched. With ``overwrite=False`` the
+    last step is exclusive: if ``path`` exists (or appeared meanwhile) nothing is written and
+    InputError is raised. Returns the path.
     """
     path = Path(path)
     clean = validate_boxes({k: list(v) for k, v in boxes.items()}, path)
     doc = {"schema": BOXES_SCHEMA, "source": _plain(dict(source or {})), "boxes": _plain(clean)}
     text = json.dumps(doc, indent=1, allow_nan=False)  # before opening: a bad value leaves no file
     path.parent.mkdir(parents=True, exist_ok=True)
-    write_text_atomic(path, text + "\n", overwrite=True, what="boxes file")
+    write_text_atomic(path, text + "\n", overwrite=overwrite, what="boxes file")
     return path
 
 

@@ -151,3 +151,16 @@ def test_unreadable_boxes_file_exit_2_before_scoring(tmp_path, monkeypatch, caps
     code = main(["score", str(gt), str(gt), "--focus", f"boxes:{p}", "--no-lpips", "-q"])
     err = capsys.readouterr().err
     assert code == 2 and "b.json: boxes file is not readable" in err and "Traceback" not in err
+
+
+def test_write_without_overwrite_is_exclusive(tmp_path):
+    """Two ``dynaeval detect`` runs racing for one -o: the second finds the file and writes
+    nothing (the final step of the write fails if the target exists)."""
+    out = tmp_path / "b.json"
+    write_boxes_file(out, {"cam/0000": [{"class": "ball", "box": [0, 0, 4, 4]}]}, overwrite=False)
+    first = out.read_text()
+    with pytest.raises(InputError, match="exists"):
+        write_boxes_file(out, {"cam/0000": []}, overwrite=False)
+    assert out.read_text() == first
+    write_boxes_file(out, {"cam/0000": []})  # default: replace
+    assert read_boxes_file(out).boxes == {"cam/0000": []}
