@@ -234,9 +234,12 @@ def score_frame(pair: FramePair, regions: FrameRegions, run: Run,
 
 def _score_frame(pair: FramePair, regions: FrameRegions, run: Run,
                  cache: FrameCache) -> tuple[dict[str, Any], list[dict]]:
+    from dynaeval.regions.focus import fit_to
+
     t0 = time.perf_counter()
     pred, gt = load_pair(pair, run.config, cache)
     elapsed = {"read": time.perf_counter() - t0}
+    regions = fit_to(regions, gt.shape[:2], run.config.focus)
     row: dict[str, Any] = {"camera": pair.camera, "frame": pair.frame, "index": pair.index,
                            "pred": str(pair.pred), "gt": str(pair.gt)}
     values = _metric_values(pair, pred, gt, regions, run, elapsed)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Executor
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -113,6 +113,9 @@ class FrameRegions:
     records: list[dict] | None = None
     """The objects behind ``raw_boxes`` with their classes (boxes-file or detector records
     ``{class, id, box, ...}``); None for motion boxes, which have no class."""
+    size: tuple[int, int] | None = None
+    """(H, W) that ``raw_boxes`` were clipped and ``boxes`` expanded to (the frame's size when
+    it was read; frame 0's for a boxes file, see ``fit_to``)."""
     not_video: FramesDiffer | None = None
     """Set on every frame of a camera whose frames differ in shape (the first difference; its
     ``reason()`` is the text): no motion mask, no temporal term; None for a video."""
@@ -242,12 +245,29 @@ def _camera_regions(camera: str, frames: Sequence[str], load_gt: Callable[[int],
         else:
             h, w = first[:2] if video else load(i).shape[:2]
         raw = clip_boxes(raw, h, w)
-        r.raw_boxes = raw
+        r.raw_boxes, r.size = raw, (h, w)
         if len(raw) == 0:
             r.boxes_reason = _NO_BOX_REASON[cfg.source]
             continue
         r.boxes = expand_boxes(raw, cfg.expand, h, w)
     return out
+
+
+def fit_to(r: FrameRegions, size: tuple[int, int], config: FocusConfig) -> FrameRegions:
+    """``r`` with its boxes clipped and expanded to a frame of ``size`` (H, W).
+
+    A boxes file's boxes are clipped to frame 0's size without reading the other frames; a
+    frame of another size (a camera that is no video) gets them fitted here, when it is read.
+    """
+    if r.raw_boxes is None or r.size is None or tuple(size) == r.size:
+        return r
+    from dynaeval.regions.boxes_file import records_to_boxes
+
+    h, w = size
+    raw = clip_boxes(records_to_boxes(r.records) if r.records is not None else r.raw_boxes, h, w)
+    boxes = expand_boxes(raw, config.expand, h, w) if len(raw) else None
+    reason = None if boxes is not None else _NO_BOX_REASON[config.source]
+    return replace(r, raw_boxes=raw, boxes=boxes, boxes_reason=reason, size=(h, w))
 
 
 _NO_BOX_REASON = {

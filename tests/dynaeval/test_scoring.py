@@ -135,3 +135,24 @@ def test_a_detector_error_names_the_ground_truth_file(tmp_path):
     run.sources.detector = fails
     with pytest.raises(InputError, match=r"gt/0000\.png: camera '\.' frame '0000': detector input"):
         camera_regions_of(".", pairs, run, FrameCache(0))
+
+
+def test_boxes_file_boxes_fit_each_frame_of_a_camera_that_is_no_video(tmp_path):
+    """Item 9 with ``--focus boxes:FILE --no-masked``: nothing reads frame 1 before it is
+    scored, so its boxes (clipped to frame 0's size) are fitted to its own size then: the
+    focused value is that of the box clipped and expanded in frame 1."""
+    from dynaeval import metrics as M
+    from dynaeval.regions import write_boxes_file
+    from dynaeval.regions.expand import expand_boxes
+
+    rng = np.random.default_rng(6)
+    _write(tmp_path, [textured_frame(rng, 24, 32), textured_frame(rng, 48, 64)], noise=9)
+    box = [40, 30, 52, 44]  # outside frame 0, inside frame 1
+    write_boxes_file(tmp_path / "b.json", {"./0000": [], "./0001": [
+        {"class": "person", "id": 0, "box": box}]})
+    res = _score(tmp_path, focus=FocusConfig(source="boxes", boxes_file=str(tmp_path / "b.json"),
+                                             masked=False), presence=False)
+    pred = cv2.imread(str(tmp_path / "pred" / "0001.png"))[..., ::-1] / np.float32(255)
+    gt = cv2.imread(str(tmp_path / "gt" / "0001.png"))[..., ::-1] / np.float32(255)
+    want = M.psnr(pred, gt, boxes=expand_boxes(np.array([box]), "paper", 48, 64))
+    assert res["frames"][1]["focused_psnr"] == pytest.approx(want, rel=1e-12)
