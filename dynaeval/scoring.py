@@ -358,7 +358,7 @@ def _temporal_or_reason(camera: str, pairs: list[FramePair], regions: list[Frame
                      f"{TEMPORAL_MIN_SIZE} pixels (optical flow), camera {camera!r} has "
                      f"{w}x{h}"), None
     try:
-        return temporal_of_camera(pairs, regions, run, cache), None
+        return _with_small_tlp(temporal_of_camera(pairs, regions, run, cache), run, h, w), None
     except FramesDiffer as err:
         return nulls(err.reason()), err
     except InputError as err:
@@ -366,6 +366,27 @@ def _temporal_or_reason(camera: str, pairs: list[FramePair], regions: list[Frame
             raise
         raise InputError(f"camera {camera!r}: temporal terms: {err}",
                          path=str(pairs[0].pred.path.parent)) from err
+
+
+def _small_for_tlp(run: Run, h: int, w: int) -> str | None:
+    """Why tLP is undefined for frames of (h, w), or None (LPIPS's backbone has a minimum)."""
+    from dynaeval.metrics.perceptual import MIN_SIZE
+
+    net = run.temporal.lpips_net
+    if "lpips" not in run.fns or not run.temporal.tlp or min(h, w) >= MIN_SIZE.get(net, 0):
+        return None
+    return (f"tLP needs frames of at least {MIN_SIZE[net]}x{MIN_SIZE[net]} pixels (LPIPS {net}), "
+            f"got {w}x{h}")
+
+
+def _with_small_tlp(temporal: dict[str, dict], run: Run, h: int, w: int) -> dict[str, dict]:
+    """``temporal`` with the tLP entries null with the reason when the frames are too small."""
+    why = _small_for_tlp(run, h, w)
+    if why is not None:
+        for key in keys_of("pair", "camera"):
+            if key.endswith("tlp"):
+                temporal[key] = {"value": None, "reason": why, "per_pair": []}
+    return temporal
 
 
 def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], run: Run,
@@ -385,7 +406,9 @@ def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], run:
     region_masks = None
     if config.focus.source != "none" and all(r.boxes is not None for r in regions):
         region_masks = [r.boxes for r in regions]
-    tcfg = run.temporal if "lpips" in run.fns else replace(run.temporal, tlp=False)
+    h, w = load_gt(pairs[0], config, cache).shape[:2]
+    tlp = "lpips" in run.fns and _small_for_tlp(run, h, w) is None
+    tcfg = run.temporal if tlp else replace(run.temporal, tlp=False)
     from dynaeval.regions.focus import same_shape
 
     gt_of = same_shape(lambda i: load_gt(pairs[i], config, cache),

@@ -156,3 +156,17 @@ def test_boxes_file_boxes_fit_each_frame_of_a_camera_that_is_no_video(tmp_path):
     gt = cv2.imread(str(tmp_path / "gt" / "0001.png"))[..., ::-1] / np.float32(255)
     want = M.psnr(pred, gt, boxes=expand_boxes(np.array([box]), "paper", 48, 64))
     assert res["frames"][1]["focused_psnr"] == pytest.approx(want, rel=1e-12)
+
+
+def test_frames_too_small_for_lpips_score_the_rest(tmp_path, random_lpips):
+    """Item 11 with LPIPS on: 20x24 frames fit SSIM and the optical flow but not AlexNet's
+    31 px: LPIPS and tLP are null with the reason, the rest is scored (before: exit 2)."""
+    rng = np.random.default_rng(7)
+    _write(tmp_path, [textured_frame(rng, 20, 24) for _ in range(4)], noise=5)
+    res = _score(tmp_path, focus=FocusConfig(source="none"))
+    assert all(f["lpips"] is None and math.isfinite(f["ssim"]) for f in res["frames"])
+    why = [w["reason"] for w in res["warnings"] if w.get("metric") == "lpips" and "frame" in w]
+    assert len(why) == 4 and "at least 31x31 pixels" in why[0]
+    tlp = [w["reason"] for w in res["warnings"] if w.get("metric") == "tlp"]
+    assert tlp and "tLP needs frames of at least 31x31 pixels" in tlp[0]
+    assert math.isfinite(res["summary"]["warp_error"])
