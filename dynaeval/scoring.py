@@ -23,12 +23,11 @@ from dynaeval.config import ScoreConfig
 from dynaeval.errors import EmptyRegionError, InputError, UndefinedMetricError
 from dynaeval.io import FramePair
 from dynaeval.io.cache import FrameCache
+from dynaeval.metrics.flow import MIN_FLOW_SIZE as TEMPORAL_MIN_SIZE
 from dynaeval.metrics.registry import REGION_RULES, FrameFn, keys_of
 from dynaeval.regions.focus import FrameRegions
+from dynaeval.report.results import INFINITE_MARK
 
-TEMPORAL_MIN_SIZE = 16
-"""Temporal terms need frames of at least this many pixels on each side: OpenCV's optical flow
-fails (or crashes) on smaller ones."""
 
 PresenceStep = Callable[[FramePair, np.ndarray, np.ndarray, FrameRegions],
                         tuple[dict[str, float | None], dict[str, str], list[dict]]]
@@ -256,7 +255,7 @@ def _score_frame(pair: FramePair, regions: FrameRegions, run: Run,
             raise RuntimeError(f"{name} is NaN for {pair.pred}")
         elif math.isinf(value):
             warnings.append(_warning(pair, name, "prediction equals ground truth in the scored "
-                                     "region: value is +infinity, written as null"))
+                                     f"region: {INFINITE_MARK}, written as null"))
         row[name] = value
     run.add_time(elapsed)
     return row, warnings

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dynaeval.errors import InputError
+from dynaeval.errors import InputError, UndefinedMetricError
 from dynaeval.validation import as_image
 
 FLOW_METHODS = ("dis", "farneback", "tvl1")
@@ -114,8 +114,23 @@ def to_gray_u8(image: np.ndarray) -> np.ndarray:
     return np.clip(np.rint(arr * 255.0), 0, 255).astype(np.uint8)
 
 
+MIN_FLOW_SIZE = 16
+"""Smallest frame side (pixels) the optical flow accepts: OpenCV's estimators raise or crash
+(a segmentation fault, e.g. DIS on 8x100) on smaller frames."""
+
+
+def check_flow_size(shape: tuple[int, ...]) -> None:
+    """Raise ``UndefinedMetricError`` when a frame of ``shape`` is too small for optical flow."""
+    if min(shape[:2]) < MIN_FLOW_SIZE:
+        raise UndefinedMetricError(
+            f"optical flow needs frames of at least {MIN_FLOW_SIZE}x{MIN_FLOW_SIZE} pixels, got "
+            f"{shape[1]}x{shape[0]}")
+
+
 def _flow_from_gray(a: np.ndarray, b: np.ndarray, config: FlowConfig) -> np.ndarray:
     import cv2
+
+    check_flow_size(a.shape)  # every estimator goes through here: never hand OpenCV a tiny frame
 
     if config.method == "dis":
         preset = {

@@ -448,3 +448,16 @@ def test_tlp_from_features_equals_pairwise_lpips_and_runs_the_backbone_once_per_
     assert plain["tlp"]["value"] > 0
     assert counting.calls == 2 * 5  # pred and gt of each frame, not 4 per pair
 
+
+
+@pytest.mark.parametrize("shape", [(8, 100, 3), (12, 1000, 3), (15, 15)])
+def test_optical_flow_refuses_frames_too_small_instead_of_crashing(shape):
+    """OpenCV's DIS crashes the interpreter on an 8x100 frame: the flow refuses first."""
+    from dynaeval.errors import UndefinedMetricError
+    from dynaeval.metrics.flow import optical_flow
+
+    a = np.zeros(shape, np.float32)
+    with pytest.raises(UndefinedMetricError, match="optical flow needs frames of at least 16x16"):
+        optical_flow(a, a)
+    with pytest.raises(UndefinedMetricError, match="at least 16x16"):
+        temporal_metrics([a, a], [a, a])
