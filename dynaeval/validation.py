@@ -171,3 +171,22 @@ def check_data_range(data_range: float) -> float:
             f"got {data_range!r}"
         )
     return value
+
+
+def grey_to_rgb(image: np.ndarray, name: str, what: str) -> np.ndarray:
+    """``image`` as ``(H, W, 3)``: RGB unchanged, grayscale ``(H, W)`` / ``(H, W, 1)`` with the
+    grey in each channel (what an RGB network sees of a grey photo); same dtype.
+
+    Raises:
+        InputError: another channel count (``what`` names the consumer, e.g. "LPIPS").
+    """
+    if image.ndim == 2:
+        image = image[..., None]
+    if image.ndim == 3 and image.shape[2] == 1:
+        return np.repeat(image, 3, axis=2)
+    if image.ndim != 3 or image.shape[2] != 3:
+        got = f"{image.shape[2]} channels" if image.ndim == 3 else f"shape {image.shape}"
+        raise InputError(
+            f"{what} needs RGB (H, W, 3) or grayscale (H, W) / (H, W, 1) images, got {name} with "
+            f"{got} (composite RGBA over a background first)")
+    return image

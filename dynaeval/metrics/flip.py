@@ -43,7 +43,7 @@ import numpy as np
 
 from dynaeval.errors import InputError
 from dynaeval.metrics._common import region_mask
-from dynaeval.validation import as_image
+from dynaeval.validation import as_image, grey_to_rgb
 
 PIXELS_PER_DEGREE = 0.7 * (3840 / 0.7) * math.pi / 180
 """FLIP's default observer: 0.7 m from a 0.7 m wide display of 3840 px (67.0206 px/degree)."""
@@ -100,16 +100,7 @@ def _package(hint: bool = True) -> Any:
 def _rgb(x: object, name: str) -> np.ndarray:
     """One image as (H, W, 3) float32 sRGB in [0, 1] (grayscale replicated)."""
     arr = as_image(x, name, to_unit=True, check_range=True)
-    if arr.ndim == 2:
-        arr = arr[..., None]
-    if arr.shape[2] == 1:
-        arr = np.repeat(arr, 3, axis=2)
-    if arr.shape[2] != 3:
-        raise InputError(
-            f"FLIP needs RGB (H, W, 3) or grayscale (H, W) / (H, W, 1) images, got {name} with "
-            f"{arr.shape[2]} channels (composite RGBA over a background first)"
-        )
-    return arr
+    return grey_to_rgb(arr, name, "FLIP")
 
 
 def _pair(pred: object, gt: object) -> tuple[np.ndarray, np.ndarray]:

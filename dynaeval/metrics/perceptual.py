@@ -21,7 +21,7 @@ from dynaeval.boxes import grow_box
 from dynaeval.errors import InputError, UndefinedMetricError, WeightsUnavailableError
 from dynaeval.metrics._common import clipped_boxes, region_mask
 from dynaeval.runtime import new_session, onnx_providers, resolve_device, torch_device
-from dynaeval.validation import check_pair
+from dynaeval.validation import check_pair, grey_to_rgb
 
 LPIPS_NETS = ("alex", "vgg")
 MIN_SIZE = {"alex": 31, "vgg": 16}
@@ -244,16 +244,7 @@ def _check_lpips_image(p: np.ndarray, name: str) -> np.ndarray:
             f"got values in [{lo:.4g}, {hi:.4g}]. Images already in [-1, 1]: pass (x + 1) / 2; "
             "uint8: divide by 255"
         )
-    if p.ndim == 2:
-        p = p[..., None]
-    if p.shape[2] == 1:
-        p = np.repeat(p, 3, axis=2)
-    if p.shape[2] != 3:
-        raise InputError(
-            f"LPIPS needs RGB (H, W, 3) or grayscale images, got {p.shape[2]} channels "
-            "(composite RGBA over a background first)"
-        )
-    return p
+    return grey_to_rgb(p, name, "LPIPS")
 
 
 def _to_tensor(batch: list[np.ndarray], device: Any) -> Any:

@@ -35,7 +35,7 @@ from dynaeval.regions import torchvision_onnx, yolo
 from dynaeval.regions.coco import COCO80_NAMES, COCO91_NAMES  # noqa: F401  (re-export)
 from dynaeval.regions.yolo import letterbox  # noqa: F401  (re-export: reference_models, tests)
 from dynaeval.runtime import file_sha256, load_session, onnx_providers
-from dynaeval.validation import as_image
+from dynaeval.validation import as_image, grey_to_rgb
 
 DEFAULT_DETECTOR = Path(__file__).resolve().parents[1] / "models" / "detector.onnx"
 """Where the packaged default detector (person + ball, trained on the synthetic scenes) lives."""
@@ -321,7 +321,7 @@ def _grey_to_rgb(image: object) -> object:
     channel: what an RGB detector sees of a grey photo); anything else unchanged."""
     if isinstance(image, np.ndarray) and image.size and (
             image.ndim == 2 or (image.ndim == 3 and image.shape[2] == 1)):
-        return np.repeat(image.reshape(*image.shape[:2], 1), 3, axis=2)
+        return grey_to_rgb(image, "image", "the detector")
     return image
 
 

@@ -102,3 +102,17 @@ def test_check_data_range(bad):
     assert check_data_range(255) == 255.0
     with pytest.raises(InputError, match="data_range must be a positive number"):
         check_data_range(bad)
+
+
+def test_grey_to_rgb_replicates_grey_and_refuses_other_channel_counts():
+    from dynaeval.validation import grey_to_rgb
+
+    grey = np.arange(6, dtype=np.uint8).reshape(2, 3)
+    for x in (grey, grey[..., None]):
+        out = grey_to_rgb(x, "pred", "LPIPS")
+        assert out.shape == (2, 3, 3) and out.dtype == np.uint8
+        assert (out == grey[..., None]).all()
+    rgb = np.zeros((2, 3, 3), np.float32)
+    assert grey_to_rgb(rgb, "pred", "LPIPS") is rgb
+    with pytest.raises(InputError, match=r"FLIP needs RGB .* got gt with 4 channels"):
+        grey_to_rgb(np.zeros((2, 3, 4)), "gt", "FLIP")
