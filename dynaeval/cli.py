@@ -48,6 +48,10 @@ def _add_metric_flags(p: argparse.ArgumentParser) -> None:
                    help=f"compute exactly these per-frame metrics ({', '.join(names)}), instead of "
                         "the defaults adjusted by --no-NAME / --NAME (which it cannot be combined "
                         "with)")
+    options = [f"{s.name}.{o}" for s in frame_specs() for o, _, _ in s.options]
+    p.add_argument("--metric-option", action="append", default=[], metavar="NAME.OPTION=VALUE",
+                   dest="metric_option",
+                   help=f"an option of one metric (repeatable): {', '.join(options) or 'none'}")
     for spec in frame_specs():
         extra = f" (needs pip install 'dynaeval[{spec.extra}]')" if spec.extra else ""
         if spec.default:
@@ -169,7 +173,8 @@ def config_from_args(args: argparse.Namespace) -> Any:
     opt = lambda name: getattr(args, name, getattr(d, name))  # noqa: E731
     return replace(
         d, method=getattr(args, "method", None), scene=getattr(args, "scene", None),
-        metrics=metrics, lpips_net=opt("lpips_net"), lpips_backend=opt("lpips_backend"),
+        metrics=metrics, metric_options=_metric_options(getattr(args, "metric_option", [])),
+        lpips_net=opt("lpips_net"), lpips_backend=opt("lpips_backend"),
         quantize=opt("quantize"), background=opt("background"),
         allow_missing=opt("allow_missing"), workers=opt("workers"), cache_mb=opt("cache_mb"),
         device=opt("device"), progress=not args.quiet,
@@ -182,6 +187,20 @@ def config_from_args(args: argparse.Namespace) -> Any:
         presence=not getattr(args, "no_presence", False),
         flow=opt("flow"), protocol=opt("protocol"),
     )
+
+
+def _metric_options(specs: list[str]) -> dict[str, dict[str, str]]:
+    """``["flip.pixels_per_degree=40"]`` -> ``{"flip": {"pixels_per_degree": "40"}}`` (the
+    config converts and checks the values)."""
+    out: dict[str, dict[str, str]] = {}
+    for spec in specs:
+        key, sep, value = spec.partition("=")
+        metric, dot, name = key.partition(".")
+        if not (sep and dot and metric and name and value):
+            raise InputError(f"--metric-option must be NAME.OPTION=VALUE, e.g. "
+                             f"flip.pixels_per_degree=40; got {spec!r}")
+        out.setdefault(metric, {})[name] = value
+    return out
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -8,6 +8,7 @@ number is written into the results' ``settings``.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 from dynaeval.errors import InputError
 from dynaeval.metrics.registry import default_frame_metrics, frame_specs
@@ -32,6 +33,10 @@ class ScoreConfig:
     """Per-frame metrics to compute (registry names, ``dynaeval.metrics.registry``), each over
     the whole frame, the focus boxes and the motion mask. Default: those the registry runs by
     default (``psnr``, ``ssim``, ``lpips``); e.g. ``("psnr", "ssim")`` skips LPIPS (no torch)."""
+    metric_options: dict[str, dict[str, Any]] = field(default_factory=dict)
+    """Options of single metrics, ``{metric: {option: value}}``, as each declares them in the
+    registry (``MetricSpec.options``), e.g. ``{"flip": {"pixels_per_degree": 40.0}}``; recorded in
+    that metric's settings."""
     lpips_net: str = "alex"
     """LPIPS backbone: ``alex`` (default, as most NeRF papers report) or ``vgg``."""
     lpips_backend: str = "torch"
@@ -77,6 +82,7 @@ class ScoreConfig:
 
     def __post_init__(self) -> None:
         self.metrics = _check_metrics(self.metrics)
+        self.metric_options = _check_metric_options(self.metric_options)
         _check_choice("quantize", self.quantize, QUANTIZE_MODES)
         _check_choice("background", self.background, BACKGROUNDS)
         _check_choice("lpips_backend", self.lpips_backend, ("torch", "onnxruntime"))
@@ -124,3 +130,33 @@ def _check_metrics(names: object) -> tuple[str, ...]:
     except KeyError as err:
         raise InputError(str(err).strip("\"'")) from None
     return names
+
+
+def _check_metric_options(options: object) -> dict[str, dict[str, Any]]:
+    """``{metric: {option: value}}`` checked against the options each metric declares; values
+    converted to the declared type."""
+    from dynaeval.metrics.registry import SPECS
+
+    if not isinstance(options, dict):
+        raise InputError(f"metric_options must be a dict {{metric: {{option: value}}}}, got {options!r}")
+    out: dict[str, dict[str, Any]] = {}
+    for metric, given in options.items():
+        declared = {name: (kind, meaning) for name, kind, meaning in
+                    (SPECS[metric].options if metric in SPECS else ())}
+        if not declared:
+            with_options = [s.name for s in SPECS.values() if s.options]
+            raise InputError(f"metric {metric!r} has no options (metrics with options: "
+                             f"{', '.join(with_options) or 'none'})")
+        if not isinstance(given, dict):
+            raise InputError(f"metric_options[{metric!r}] must be a dict, got {given!r}")
+        out[metric] = {}
+        for name, value in given.items():
+            if name not in declared:
+                raise InputError(f"{metric} has no option {name!r}; its options: "
+                                 f"{', '.join(declared)}")
+            kind = declared[name][0]
+            try:
+                out[metric][name] = kind(value)
+            except (TypeError, ValueError):
+                raise InputError(f"{metric}.{name} must be a {kind.__name__}, got {value!r}") from None
+    return out

@@ -86,7 +86,8 @@ def prepare_run(config: ScoreConfig) -> Run:
     protocol = get_protocol(config.protocol)
     device = resolve_device(config.device)
     ctx = FrameContext(data_range=config.data_range, protocol=protocol, device=device,
-                       lpips_net=config.lpips_net, lpips_backend=config.lpips_backend)
+                       lpips_net=config.lpips_net, lpips_backend=config.lpips_backend,
+                       options=config.metric_options)
     regions = ("whole",
                *(("focused",) if config.focus.source != "none" else ()),
                *(("masked",) if config.focus.masked else ()))

@@ -202,13 +202,19 @@ def build_flip(ctx: Any) -> Any:
     images in [0, data_range] are scaled to [0, 1]; the region as ``flip``."""
     _package(hint=False)  # the registry adds the install hint
     scale = 1.0 / ctx.data_range
+    ppd = _pixels_per_degree(ctx)
 
     def fn(pred: np.ndarray, gt: np.ndarray, region: dict[str, Any]) -> float:
         if scale != 1.0:
             pred, gt = np.asarray(pred) * scale, np.asarray(gt) * scale
-        return flip(pred, gt, **region)
+        return flip(pred, gt, pixels_per_degree=ppd, **region)
 
     return fn
+
+
+def _pixels_per_degree(ctx: Any) -> float:
+    """The run's pixels per degree (``metric_options={"flip": {"pixels_per_degree": ...}}``)."""
+    return check_pixels_per_degree(ctx.option("flip", "pixels_per_degree", PIXELS_PER_DEGREE))
 
 
 def flip_settings(ctx: Any, enabled: bool, unavailable: str | None) -> dict[str, Any] | None:
@@ -219,8 +225,9 @@ def flip_settings(ctx: Any, enabled: bool, unavailable: str | None) -> dict[str,
     out: dict[str, Any] = {
         "enabled": enabled,
         "variant": "LDR-FLIP (sRGB input, ground truth as the reference)",
-        "pixels_per_degree": PIXELS_PER_DEGREE,
-        "viewing_conditions": VIEWING_CONDITIONS,
+        "pixels_per_degree": _pixels_per_degree(ctx),
+        "viewing_conditions": (VIEWING_CONDITIONS if _pixels_per_degree(ctx) == PIXELS_PER_DEGREE
+                               else "set by the user (pixels_per_degree)"),
         "regions": "mean of the whole frame's FLIP map over the union of the boxes (focused) "
                    "or the mask's pixels (masked)",
     }

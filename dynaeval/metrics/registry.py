@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import importlib
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -69,6 +69,13 @@ class FrameContext:
     """LPIPS runtime: ``torch`` or ``onnxruntime``."""
     pretrained_backbone: bool = True
     """False only in tests: networks with random backbones (see ``load_lpips``)."""
+    options: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+    """Per-metric options of the run, ``{metric: {option: value}}`` (``ScoreConfig.metric_options``;
+    each metric declares its own in ``MetricSpec.options``)."""
+
+    def option(self, metric: str, name: str, default: Any) -> Any:
+        """The run's value of ``metric``'s option ``name``, else ``default``."""
+        return self.options.get(metric, {}).get(name, default)
 
     def whole(self) -> Any:
         """The protocol (dynaeval's when None)."""
@@ -148,6 +155,10 @@ class MetricSpec:
     leaderboard does not compare them."""
     doc: str = ""
     """Heading of its section in docs/metrics.md."""
+    options: tuple[tuple[str, type, str], ...] = ()
+    """Frame metrics: the options a run may set (``ScoreConfig.metric_options``, CLI
+    ``--metric-option NAME.OPTION=VALUE``), as ``(option, type, meaning)``; its ``build`` reads
+    them with ``ctx.option(name, option, default)`` and its ``settings`` record them."""
     region_rules: tuple[tuple[str, str], ...] = ()
     """Frame metrics: how its focused / masked variants reduce, ``(("focused", rule), ...)``;
     empty: the rules of PSNR, SSIM and LPIPS (``REGION_RULES``)."""
@@ -218,6 +229,9 @@ SPECS: dict[str, MetricSpec] = {
             build="dynaeval.metrics.flip:build_flip",
             settings="dynaeval.metrics.flip:flip_settings",
             ignored_settings=("enabled", "unavailable"), doc="FLIP",
+            options=(("pixels_per_degree", float,
+                      "the observer's pixels per degree of visual angle (default 67.02: 0.7 m "
+                      "from a 0.7 m wide 3840-px monitor)"),),
             region_rules=(
                 ("focused", "mean of the whole frame's FLIP map over the union of the boxes"),
                 ("masked", "mean of the whole frame's FLIP map over the mask's pixels"),

@@ -166,6 +166,9 @@ def test_channel_mismatch(tmp_path, scene):
     ("metrics", "psnr", "metrics must be a sequence of metric names"),
     ("shard", (3, 2), "needs 1 <= I <= N"),
     ("focus", "motion", "focus must be a FocusConfig"),
+    ("metric_options", {"ssim": {"window": 7}}, "metric 'ssim' has no options"),
+    ("metric_options", {"flip": {"observer": 1}}, "flip has no option 'observer'"),
+    ("metric_options", {"flip": {"pixels_per_degree": "many"}}, "must be a float, got 'many'"),
 ])
 def test_bad_settings_are_refused_before_any_frame_is_read(tmp_path, field, value, message):
     with pytest.raises(InputError, match=message):

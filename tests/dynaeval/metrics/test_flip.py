@@ -487,3 +487,51 @@ def test_without_the_package_the_run_goes_on_and_says_what_to_install(monkeypatc
     assert not any(k in row for row in res["frames"] for k in KEYS)
     with pytest.raises(ImportError, match=r"pip install 'dynaeval\[video\]'"):
         F.flip(np.zeros((8, 8, 3)), np.zeros((8, 8, 3)))
+
+
+def test_pixels_per_degree_is_a_run_option_recorded_in_the_settings(tmp_path):
+    """``metric_options`` / ``--metric-option flip.pixels_per_degree=V`` reaches FLIP, changes the
+    number as flip(..., pixels_per_degree=V) does, and is written into settings.flip; a bad value
+    is refused before any frame is read."""
+    pytest.importorskip("flip_evaluator")
+    import dynaeval
+    from dynaeval.cli import main, sample_dir
+    from dynaeval.regions.focus import FocusConfig
+
+    root = sample_dir()
+    kw = dict(metrics=("flip",), temporal=False, presence=False, progress=False,
+              focus=FocusConfig(source="none", masked=False))
+    base = dynaeval.score(root / "pred" / "cam07", root / "gt" / "cam07", **kw)
+    low = dynaeval.score(root / "pred" / "cam07", root / "gt" / "cam07",
+                         metric_options={"flip": {"pixels_per_degree": 20}}, **kw)
+    assert base["settings"]["flip"]["pixels_per_degree"] == pytest.approx(67.0206, abs=1e-4)
+    assert low["settings"]["flip"]["pixels_per_degree"] == 20.0
+    assert low["frames"][0]["flip"] != base["frames"][0]["flip"]
+    from dynaeval.io import read_image
+
+    p = read_image(root / "pred" / "cam07" / "0000.png")
+    g = read_image(root / "gt" / "cam07" / "0000.png")
+    assert low["frames"][0]["flip"] == pytest.approx(F.flip(p, g, pixels_per_degree=20), abs=1e-12)
+    out = tmp_path / "r.json"
+    assert main(["score", str(root / "pred" / "cam07"), str(root / "gt" / "cam07"), "--metrics",
+                 "flip", "--metric-option", "flip.pixels_per_degree=20", "--no-temporal",
+                 "--no-presence", "--focus", "none", "--no-masked", "-q", "-o", str(out)]) == 0
+    assert json.loads(out.read_text())["frames"][0]["flip"] == low["frames"][0]["flip"]
+    with pytest.raises(InputError, match="pixels_per_degree must be a positive number"):
+        dynaeval.score(root / "pred" / "cam07", root / "gt" / "cam07",
+                       metric_options={"flip": {"pixels_per_degree": -1}}, **kw)
+
+
+@pytest.mark.parametrize(("option", "message"), [
+    ("flip.ppd=3", "flip has no option 'ppd'"),
+    ("psnr.x=1", "metric 'psnr' has no options"),
+    ("flip=3", "--metric-option must be NAME.OPTION=VALUE"),
+    ("flip.pixels_per_degree=abc", "flip.pixels_per_degree must be a float"),
+])
+def test_bad_metric_options_are_usage_errors(option, message, capsys):
+    from dynaeval.cli import main, sample_dir
+
+    root = sample_dir()
+    assert main(["score", str(root / "pred"), str(root / "gt"), "--metric-option", option,
+                 "-q"]) == 2
+    assert message in capsys.readouterr().err
