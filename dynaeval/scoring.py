@@ -23,7 +23,7 @@ from dynaeval.config import ScoreConfig
 from dynaeval.errors import EmptyRegionError, InputError, UndefinedMetricError
 from dynaeval.io import FramePair
 from dynaeval.io.cache import FrameCache
-from dynaeval.metrics.flow import MIN_FLOW_SIZE as TEMPORAL_MIN_SIZE
+from dynaeval.metrics.flow import check_flow_size
 from dynaeval.metrics.registry import REGION_RULES, FrameFn, keys_of
 from dynaeval.regions.focus import FrameRegions
 from dynaeval.report.results import INFINITE_MARK
@@ -78,7 +78,7 @@ def prepare_run(config: ScoreConfig) -> Run:
         InputError: an unusable detector or boxes file.
     """
     from dynaeval.metrics.protocols import get_protocol
-    from dynaeval.metrics.registry import FrameContext, build_frame_metrics
+    from dynaeval.metrics.registry import SPECS, FrameContext, build_frame_metrics
     from dynaeval.regions.focus import open_sources
     from dynaeval.runtime import resolve_device
 
@@ -92,8 +92,6 @@ def prepare_run(config: ScoreConfig) -> Run:
                *(("focused",) if config.focus.source != "none" else ()),
                *(("masked",) if config.focus.masked else ()))
     built = build_frame_metrics(ctx, config.metrics, regions)
-    from dynaeval.metrics.registry import SPECS
-
     warnings = [{"metric": name, "reason": f"{SPECS[name].title} not computed: {why}"}
                 for name, why in built.unavailable.items()]
     settings: dict[str, Any] = {
@@ -352,13 +350,13 @@ def _temporal_or_reason(camera: str, pairs: list[FramePair], regions: list[Frame
 
     if differ is not None:
         return nulls(differ.reason()), differ
-    h, w = load_gt(pairs[0], run.config, cache).shape[:2]
-    if min(h, w) < TEMPORAL_MIN_SIZE:
-        return nulls(f"temporal terms need frames of at least {TEMPORAL_MIN_SIZE}x"
-                     f"{TEMPORAL_MIN_SIZE} pixels (optical flow), camera {camera!r} has "
-                     f"{w}x{h}"), None
+    shape = load_gt(pairs[0], run.config, cache).shape
     try:
-        return _with_small_tlp(temporal_of_camera(pairs, regions, run, cache), run, h, w), None
+        check_flow_size(shape)
+    except UndefinedMetricError as err:
+        return nulls(f"temporal terms of camera {camera!r}: {err}"), None
+    try:
+        return temporal_of_camera(pairs, regions, run, cache, shape), None
     except FramesDiffer as err:
         return nulls(err.reason()), err
     except InputError as err:
@@ -379,20 +377,14 @@ def _small_for_tlp(run: Run, h: int, w: int) -> str | None:
             f"got {w}x{h}")
 
 
-def _with_small_tlp(temporal: dict[str, dict], run: Run, h: int, w: int) -> dict[str, dict]:
-    """``temporal`` with the tLP entries null with the reason when the frames are too small."""
-    why = _small_for_tlp(run, h, w)
-    if why is not None:
-        for key in keys_of("pair", "camera"):
-            if key.endswith("tlp"):
-                temporal[key] = {"value": None, "reason": why, "per_pair": []}
-    return temporal
-
-
 def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], run: Run,
-                       cache: FrameCache) -> dict[str, dict]:
-    """The temporal terms of one camera (``dynaeval.metrics.temporal.temporal_metrics`` output)."""
+                       cache: FrameCache, shape: tuple[int, ...]) -> dict[str, dict]:
+    """The temporal terms of one camera (``dynaeval.metrics.temporal.temporal_metrics`` output),
+    its ground truth of ``shape`` (the first frame's); tLP null with the reason when the frames
+    are smaller than LPIPS accepts."""
+    from dynaeval.metrics.registry import SPECS
     from dynaeval.metrics.temporal import temporal_metrics
+    from dynaeval.regions.focus import same_shape
 
     config = run.config
     indices = [p.index for p in pairs]
@@ -406,14 +398,10 @@ def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], run:
     region_masks = None
     if config.focus.source != "none" and all(r.boxes is not None for r in regions):
         region_masks = [r.boxes for r in regions]
-    h, w = load_gt(pairs[0], config, cache).shape[:2]
-    tlp = "lpips" in run.fns and _small_for_tlp(run, h, w) is None
-    tcfg = run.temporal if tlp else replace(run.temporal, tlp=False)
-    from dynaeval.regions.focus import same_shape
-
-    gt_of = same_shape(lambda i: load_gt(pairs[i], config, cache),
-                       load_gt(pairs[0], config, cache).shape)
-    return temporal_metrics(
+    small = _small_for_tlp(run, *shape[:2])
+    tcfg = run.temporal if "lpips" in run.fns and small is None else replace(run.temporal, tlp=False)
+    gt_of = same_shape(lambda i: load_gt(pairs[i], config, cache), shape)
+    out = temporal_metrics(
         (load_pair(p, config, cache)[0] for p in pairs),
         (gt_of(i) for i in range(len(pairs))),
         static_mask=static,
@@ -422,3 +410,6 @@ def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], run:
         executor=run.pool,
         window=2 * config.workers,
     )
+    if small is not None:
+        out.update({k: {"value": None, "reason": small, "per_pair": []} for k in SPECS["tlp"].keys()})
+    return out

@@ -15,7 +15,8 @@ from dynaeval.evaluate import ScoreConfig
 from dynaeval.io import pair_frames
 from dynaeval.io.cache import FrameCache
 from dynaeval.regions.focus import NOT_A_VIDEO, FocusConfig
-from dynaeval.scoring import TEMPORAL_MIN_SIZE, camera_regions_of, prepare_run, score_frame
+from dynaeval.metrics.flow import MIN_FLOW_SIZE as TEMPORAL_MIN_SIZE
+from dynaeval.scoring import camera_regions_of, prepare_run, score_frame
 
 from .helpers import textured_frame
 
