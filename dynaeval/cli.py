@@ -54,13 +54,16 @@ def _add_metric_flags(p: argparse.ArgumentParser) -> None:
                    help=f"an option of one metric (repeatable): {', '.join(options) or 'none'}")
     for spec in frame_specs():
         extra = f" (needs pip install 'dynaeval[{spec.extra}]')" if spec.extra else ""
-        if spec.default:
-            p.add_argument(f"--no-{spec.name.replace('_', '-')}", action="store_true",
-                           dest=f"no_{spec.name}", help=f"skip {spec.title}{extra}")
-        else:
-            p.add_argument(f"--{spec.name.replace('_', '-')}", action="store_true",
-                           dest=f"with_{spec.name}", help=f"also compute {spec.title}: "
-                           f"{spec.description}{extra}")
+        flag, dest = _metric_flag(spec)
+        what = f"skip {spec.title}" if spec.default else f"also compute {spec.title}: {spec.description}"
+        p.add_argument(flag, action="store_true", dest=dest, help=what + extra)
+
+
+def _metric_flag(spec: Any) -> tuple[str, str]:
+    """The flag that toggles a per-frame metric and its argparse dest: ``--no-NAME`` for one on
+    by default, ``--NAME`` for one off by default."""
+    name = spec.name.replace("_", "-")
+    return (f"--no-{name}", f"no_{spec.name}") if spec.default else (f"--{name}", f"with_{spec.name}")
 
 
 def _add_score_options(p: argparse.ArgumentParser) -> None:
@@ -137,20 +140,16 @@ def _metrics_from_args(args: argparse.Namespace) -> tuple[str, ...]:
     from dynaeval.metrics.registry import frame_specs
 
     specs = frame_specs()
+    toggled = [s for s in specs if getattr(args, _metric_flag(s)[1], False)]
     chosen = getattr(args, "metrics", None)
     if chosen:
-        flags = [f"--no-{s.name.replace('_', '-')}" for s in specs
-                 if getattr(args, f"no_{s.name}", False)]
-        flags += [f"--{s.name.replace('_', '-')}" for s in specs
-                  if getattr(args, f"with_{s.name}", False)]
+        flags = [_metric_flag(s)[0] for s in toggled]
         if flags:
             raise InputError(f"--metrics sets the metrics exactly and cannot be combined with "
                              f"{', '.join(flags)}: drop {'it' if len(flags) == 1 else 'them'} "
                              "or --metrics")
         return tuple(s.name for s in specs if s.name in chosen)
-    return tuple(s.name for s in specs
-                 if (s.default and not getattr(args, f"no_{s.name}", False))
-                 or (not s.default and getattr(args, f"with_{s.name}", False)))
+    return tuple(s.name for s in specs if s.default != (s in toggled))
 
 
 def config_from_args(args: argparse.Namespace) -> Any:
