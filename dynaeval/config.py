@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from dynaeval.errors import InputError
+from dynaeval.metrics.perceptual import LPIPS_BACKENDS, LPIPS_NETS
 from dynaeval.metrics.registry import default_frame_metrics, frame_specs
 from dynaeval.regions.focus import FOCUS_SOURCES, FocusConfig
 
@@ -85,8 +86,8 @@ class ScoreConfig:
         self.metric_options = _check_metric_options(self.metric_options)
         _check_choice("quantize", self.quantize, QUANTIZE_MODES)
         _check_choice("background", self.background, BACKGROUNDS)
-        _check_choice("lpips_backend", self.lpips_backend, ("torch", "onnxruntime"))
-        _check_choice("lpips_net", self.lpips_net, ("alex", "vgg"))
+        _check_choice("lpips_backend", self.lpips_backend, LPIPS_BACKENDS)
+        _check_choice("lpips_net", self.lpips_net, LPIPS_NETS)
         if not (self.device in DEVICES or str(self.device).startswith("cuda:")):
             raise InputError(f"device must be cpu, cuda, cuda:N or auto, got {self.device!r}")
         for name, low in (("workers", 1), ("cache_mb", 0)):

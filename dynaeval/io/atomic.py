@@ -116,11 +116,11 @@ def _place_exclusively(tmp: str, path: Path, what: str) -> None:
     replaced by the content at once (a reader may see an empty file for that instant, never a
     half-written one).
     """
+    taken = f"{what} exists (another run wrote it meanwhile?); pass --overwrite or choose another -o"
     try:
         os.link(tmp, path)
     except FileExistsError as err:
-        raise InputError(f"{what} exists (another run wrote it meanwhile?); pass --overwrite "
-                         "or choose another -o", path=path) from err
+        raise InputError(taken, path=path) from err
     except OSError as err:
         if err.errno not in (errno.EPERM, errno.ENOTSUP, errno.EOPNOTSUPP, errno.EMLINK,
                              errno.EXDEV, errno.ENOSYS):
@@ -128,8 +128,7 @@ def _place_exclusively(tmp: str, path: Path, what: str) -> None:
         try:
             os.close(os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666))
         except FileExistsError as err2:
-            raise InputError(f"{what} exists (another run wrote it meanwhile?); pass "
-                             "--overwrite or choose another -o", path=path) from err2
+            raise InputError(taken, path=path) from err2
         os.replace(tmp, path)
         return
     Path(tmp).unlink(missing_ok=True)
