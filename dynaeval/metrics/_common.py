@@ -6,6 +6,8 @@ geometry in ``dynaeval.boxes``.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from dynaeval.boxes import boxes_to_mask, clip_boxes
@@ -58,3 +60,16 @@ def clipped_boxes(boxes: object, height: int, width: int) -> np.ndarray:
             "no box has a pixel inside the image: the metric is undefined for this frame"
         )
     return b
+
+
+def whole_or_region(whole: Any, regional: Any, data_range: float) -> Any:
+    """``fn(pred, gt, region)`` for the registry: ``whole(pred, gt, data_range=...)`` (a
+    protocol's whole-frame variant) when ``region`` is ``{}``, else ``regional(pred, gt,
+    data_range=..., **region)`` (dynaeval's, over ``boxes`` or ``mask``)."""
+
+    def fn(pred: np.ndarray, gt: np.ndarray, region: dict[str, Any]) -> float:
+        if region:
+            return regional(pred, gt, data_range=data_range, **region)
+        return whole(pred, gt, data_range=data_range)
+
+    return fn

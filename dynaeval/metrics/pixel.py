@@ -13,7 +13,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from dynaeval.errors import InputError
-from dynaeval.metrics._common import clipped_boxes, region_mask
+from dynaeval.metrics._common import clipped_boxes, region_mask, whole_or_region
 from dynaeval.validation import check_data_range, check_finite, check_pair
 
 # float64 differences are formed in chunks of this many values (32 KB): the buffer stays in L1/L2
@@ -215,9 +215,4 @@ def quantize(img: object, mode: str = "none") -> np.ndarray:
 def build_psnr(ctx: Any) -> Any:
     """The registry's PSNR for a run (``dynaeval.metrics.registry.FrameContext``): the protocol's
     whole-frame PSNR, dynaeval's ``psnr`` over a region (``{"boxes": ...}`` / ``{"mask": ...}``)."""
-    whole, dr = ctx.whole().whole_psnr, ctx.data_range
-
-    def fn(pred: np.ndarray, gt: np.ndarray, region: dict[str, Any]) -> float:
-        return psnr(pred, gt, data_range=dr, **region) if region else whole(pred, gt, data_range=dr)
-
-    return fn
+    return whole_or_region(ctx.whole().whole_psnr, psnr, ctx.data_range)

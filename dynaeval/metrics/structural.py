@@ -26,7 +26,7 @@ import numpy as np
 
 from dynaeval.errors import EmptyRegionError, InputError, UndefinedMetricError
 from dynaeval.boxes import grow_box
-from dynaeval.metrics._common import clipped_boxes, region_mask
+from dynaeval.metrics._common import clipped_boxes, region_mask, whole_or_region
 from dynaeval.validation import check_data_range, check_pair
 
 SIGMA = 1.5
@@ -366,12 +366,7 @@ def ssim_reference(pred: object, gt: object, *, data_range: float = 1.0) -> np.n
 def build_ssim(ctx: Any) -> Any:
     """The registry's SSIM for a run (``dynaeval.metrics.registry.FrameContext``): the protocol's
     whole-frame SSIM, dynaeval's ``ssim`` over a region (``{"boxes": ...}`` / ``{"mask": ...}``)."""
-    whole, dr = ctx.whole().whole_ssim, ctx.data_range
-
-    def fn(pred: np.ndarray, gt: np.ndarray, region: dict[str, Any]) -> float:
-        return ssim(pred, gt, data_range=dr, **region) if region else whole(pred, gt, data_range=dr)
-
-    return fn
+    return whole_or_region(ctx.whole().whole_ssim, ssim, ctx.data_range)
 
 
 def ssim_settings(ctx: Any, enabled: bool, unavailable: str | None) -> dict[str, Any]:
