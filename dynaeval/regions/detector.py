@@ -11,8 +11,10 @@ from the graph's outputs), each by its own module:
 
 Class names come from ``DetectorConfig.class_names``, else the model's ``names`` metadata (what
 Ultralytics writes, e.g. ``"{0: 'person', ...}"``), else COCO (80 names for YOLO, torchvision's
-91-index list). Then: class filter, score threshold, per-class NMS, clip to the image, and integer
-boxes rounded outwards (floor the min, ceil the max; max exclusive, see ``boxes.py``).
+91-index list). Then, in the order of Ultralytics' predictor (``non_max_suppression`` then
+``scale_boxes``): class filter, score strictly above the threshold, per-class NMS on the
+unclipped boxes in the model's input pixels, top-k, map to the image, clip, and integer boxes
+rounded outwards (floor the min, ceil the max; max exclusive, see ``boxes.py``).
 
 Images given to ``detect`` are ``(H, W, 3)`` **RGB**, uint8 in [0, 255] or float in [0, 1].
 """
@@ -22,7 +24,7 @@ from __future__ import annotations
 import ast
 import functools
 import json
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -41,8 +43,12 @@ DEFAULT_DETECTOR = Path(__file__).resolve().parents[1] / "models" / "detector.on
 """Where the packaged default detector (person + ball, trained on the synthetic scenes) lives."""
 
 DECODERS = {"yolo": yolo, "torchvision": torchvision_onnx}
-"""Convention name -> its decoder module (``fits``, ``default_names``, ``prepare``, ``decode``,
-``n_classes``); ``"auto"`` takes the first that fits the graph's outputs."""
+"""Convention name -> its decoder module (``fits``, ``default_names``, ``output_roles``,
+``prepare``, ``decode``, ``to_image``, ``n_classes``); ``"auto"`` takes the first that fits the
+graph's outputs."""
+
+MAX_NMS = 30000
+"""At most this many candidates (highest scores) enter NMS, as Ultralytics' ``max_nms``."""
 
 CONVENTIONS = ("auto", *DECODERS)
 
@@ -63,9 +69,11 @@ class DetectorConfig:
     """Name -> name used in boxes files (``sports ball`` is written ``ball``, as the scenes do);
     a requested name matches a model class when both map to the same name."""
     score_threshold: float = 0.25
-    """Detections with score below this (in [0, 1]) are dropped."""
+    """Only detections with a score strictly above this (in [0, 1]) are kept (Ultralytics'
+    ``conf > conf_thres``, torchvision's ``scores > score_thresh``)."""
     nms_iou: float = 0.45
-    """Per-class NMS: a box whose IoU with a higher-scored box of its class exceeds this is dropped."""
+    """Per-class NMS: a box whose IoU with a higher-scored box of its class exceeds this is dropped
+    (computed on the unclipped boxes in the model's input pixels)."""
     input_size: int | None = None
     """YOLO letterbox side in px when the graph's input size is dynamic (None: 640). Torchvision:
     None feeds the image at its own size; an int resizes the longer side to it."""
@@ -203,6 +211,9 @@ class Detector:
         self.outputs = self.session.get_outputs()
         self.convention = self._infer_convention()
         self._decoder = DECODERS[self.convention]
+        self.output_roles, self.outputs_note = self._decoder.output_roles(self.outputs)
+        """Graph output index of each role (``boxes``/``scores``/``labels``, or YOLO's
+        ``output``), and the note saying the output names were overruled (else None)."""
         self.class_names = self._class_names()
         self.selected_ids = self._select_ids()
 
@@ -242,7 +253,8 @@ class Detector:
             if not found:
                 raise InputError(
                     f"class {want!r} is not among the detector's classes ({self._known_names()}); "
-                    "give a known name, an integer class id, or DetectorConfig.class_names",
+                    "give a known name or an integer class id (CLI: --classes person,ball or "
+                    "--classes 0,32), or set DetectorConfig.class_names",
                     path=self.path,
                 )
             ids.extend(found)
@@ -271,9 +283,17 @@ class Detector:
             "model_sha256": self.sha256,
             "convention": self.convention,
             "class_ids": list(self.selected_ids),
+            "outputs": self._roles_by_name(),
+            **({"outputs_note": self.outputs_note} if self.outputs_note else {}),
             "settings": settings,
             "onnxruntime": ort.__version__,
         }
+
+    def _roles_by_name(self) -> dict[str, str] | None:
+        """Role -> graph output name (None when decided per run from the arrays)."""
+        if self.output_roles is None:
+            return None
+        return {role: self.outputs[i].name for role, i in self.output_roles.items()}
 
     # -- running ---------------------------------------------------------------------------
     def _feed(self, chw: np.ndarray) -> dict[str, np.ndarray]:
@@ -286,18 +306,28 @@ class Detector:
         dims = _static_dims(self._input.shape)
         return dims[-2], dims[-1]
 
-    def raw(self, image: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Decoded candidates before filtering: float64 ``(N, 4)`` xyxy boxes in *original image*
-        pixels (unclipped), ``(N,)`` scores and ``(N,)`` int64 class ids. ``image``: (H, W, 3)
-        RGB, or grayscale (H, W) / (H, W, 1), fed as grey replicated to RGB."""
+    def candidates(self, image: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, Any]:
+        """Decoded candidates in the model's *input* pixels (unclipped): float64 ``(N, 4)`` xyxy
+        boxes, ``(N,)`` scores, ``(N,)`` int64 class ids, and the geometry that maps them to the
+        image (``to_image``). ``image``: (H, W, 3) RGB, or grayscale (H, W) / (H, W, 1), fed as
+        grey replicated to RGB."""
         img = np.ascontiguousarray(as_image(_grey_to_rgb(image), "detector input",
                                             check_range=True, channels=3))
         fed, geometry = self._decoder.prepare(img, self._input_hw(), self.config.input_size)
         outs = [np.asarray(o) for o in self.session.run(None, self._feed(fed.transpose(2, 0, 1)))]
-        names = [o.name for o in self.outputs]
-        candidates = self._decoder.decode(outs, names, geometry, self.path)
+        boxes, scores, cls = self._decoder.decode(outs, self.output_roles, self.path)
         self._check_class_count(self._decoder.n_classes(outs))
-        return candidates
+        return boxes, scores, cls, geometry
+
+    def to_image(self, boxes: np.ndarray, geometry: Any) -> np.ndarray:
+        """``(N, 4)`` boxes from the model's input pixels to the image's (unclipped)."""
+        return self._decoder.to_image(boxes, geometry)
+
+    def raw(self, image: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Decoded candidates before filtering: float64 ``(N, 4)`` xyxy boxes in *original image*
+        pixels (unclipped), ``(N,)`` scores and ``(N,)`` int64 class ids (see ``candidates``)."""
+        boxes, scores, cls, geometry = self.candidates(image)
+        return self.to_image(boxes, geometry), scores, cls
 
     def _check_class_count(self, n_cls: int | None) -> None:
         if n_cls is not None and max(self.selected_ids) >= n_cls:
@@ -312,8 +342,9 @@ class Detector:
     def __call__(self, image: np.ndarray) -> Detections:
         """Detect in one ``(H, W, 3)`` RGB image (uint8 or float in [0, 1])."""
         h, w = np.asarray(image).shape[:2]
-        boxes, scores, cls = self.raw(image)
-        return postprocess(boxes, scores, cls, self.config, self.selected_ids, self.class_names, h, w)
+        boxes, scores, cls, geometry = self.candidates(image)
+        return postprocess(boxes, scores, cls, self.config, self.selected_ids, self.class_names, h, w,
+                           to_image=lambda b: self.to_image(b, geometry))
 
 
 def _grey_to_rgb(image: object) -> object:
@@ -334,26 +365,36 @@ def postprocess(
     class_names: Mapping[int, str],
     height: int,
     width: int,
+    to_image: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> Detections:
-    """Class filter, score threshold, clip to the image, per-class NMS, top-k, outward rounding.
+    """Class filter, score > threshold, per-class NMS on the unclipped boxes, top-k, mapping to
+    the image, clip, outward rounding (the order of Ultralytics' ``non_max_suppression`` and
+    ``scale_boxes``: boxes that overlap only once clipped to the image are both kept).
 
-    ``boxes``: ``(N, 4)`` float xyxy in image pixels; ``scores``: ``(N,)``; ``class_ids``: ``(N,)``.
-    Boxes empty after clipping are dropped.
+    ``boxes``: ``(N, 4)`` float xyxy in the model's input pixels, ``to_image`` maps them to image
+    pixels (None: they already are); ``scores``: ``(N,)``; ``class_ids``: ``(N,)``. At most
+    ``MAX_NMS`` candidates (highest scores) enter NMS. Boxes empty after clipping and rounding are
+    dropped (after top-k, so fewer than ``max_detections`` may remain).
     """
     boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
     scores = np.asarray(scores, dtype=np.float64).reshape(-1)
     class_ids = np.asarray(class_ids, dtype=np.int64).reshape(-1)
     keep = (
         np.isin(class_ids, np.asarray(list(selected_ids), dtype=np.int64))
-        & (scores >= config.score_threshold)
+        & (scores > config.score_threshold)
         & np.all(np.isfinite(boxes), axis=1)
         & np.isfinite(scores)
     )
     boxes, scores, class_ids = boxes[keep], scores[keep], class_ids[keep]
-    boxes[:, [0, 2]] = np.clip(boxes[:, [0, 2]], 0, width)
-    boxes[:, [1, 3]] = np.clip(boxes[:, [1, 3]], 0, height)
+    if len(scores) > MAX_NMS:
+        top = np.argsort(-scores, kind="stable")[:MAX_NMS]
+        boxes, scores, class_ids = boxes[top], scores[top], class_ids[top]
     order = batched_nms(boxes, scores, class_ids, config.nms_iou)[: config.max_detections]
     boxes, scores, class_ids = boxes[order], scores[order], class_ids[order]
+    if to_image is not None:
+        boxes = np.asarray(to_image(boxes), dtype=np.float64).reshape(-1, 4)
+    boxes[:, [0, 2]] = np.clip(boxes[:, [0, 2]], 0, width)
+    boxes[:, [1, 3]] = np.clip(boxes[:, [1, 3]], 0, height)
     eps = 1e-6  # coordinates within 1e-6 px of an integer are that integer (no 1-px growth)
     ib = np.concatenate([np.floor(boxes[:, :2] + eps), np.ceil(boxes[:, 2:] - eps)], axis=1).astype(np.int64)
     ok = (ib[:, 2] > ib[:, 0]) & (ib[:, 3] > ib[:, 1])

@@ -3,11 +3,14 @@
 Input: one ``(1, 3, S, S)`` float32 RGB image in [0, 1], the frame *letterboxed* into it (aspect
 kept, centred, padded with grey 114/255). Output: one ``(1, 4 + C, N)`` array: per candidate
 ``cx, cy, w, h`` in input pixels, then ``C`` class scores. A candidate's class is the arg-max over
-all ``C`` scores (as Ultralytics does), its score that maximum; coordinates are mapped back
-through the letterbox to the original image.
+all ``C`` scores (as Ultralytics does), its score that maximum. Candidates stay in input
+(letterbox) pixels: as in Ultralytics' predictor (``ultralytics/utils/nms.py``
+``non_max_suppression``, then ``ops.scale_boxes``), NMS runs there on the unclipped boxes and only
+the kept boxes are mapped back through the letterbox (``to_image``) and clipped.
 
-A decoder module offers ``fits``, ``default_names``, ``prepare``, ``decode`` and ``n_classes``
-(see ``dynaeval.regions.detector.Detector``, which picks one per model).
+A decoder module offers ``fits``, ``default_names``, ``output_roles``, ``prepare``, ``decode``,
+``to_image`` and ``n_classes`` (see ``dynaeval.regions.detector.Detector``, which picks one per
+model).
 """
 
 from __future__ import annotations
@@ -28,6 +31,12 @@ DEFAULT_SIDE = 640
 def fits(outputs: Sequence[Any]) -> bool:
     """True when the graph's outputs (onnxruntime ``NodeArg``) look like YOLO's: one 3-D output."""
     return len(outputs) == 1 and len(outputs[0].shape) == 3
+
+
+def output_roles(outputs: Sequence[Any]) -> tuple[dict[str, int], None]:
+    """``({"output": 0}, None)``: one output, nothing to match (no note)."""
+    del outputs
+    return {"output": 0}, None
 
 
 def default_names(outputs: Sequence[Any]) -> dict[int, str]:
@@ -83,16 +92,24 @@ def n_classes(outs: list[np.ndarray]) -> int:
     return int(outs[0].shape[1]) - 4
 
 
-def decode(outs: list[np.ndarray], output_names: Sequence[str], geometry, path: Path | None = None):
-    """Candidates of one run: float64 ``(N, 4)`` xyxy boxes in original image pixels (unclipped),
-    ``(N,)`` scores, ``(N,)`` int64 class ids. ``geometry``: what ``prepare`` returned."""
-    del output_names  # one output: nothing to match
-    (sx, sy), (ox, oy) = geometry
+def decode(outs: list[np.ndarray], roles: dict[str, int] | None, path: Path | None = None):
+    """Candidates of one run: float64 ``(N, 4)`` xyxy boxes in *input* (letterbox) pixels,
+    unclipped, ``(N,)`` scores, ``(N,)`` int64 class ids (``to_image`` maps boxes back)."""
+    del roles  # one output: nothing to match
     pred = _checked(outs, path)[0].T.astype(np.float64)  # (N, 4 + C)
     cx, cy, w, h = pred[:, 0], pred[:, 1], pred[:, 2], pred[:, 3]
     boxes = np.stack([cx - w / 2, cy - h / 2, cx + w / 2, cy + h / 2], axis=1)
-    boxes[:, [0, 2]] = (boxes[:, [0, 2]] - ox) / sx
-    boxes[:, [1, 3]] = (boxes[:, [1, 3]] - oy) / sy
     cls = np.argmax(pred[:, 4:], axis=1).astype(np.int64)
     scores = pred[np.arange(pred.shape[0]), 4 + cls]
     return boxes, scores, cls
+
+
+def to_image(boxes: np.ndarray, geometry) -> np.ndarray:
+    """``(N, 4)`` xyxy boxes from letterbox pixels to original image pixels (unclipped): minus
+    the padding, divided by the per-axis resize factor (as Ultralytics' ``scale_boxes``, which
+    also uses ``new_w / w`` and ``new_h / h``). ``geometry``: what ``prepare`` returned."""
+    (sx, sy), (ox, oy) = geometry
+    out = np.asarray(boxes, dtype=np.float64).reshape(-1, 4).copy()
+    out[:, [0, 2]] = (out[:, [0, 2]] - ox) / sx
+    out[:, [1, 3]] = (out[:, [1, 3]] - oy) / sy
+    return out

@@ -74,27 +74,25 @@ def tv_model(
     input_shape=(3, "H", "W"),
     out_names=("boxes", "scores", "labels"),
     batch: bool = False,
+    order=("boxes", "scores", "labels"),
 ) -> Path:
-    """torchvision-style graph: input ``image`` -> boxes (N, 4), scores (N,), labels (N,) int64."""
+    """torchvision-style graph: input ``image`` -> boxes (N, 4), scores (N,), labels (N,) int64,
+    in ``order`` (Faster R-CNN: boxes, labels, scores), output ``k`` named ``out_names[k]``."""
     b, s, lab = boxes.astype(np.float32), scores.astype(np.float32), labels.astype(np.int64)
     if batch:
         b, s, lab = b[None], s[None], lab[None]
     nodes: list = []
     z = _zero_from("image", nodes)
-    nodes += [
-        helper.make_node("Add", ["c_boxes", z], [out_names[0]]),
-        helper.make_node("Add", ["c_scores", z], [out_names[1]]),
-        helper.make_node("Identity", ["c_labels"], [out_names[2]]),
-    ]
+    made = {"boxes": ("Add", ["c_boxes", z], TensorProto.FLOAT, b.shape),
+            "scores": ("Add", ["c_scores", z], TensorProto.FLOAT, s.shape),
+            "labels": ("Identity", ["c_labels"], TensorProto.INT64, lab.shape)}
+    nodes += [helper.make_node(made[r][0], made[r][1], [n]) for r, n in zip(order, out_names, strict=True)]
     graph = helper.make_graph(
         nodes,
         "tv",
         [helper.make_tensor_value_info("image", TensorProto.FLOAT, list(input_shape))],
-        [
-            helper.make_tensor_value_info(out_names[0], TensorProto.FLOAT, list(b.shape)),
-            helper.make_tensor_value_info(out_names[1], TensorProto.FLOAT, list(s.shape)),
-            helper.make_tensor_value_info(out_names[2], TensorProto.INT64, list(lab.shape)),
-        ],
+        [helper.make_tensor_value_info(n, made[r][2], list(made[r][3]))
+         for r, n in zip(order, out_names, strict=True)],
         initializer=[
             numpy_helper.from_array(b, "c_boxes"),
             numpy_helper.from_array(s, "c_scores"),
@@ -494,3 +492,26 @@ def test_grayscale_is_fed_as_grey_rgb(tmp_path, grey):
     got, want = det(grey), det(rgb)
     np.testing.assert_array_equal(got.boxes, want.boxes)
     assert len(got) == 1
+
+
+@pytest.mark.parametrize("batch", [False, True])
+@pytest.mark.parametrize("order", [("boxes", "scores", "labels"), ("boxes", "labels", "scores")])
+def test_torchvision_both_output_orders_named_retinanet_style(tmp_path, order, batch):
+    """RetinaNet returns boxes, scores, labels; Faster R-CNN boxes, labels, scores. Exported with
+    the names ``boxes, scores, labels`` (the old recipe), Faster R-CNN's labels are called
+    "scores": the dtypes decide, and the source says which output was taken as what."""
+    boxes = np.array([[1, 2, 11, 12], [3, 3, 9, 9]], np.float32)
+    path = tv_model(tmp_path / "t.onnx", boxes, np.array([0.9, 0.3]), np.array([1, 37]),
+                    order=order, batch=batch, input_shape=(1, 3, "H", "W") if batch else (3, "H", "W"))
+    det = Detector(DetectorConfig(model=path))
+    d = det(np.zeros((32, 32, 3), np.float32))
+    assert d.boxes.tolist() == [[1, 2, 11, 12], [3, 3, 9, 9]] and d.classes == ("person", "ball")
+    np.testing.assert_allclose(d.scores, [0.9, 0.3], rtol=1e-6)
+    src = det.source()
+    if order[1] == "scores":
+        assert src["outputs"] == {"boxes": "boxes", "scores": "scores", "labels": "labels"}
+        assert "outputs_note" not in src
+    else:
+        assert src["outputs"] == {"boxes": "boxes", "scores": "labels", "labels": "scores"}
+        assert "took 'boxes' (tensor(float)) as boxes, 'labels' (tensor(float)) as scores, " \
+               "'scores' (tensor(int64)) as labels" in src["outputs_note"]
