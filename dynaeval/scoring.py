@@ -104,6 +104,7 @@ def prepare_run(config: ScoreConfig) -> Run:
     }
     sources = open_sources(config.focus)
     settings["focus"] = sources.settings
+    warnings.extend(sources.warnings)
     run = Run(config, built.fns, settings, warnings, sources)
     run.presence = _presence_step(config, sources, settings)
     if config.temporal:
@@ -335,7 +336,45 @@ def score_camera(camera: str, pairs: list[FramePair], run: Run, *,
         run.add_time({"temporal": time.perf_counter() - t0})
     if differ is not None:
         warnings.insert(0, _not_video_warning(camera, pairs, differ))
+    if temporal is not None and differ is None:
+        warnings.extend(name_regionless_frames(camera, pairs, regions, temporal))
     return CameraScores(rows, warnings, temporal)
+
+
+def name_regionless_frames(camera: str, pairs: list[FramePair], regions: list[FrameRegions],
+                           temporal: dict[str, dict]) -> list[dict]:
+    """Name the frames without boxes in the focused temporal terms, in place: a term null for the
+    whole camera gets them as its reason; one scored on the other pairs gets ``pair_reason``
+    (the reason of its null pairs) and one camera warning. Returns the warnings."""
+    missing = [(p.frame, r.boxes_reason) for p, r in zip(pairs, regions, strict=True)
+               if r.boxes is None]
+    if not missing or len(pairs) < 2:
+        return []
+    why = "; ".join(dict.fromkeys(r or "no box" for _, r in missing))
+    shown = ", ".join(repr(f) for f, _ in missing[:8]) + (" ..." if len(missing) > 8 else "")
+    frames = f"{len(missing)} of {len(pairs)} frames have no box ({why}): {shown}"
+    from dynaeval.metrics.registry import METRICS
+
+    out = []
+    for key, entry in temporal.items():
+        if METRICS[key].variant != "focused":
+            continue
+        reason = entry.get("reason") or ""
+        if entry.get("value") is None:
+            if reason.startswith(REGIONLESS_REASONS):  # not another cause (too few frames, ...)
+                entry["reason"] = f"{frames}; no pair of consecutive frames has boxes in both"
+        elif METRICS[key].kind == "camera":
+            out.append({"camera": camera, "metric": key, "reason": (
+                f"over the union of the boxes of the frames that have them; {frames}")})
+        else:
+            entry["pair_reason"] = f"this frame or the previous one has no box ({why})"
+            out.append({"camera": camera, "metric": key, "reason": (
+                f"scored on the pairs of frames that both have boxes; {frames}")})
+    return out
+
+
+REGIONLESS_REASONS = ("no pair of consecutive frames has a region", "no frame has a region")
+"""How ``temporal_metrics`` says a focused term is null because frames had no region."""
 
 
 def _temporal_or_reason(camera: str, pairs: list[FramePair], regions: list[FrameRegions],
@@ -395,8 +434,8 @@ def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], run:
     masks = [r.mask for r in regions if r.mask is not None]
     if config.focus.masked and masks:
         static = ~np.logical_or.reduce(masks)  # static: never moving in any frame
-    region_masks = None
-    if config.focus.source != "none" and all(r.boxes is not None for r in regions):
+    region_masks = None  # a frame without boxes: None, the pairs with it have no focused value
+    if config.focus.source != "none":
         region_masks = [r.boxes for r in regions]
     small = _small_for_tlp(run, *shape[:2])
     tcfg = run.temporal if "lpips" in run.fns and small is None else replace(run.temporal, tlp=False)

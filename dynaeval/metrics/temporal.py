@@ -225,7 +225,8 @@ class _CameraTerms:
             self.flicker.update(cur.pred, cur.gt)
 
     def entry(self, focused: bool, n_frames: int, has_regions: bool) -> dict:
-        """The entry of ``flicker`` or (``focused``) ``focused_flicker``."""
+        """The entry of ``flicker`` or (``focused``) ``focused_flicker`` (over the union of the
+        regions of the frames that have one)."""
         entry: dict = {"value": None, "reason": None, "per_pair": []}
         if n_frames < 2:
             entry["reason"] = f"needs at least 2 frames, got {n_frames}"
@@ -233,6 +234,8 @@ class _CameraTerms:
             entry["reason"] = "no static mask given (moving camera, or motion masks unavailable)"
         elif focused and not has_regions:
             entry["reason"] = _NO_REGIONS
+        elif focused and self.region_union is None:
+            entry["reason"] = "no frame has a region"
         else:
             region = self.region_union if focused else None
             terms = self.flicker.terms(region)
@@ -264,8 +267,9 @@ def temporal_metrics(
     ``pred_frames``, ``gt_frames``: iterables of T paired frames ``(H, W, 3)``, float32 in
     ``[0, 1]`` or uint8; only two of each are held at a time. ``static_mask``: ``(H, W)`` bool,
     True = static pixel (static camera only; None: flicker is null). ``region_masks``: one item per
-    frame, an ``(H, W)`` bool mask or ``(N, 4)`` boxes (``boxes_to_mask``); None: focused metrics
-    are null. ``lpips_fn``: ``(a, b) -> float`` (default :func:`default_lpips`; if LPIPS cannot be
+    frame, an ``(H, W)`` bool mask or ``(N, 4)`` boxes (``boxes_to_mask``), or None for a frame
+    without a region (the focused values of the pairs that include it are None, the other pairs
+    are scored); None: focused metrics are null. ``lpips_fn``: ``(a, b) -> float`` (default :func:`default_lpips`; if LPIPS cannot be
     loaded ``tlp`` is null with the reason). ``flow_cache``: share one across the methods scored
     on one ground truth so its flows are computed once (default: a private 64 MiB cache).
     ``executor``: a ``concurrent.futures`` executor (threads) to compute the pairs on, up to
@@ -295,8 +299,11 @@ def temporal_metrics(
     camera = _CameraTerms(static_mask)
     prev: Frames | None = None
     n_frames = 0
+    regionless: list[int] = []  # frames whose region item was None
     for i, cur in enumerate(_time_steps(pred_frames, gt_frames, region_masks)):
         n_frames = i + 1
+        if cur.region is None:
+            regionless.append(i)
         camera.update(cur)
         if prev is not None:
             pairs.submit(pair_terms, prev, cur, cache, config.flow,
@@ -304,7 +311,8 @@ def temporal_metrics(
                          config.tlp_min_crop, memo, i)
         prev = cur
     pairs.drain(0)
-    return _results(pairs, camera, n_frames, region_masks is not None)
+    return _results(pairs, camera, n_frames, region_masks is not None,
+                    regionless if region_masks is not None else [])
 
 
 # --------------------------------------------------------------------------------------------
@@ -318,8 +326,10 @@ def _mean_or_reason(values: list, empty_reason: str) -> tuple[float | None, str 
     return float(np.mean(got)), None
 
 
-def _pair_entry(key: str, pairs: _PairFold, n_frames: int, has_regions: bool) -> dict:
-    """The entry of a per-pair metric (warp_error, tof, tlp and their focused variants)."""
+def _pair_entry(key: str, pairs: _PairFold, n_frames: int, has_regions: bool,
+                regionless: list[int]) -> dict:
+    """The entry of a per-pair metric (warp_error, tof, tlp and their focused variants);
+    ``regionless``: the frames given no region (their pairs' focused values are None)."""
     info = METRICS[key]
     focused = info.variant == "focused"
     if n_frames < 2:
@@ -329,9 +339,10 @@ def _pair_entry(key: str, pairs: _PairFold, n_frames: int, has_regions: bool) ->
     if info.metric == "tlp" and pairs.lpips_reason is not None:
         return {"value": None, "reason": pairs.lpips_reason, "per_pair": []}
     empty = (
-        "every pair's region was empty"
-        if focused
-        else "no pixel of any frame was visible in its previous frame (all occluded)"
+        "no pixel of any frame was visible in its previous frame (all occluded)" if not focused
+        else "every pair's region was empty" if not regionless
+        else f"no pair of consecutive frames has a region in both (frames without one: "
+             f"{', '.join(map(str, regionless))})"
     )
     value, reason = _mean_or_reason(pairs.per_pair[key], empty)
     entry = {"value": value, "reason": reason, "per_pair": pairs.per_pair[key]}
@@ -342,7 +353,8 @@ def _pair_entry(key: str, pairs: _PairFold, n_frames: int, has_regions: bool) ->
 
 
 def _results(
-    pairs: _PairFold, camera: _CameraTerms, n_frames: int, has_regions: bool
+    pairs: _PairFold, camera: _CameraTerms, n_frames: int, has_regions: bool,
+    regionless: list[int],
 ) -> dict[str, dict]:
     """Every temporal result key -> its entry, in the registry's report order."""
     out: dict[str, dict] = {}
@@ -351,5 +363,5 @@ def _results(
         if info.kind == "camera":
             out[key] = camera.entry(info.variant == "focused", n_frames, has_regions)
         else:
-            out[key] = _pair_entry(key, pairs, n_frames, has_regions)
+            out[key] = _pair_entry(key, pairs, n_frames, has_regions, regionless)
     return out

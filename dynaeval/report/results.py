@@ -113,7 +113,7 @@ def place_temporal(
                     row[name] = value
                     if value is None:
                         warnings.append({"camera": cam, "frame": row["frame"], "metric": name,
-                                         "reason": entry.get("reason")
+                                         "reason": entry.get("reason") or entry.get("pair_reason")
                                          or "undefined for the pair (previous frame, this frame)"})
                 continue
             camera_values.setdefault(cam, {})[name] = entry.get("value")

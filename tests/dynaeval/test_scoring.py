@@ -171,3 +171,63 @@ def test_frames_too_small_for_lpips_score_the_rest(tmp_path, random_lpips):
     tlp = [w["reason"] for w in res["warnings"] if w.get("metric") == "tlp"]
     assert tlp and "tLP needs frames of at least 31x31 pixels" in tlp[0]
     assert math.isfinite(res["summary"]["warp_error"])
+
+
+def _square_scene_with_boxes(tmp_path: Path, empty: set[str]) -> Path:
+    """The moving-square scene (2 cameras x 4 frames, predictions 5 levels brighter) and a
+    boxes file with the square's box in every frame except the keys in ``empty``."""
+    import json
+
+    from .helpers import moving_square_scene, write_frames
+
+    _, frames = moving_square_scene(tmp_path / "gt")
+    boxes = {}
+    for cam, seq in frames.items():
+        write_frames(tmp_path / "pred", cam, [np.clip(f.astype(int) + 5, 0, 255).astype(np.uint8)
+                                              for f in seq])
+        for t in range(len(seq)):
+            key = f"{cam}/{t:04d}"
+            boxes[key] = [] if key in empty else [
+                {"class": "person", "id": 0, "box": [8 + 4 * t, 20, 18 + 4 * t, 30]}]
+    path = tmp_path / "boxes.json"
+    path.write_text(json.dumps(boxes))
+    return path
+
+
+def test_a_frame_without_boxes_nulls_only_its_pairs(tmp_path):
+    """Issue 17 item 6: one frame without boxes used to null focused_warp_error / focused_tof
+    of every frame of its camera, with the reason "no region masks given (focus: none)"."""
+    full = _square_scene_with_boxes(tmp_path / "full", set())
+    holed = _square_scene_with_boxes(tmp_path / "holed", {"cam00/0002"})
+    kw = dict(metrics=("psnr",), presence=False, progress=False)
+    ref = dynaeval.score(tmp_path / "full/pred", tmp_path / "full/gt",
+                         focus=FocusConfig.parse(f"boxes:{full}"), **kw)
+    got = dynaeval.score(tmp_path / "holed/pred", tmp_path / "holed/gt",
+                         focus=FocusConfig.parse(f"boxes:{holed}"), **kw)
+    rows = {(r["camera"], r["frame"]): r for r in got["frames"]}
+    want = {(r["camera"], r["frame"]): r for r in ref["frames"]}
+    for key in ("focused_warp_error", "focused_tof"):
+        assert want[("cam00", "0001")][key] is not None
+        assert rows[("cam00", "0001")][key] == want[("cam00", "0001")][key]  # pair (0, 1): scored
+        assert rows[("cam00", "0002")][key] is None and rows[("cam00", "0003")][key] is None
+        for t in ("0001", "0002", "0003"):  # the other camera is untouched
+            assert rows[("cam01", t)][key] == want[("cam01", t)][key]
+        assert got["cameras"]["cam00"][key] == want[("cam00", "0001")][key]
+        notes = [w["reason"] for w in got["warnings"] if w.get("camera") == "cam00"
+                 and w.get("metric") == key]
+        assert any("1 of 4 frames have no box" in n and "'0002'" in n
+                   and "the boxes file lists no box for this frame" in n for n in notes), notes
+        assert not any("focus: none" in n for n in notes)
+
+
+def test_a_camera_without_any_box_says_which_frames(tmp_path):
+    empty = {f"cam00/{t:04d}" for t in range(4)}
+    path = _square_scene_with_boxes(tmp_path, empty)
+    got = dynaeval.score(tmp_path / "pred", tmp_path / "gt", focus=FocusConfig.parse(f"boxes:{path}"),
+                         metrics=("psnr",), presence=False, progress=False)
+    assert got["cameras"]["cam00"]["focused_warp_error"] is None
+    assert got["cameras"]["cam00"]["focused_flicker"] is None  # not the whole-frame flicker
+    notes = [w["reason"] for w in got["warnings"] if w.get("camera") == "cam00"
+             and w.get("metric") == "focused_warp_error"]
+    assert any("4 of 4 frames have no box" in n and "no pair of consecutive frames has boxes in both" in n
+               for n in notes), notes
