@@ -66,6 +66,29 @@ def _metric_flag(spec: Any) -> tuple[str, str]:
     return (f"--no-{name}", f"no_{spec.name}") if spec.default else (f"--{name}", f"with_{spec.name}")
 
 
+def _add_classes_flag(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--classes", nargs="+", metavar="CLASS",
+                   help="the detector's classes to keep, by name or integer id, separated by "
+                        "commas or spaces (a name with a space, e.g. 'sports ball', needs commas "
+                        "or quotes); default: person, sports ball")
+
+
+def parse_classes(items: list[str] | None) -> tuple[str | int, ...] | None:
+    """``--classes`` values -> class names and ids: each item split at commas, stripped,
+    digits as integer ids (``["person,32", "sports ball"]`` -> ``("person", 32, "sports ball")``).
+
+    Raises:
+        InputError: no class left (``--classes ,``).
+    """
+    if items is None:
+        return None
+    parts = [p.strip() for item in items for p in item.split(",")]
+    out = tuple(int(p) if p.isdigit() else p for p in parts if p)
+    if not out:
+        raise InputError("--classes names no class: give names or ids, e.g. --classes person,ball")
+    return out
+
+
 def _add_score_options(p: argparse.ArgumentParser) -> None:
     from dynaeval.config import BACKGROUNDS, DEVICES, QUANTIZE_MODES
     from dynaeval.metrics.flow import FLOW_METHODS
@@ -98,6 +121,7 @@ def _add_score_options(p: argparse.ArgumentParser) -> None:
                         "(dynaeval detect, or the scene generator's boxes.json), or none")
     p.add_argument("--detector", metavar="MODEL.onnx",
                    help="ONNX detector for --focus detector (default: the one shipped with dynaeval)")
+    _add_classes_flag(p)
     p.add_argument("--expand", choices=["paper", "margin", "none"], default=d.focus.expand,
                    help="box expansion: paper = width x7, height x2.5 as in the seed study "
                         "(default), margin, or none; boxes are then clipped and merged")
@@ -179,6 +203,7 @@ def config_from_args(args: argparse.Namespace) -> Any:
         device=opt("device"), progress=not args.quiet,
         shard=parse_shard(args.shard) if getattr(args, "shard", None) else None,
         focus=FocusConfig.parse(args.focus, detector_model=getattr(args, "detector", None),
+                                classes=parse_classes(getattr(args, "classes", None)),
                                 expand=getattr(args, "expand", d.focus.expand),
                                 masked=not getattr(args, "no_masked", False),
                                 device=opt("device")),
@@ -239,6 +264,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="ONNX detector (default) or connected components of the motion masks")
     t.add_argument("--detector", metavar="MODEL.onnx",
                    help="ONNX detector (default: the one shipped with dynaeval)")
+    _add_classes_flag(t)
     t.add_argument("--device", choices=["cpu", "cuda"], default="cpu")
     t.add_argument("--overwrite", action="store_true", help="replace an existing -o file")
     t.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
@@ -279,6 +305,10 @@ def _print_warnings(results: dict) -> None:
     for w in results["warnings"]:
         if "camera" not in w:  # run-level warnings; per-frame ones are in the JSON
             print(f"dynaeval: warning: {warning_text(w)}", file=sys.stderr)
+    _print_regions(results)
+    for w in results["warnings"]:  # about a whole camera (its motion masks, its frames' sizes)
+        if "camera" in w and "frame" not in w and "metric" not in w:
+            print(f"dynaeval: warning: camera {w['camera']}: {w['reason']}", file=sys.stderr)
     n_frame_warnings = sum("camera" in w for w in results["warnings"])  # per frame or camera
     if n_frame_warnings:
         print(f"dynaeval: {n_frame_warnings} warning(s) about single frames or cameras, listed in "
@@ -287,6 +317,18 @@ def _print_warnings(results: dict) -> None:
     if cams:
         print(f"dynaeval: {len(cams)} ground-truth camera(s) without predictions not scored: "
               f"{', '.join(cams[:8])}{' …' if len(cams) > 8 else ''}", file=sys.stderr)
+
+
+def _print_regions(results: dict, most: int = 12) -> None:
+    """One line per camera (at most ``most``): the boxes its regions hold."""
+    from dynaeval.regions.focus import describe_regions
+
+    cameras = (results.get("regions") or {}).get("cameras", {})
+    for cam, summary in list(cameras.items())[:most]:
+        print(f"dynaeval: regions: {describe_regions(cam, summary)}", file=sys.stderr)
+    if len(cameras) > most:
+        print(f"dynaeval: regions: {len(cameras) - most} more camera(s) in the results JSON "
+              "('regions')", file=sys.stderr)
 
 
 def _run_score(pred: str, gt: str | None, args: argparse.Namespace, *, overwrite: bool) -> int:
@@ -345,9 +387,13 @@ def _run_detect(args: argparse.Namespace) -> int:
                          f"{args.source}): drop --detector, or pass --source detector")
     check_writable(args.output, overwrite=args.overwrite, what="boxes file",
                    inputs=[args.gt, args.detector], create_folders=True)
+    notes: list[dict] = []
     mapping, source = detect_ground_truth(args.gt, source=args.source,
                                           detector_model=args.detector, device=args.device,
-                                          progress=not args.quiet)
+                                          progress=not args.quiet,
+                                          classes=parse_classes(args.classes), warnings=notes)
+    for note in notes:
+        print(f"dynaeval: warning: {note['reason']}", file=sys.stderr)
     write_boxes_file(args.output, mapping, source, overwrite=args.overwrite)
     n_boxes = sum(len(v) for v in mapping.values())
     empty = sum(not v for v in mapping.values())

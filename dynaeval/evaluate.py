@@ -102,9 +102,9 @@ def score(
         run.warnings.append({"reason": (
             f"{layout.name} render folders hold separate test views; temporal metrics treat them "
             "as a sequence (pass temporal=False / --no-temporal unless they are one)")})
-    rows, warnings, temporal = _score_cameras(pairing.pairs, run, on_regions)
+    rows, warnings, temporal, regions = _score_cameras(pairing.pairs, run, on_regions)
     run_name = None if layout.name == "folders" else Path(pred_dir).resolve().name
-    results = _assemble(layout, run_name, pairing, run, rows, warnings, temporal, t_start)
+    results = _assemble(layout, run_name, pairing, run, rows, warnings, temporal, t_start, regions)
     for w in results["warnings"]:
         if "camera" not in w:
             pywarnings.warn(warning_text(w), DynaevalWarning, stacklevel=2)
@@ -119,8 +119,8 @@ def warning_text(warning: dict[str, Any]) -> str:
 
 
 def _score_cameras(pairs: list[FramePair], run: Any,
-                   on_regions: RegionsCallback | None) -> tuple[list, list, dict]:
-    """Every camera's rows, warnings and temporal terms, camera after camera."""
+                   on_regions: RegionsCallback | None) -> tuple[list, list, dict, dict]:
+    """Every camera's rows, warnings, temporal terms and regions summary, camera after camera."""
     from concurrent.futures import ThreadPoolExecutor
 
     from tqdm.auto import tqdm
@@ -136,6 +136,7 @@ def _score_cameras(pairs: list[FramePair], run: Any,
     rows: list[dict] = []
     warnings = list(run.warnings)
     temporal: dict[str, dict[str, dict]] = {}
+    regions: dict[str, dict] = {}
     workers = run.config.workers
     run.pool = ThreadPoolExecutor(max_workers=workers) if workers > 1 else None
     try:
@@ -146,16 +147,18 @@ def _score_cameras(pairs: list[FramePair], run: Any,
             warnings.extend(scores.warnings)
             if scores.temporal is not None:
                 temporal[cam] = scores.temporal
+            if scores.regions is not None:
+                regions[cam] = scores.regions
     finally:
         bar.close()
         if run.pool:
             run.pool.shutdown()
         close_videos()
-    return rows, warnings, temporal
+    return rows, warnings, temporal, regions
 
 
 def _assemble(layout: Any, run_name: str | None, pairing: Any, run: Any, rows: list,
-              warnings: list, temporal: dict, t_start: float) -> Results:
+              warnings: list, temporal: dict, t_start: float, regions: dict) -> Results:
     """The results document; method and scene default to the folders' names (the render
     folder's, ``run_name``, for a known layout)."""
     from dynaeval import __version__
@@ -173,4 +176,14 @@ def _assemble(layout: Any, run_name: str | None, pairing: Any, run: Any, rows: l
         skipped=pairing.skipped, warnings=warnings,
         timing={"total_s": time.perf_counter() - t_start, **dict(run.timing)},
         version=__version__, temporal=temporal, inputs_extra=inputs_extra,
+        regions=_regions_doc(run, regions),
     ))
+
+
+def _regions_doc(run: Any, cameras: dict[str, dict]) -> dict[str, Any] | None:
+    """The results' ``regions``: where the boxes came from and what each camera's regions hold."""
+    if not cameras:
+        return None
+    det = run.sources.detector
+    return {"source": run.config.focus.source,
+            "bundled_detector": det is not None and det.bundled, "cameras": cameras}

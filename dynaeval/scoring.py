@@ -272,6 +272,8 @@ class CameraScores:
     rows: list[dict[str, Any]]
     warnings: list[dict]
     temporal: dict[str, dict] | None
+    regions: dict[str, Any] | None = None
+    """``regions_summary`` of the camera (None with focus none and no motion masks)."""
 
 
 def camera_regions_of(camera: str, pairs: list[FramePair], run: Run,
@@ -336,9 +338,22 @@ def score_camera(camera: str, pairs: list[FramePair], run: Run, *,
         run.add_time({"temporal": time.perf_counter() - t0})
     if differ is not None:
         warnings.insert(0, _not_video_warning(camera, pairs, differ))
+    motion = regions[0].camera_motion if regions else None
+    if motion is not None and motion["reason"] is not None:
+        warnings.insert(0, {"camera": camera, "reason": motion["reason"]})
     if temporal is not None and differ is None:
         warnings.extend(name_regionless_frames(camera, pairs, regions, temporal))
-    return CameraScores(rows, warnings, temporal)
+    return CameraScores(rows, warnings, temporal, _summary_of(regions, run))
+
+
+def _summary_of(regions: list[FrameRegions], run: Run) -> dict[str, Any] | None:
+    """The camera's ``regions_summary`` (None when it has neither boxes nor masks)."""
+    from dynaeval.regions.focus import regions_summary
+
+    focus = run.config.focus
+    if focus.source == "none" and not focus.masked:
+        return None
+    return regions_summary(regions, focus.source, run.sources.classes)
 
 
 def name_regionless_frames(camera: str, pairs: list[FramePair], regions: list[FrameRegions],

@@ -266,6 +266,17 @@ class Detector:
             return "unknown: the model has no 'names' metadata and is not a COCO model"
         return f"{', '.join(known[:20])}{', ...' if len(known) > 20 else ''}"
 
+    @property
+    def bundled(self) -> bool:
+        """True for the packaged synthetic-scene detector (``DEFAULT_DETECTOR``)."""
+        return self.path.resolve() == DEFAULT_DETECTOR.resolve()
+
+    @property
+    def selected_names(self) -> tuple[str, ...]:
+        """Names of the selected classes as boxes files write them (after ``aliases``)."""
+        names = (self._canonical(self.class_names.get(i, str(i))) for i in self.selected_ids)
+        return tuple(dict.fromkeys(names))
+
     @functools.cached_property
     def sha256(self) -> str:
         """SHA-256 of the model file."""

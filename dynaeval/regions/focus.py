@@ -71,6 +71,9 @@ class FocusConfig:
     """With ``source="boxes"``: the boxes file (``dynaeval detect`` or the scene generator)."""
     detector_model: str | None = None
     """ONNX detector file; None: the detector shipped with dynaeval."""
+    classes: tuple[str | int, ...] | None = None
+    """The detector's classes to keep, by name or integer class id (``DetectorConfig.classes``;
+    None: its default, person and sports ball). Only with ``source="detector"``."""
     expand: str = "paper"
     """Box expansion rule applied to boxes from any source: ``paper`` (width x7, height x2.5,
     the seed study's rule), ``margin`` or ``none``; expanded boxes are clipped and merged."""
@@ -80,6 +83,18 @@ class FocusConfig:
     """Motion weights: ``isg`` (difference to the temporal median) or ``ist``."""
     device: str = "cpu"
     """Device for the detector (onnxruntime execution provider)."""
+
+    def __post_init__(self) -> None:
+        if self.classes is not None and self.source != "detector":
+            raise InputError(f"classes select the detector's classes and need focus 'detector', "
+                             f"got focus {self.source!r}: drop --classes, or pass --focus detector")
+
+    def detector_config(self, **kwargs: Any) -> Any:
+        """The ``DetectorConfig`` of this focus (model, device, classes)."""
+        from dynaeval.regions.detector import DetectorConfig
+
+        extra = {} if self.classes is None else {"classes": tuple(self.classes)}
+        return DetectorConfig(model=self.detector_model, device=self.device, **extra, **kwargs)
 
     @staticmethod
     def parse(spec: str, **kwargs: Any) -> FocusConfig:
@@ -119,6 +134,10 @@ class FrameRegions:
     not_video: FramesDiffer | None = None
     """Set on every frame of a camera whose frames differ in shape (the first difference; its
     ``reason()`` is the text): no motion mask, no temporal term; None for a video."""
+    camera_motion: dict[str, Any] | None = None
+    """Set (the same dict) on every frame of a camera that got motion masks:
+    ``{"global_motion_px", "reason"}``, the reason (``static_camera.moving_camera_reason``) not
+    None when the camera does not look static."""
 
 
 @dataclass
@@ -128,7 +147,13 @@ class RegionSources:
     config: FocusConfig
     detector: Any = None
     boxes: dict[str, list[dict]] | None = None
+    classes: tuple[str, ...] = ()
+    """Classes the boxes are counted under in ``regions_summary`` (the detector's selection;
+    person and ball for a boxes file)."""
     settings: dict[str, Any] = field(default_factory=dict)
+    warnings: list[dict] = field(default_factory=list)
+    """Run-level warnings about the sources (``{"reason"}``): the bundled detector on footage it
+    was not trained for, output names overruled by dtypes."""
 
 
 def open_sources(config: FocusConfig) -> RegionSources:
@@ -146,6 +171,7 @@ def open_sources(config: FocusConfig) -> RegionSources:
 
         bf = read_boxes_file(config.boxes_file)
         src.boxes = bf.boxes
+        src.classes = ("person", "ball")
         from dynaeval.runtime import file_sha256
 
         settings["boxes_file"] = {
@@ -154,14 +180,35 @@ def open_sources(config: FocusConfig) -> RegionSources:
             "source": bf.source,
         }
     elif config.source == "detector":
-        from dynaeval.regions.detector import Detector, DetectorConfig
+        from dynaeval.regions.detector import Detector
 
-        det = Detector(DetectorConfig(model=config.detector_model, device=config.device))
+        det = Detector(config.detector_config())
         src.detector = det
+        src.classes = det.selected_names
         settings["detector"] = det.source()
+        src.warnings.extend(detector_warnings(det))
     if config.masked or config.source == "motion":
         settings["motion"] = {"kind": config.motion_kind, "min_frames": MIN_MOTION_FRAMES}
     return src
+
+
+SYNTHETIC_DETECTOR = (
+    "the boxes come from the bundled synthetic-scene detector (dynaeval/models/detector.onnx, "
+    "trained on renders of dynaeval's procedural soccer scenes): it is not for real footage, "
+    "where it finds 'persons' and 'balls' in anything. For real footage fetch a COCO detector "
+    "(dynaeval detector fetch retinanet, then --detector retinanet) or score with --focus motion")
+"""The one warning of a run whose boxes come from the bundled detector."""
+
+
+def detector_warnings(detector: Any) -> list[dict]:
+    """Run-level warnings about an opened ``Detector``: the bundled synthetic-scene one, output
+    names overruled by the dtypes (each once per run)."""
+    out = []
+    if detector.bundled:
+        out.append({"reason": SYNTHETIC_DETECTOR})
+    if detector.outputs_note:
+        out.append({"reason": f"detector {detector.path}: {detector.outputs_note}"})
+    return out
 
 
 def _expand_settings(rule: str) -> dict[str, Any]:
@@ -218,7 +265,7 @@ def _camera_regions(camera: str, frames: Sequence[str], load_gt: Callable[[int],
     load = same_shape(load_gt, first) if video else load_gt
     out = [FrameRegions() for _ in frames]
     if (cfg.masked or cfg.source == "motion") and video:
-        _add_motion_masks(out, camera, load, cfg.motion_kind, executor)
+        _add_motion_masks(out, camera, load, cfg.motion_kind, executor, cfg.source)
     elif cfg.masked or cfg.source == "motion":
         for r in out:
             r.mask_reason = NOT_A_VIDEO
@@ -278,7 +325,7 @@ _NO_BOX_REASON = {
 
 
 def _add_motion_masks(out: list[FrameRegions], camera: str, load_gt: Callable[[int], np.ndarray],
-                      kind: str, executor: Executor | None) -> None:
+                      kind: str, executor: Executor | None, focus: str = "detector") -> None:
     """Set each frame's motion mask, or the reason it has none (too few frames, no motion)."""
     from dynaeval.regions.motion import LazyFrames, MotionConfig, iter_motion_masks
 
@@ -291,11 +338,25 @@ def _add_motion_masks(out: list[FrameRegions], camera: str, load_gt: Callable[[i
         return
     lazy = LazyFrames(list(range(len(out))), load_gt)
     masks = iter_motion_masks(lazy, MotionConfig(kind=kind), executor)
+    fractions = []
     for r, m in zip(out, masks, strict=True):
+        fractions.append(float(m.mean()))
         if m.any():
             r.mask = m
         else:
             r.mask_reason = "no moving pixel in the ground truth"
+    check = _static_check(load_gt, len(out), float(np.mean(fractions)), focus)
+    for r in out:
+        r.camera_motion = check
+
+
+def _static_check(load_gt: Callable[[int], np.ndarray], n: int, mask_fraction: float,
+                  focus: str) -> dict[str, Any]:
+    """``FrameRegions.camera_motion`` of a camera (``dynaeval.regions.static_camera``)."""
+    from dynaeval.regions.static_camera import camera_motion, moving_camera_reason
+
+    px = camera_motion(load_gt, n)
+    return {"global_motion_px": px, "reason": moving_camera_reason(px, mask_fraction, focus)}
 
 
 def _frame_boxes(r: FrameRegions, camera: str, name: str, sources: RegionSources,
@@ -335,6 +396,8 @@ def detect_ground_truth(
     detector_model: str | None = None,
     device: str = "cpu",
     progress: bool = True,
+    classes: Sequence[str | int] | None = None,
+    warnings: list[dict] | None = None,
 ) -> tuple[dict[str, list[dict]], dict[str, Any]]:
     """Boxes of every ground-truth frame, for a boxes file that several scoring runs reuse.
 
@@ -345,6 +408,9 @@ def detect_ground_truth(
         detector_model: ONNX file; None for the detector shipped with dynaeval.
         device: onnxruntime device (``cpu`` or ``cuda``).
         progress: show a progress bar on stderr.
+        classes: the detector's classes to keep (names or ids; None: person and sports ball).
+        warnings: if given, the run-level warnings about the detector (``detector_warnings``)
+            are appended to it.
 
     Returns:
         ``(mapping, source)``: ``"<camera>/<frame>"`` -> records ``{class, id, box, ...}`` of the
@@ -362,8 +428,11 @@ def detect_ground_truth(
     total = sum(len(c.frames) for c in cameras.values())
     mapping: dict[str, list[dict]] = {}
     config = FocusConfig(source=source, detector_model=detector_model, expand="none",
-                         masked=source == "motion", device=device)
+                         masked=source == "motion", device=device,
+                         classes=None if classes is None else tuple(classes))
     sources = open_sources(config)
+    if warnings is not None:
+        warnings.extend(sources.warnings)
     with tqdm(total=total, desc="detecting", unit="frame", disable=not progress,
               leave=False) as bar:
         for cam in cameras.values():
@@ -385,3 +454,41 @@ def detect_ground_truth(
                 ]
                 bar.update(1)
     return mapping, {"kind": source, **sources.settings}
+
+
+def regions_summary(regions: Sequence[FrameRegions], source: str,
+                    classes: Sequence[str] = ()) -> dict[str, Any]:
+    """What one camera's regions hold, for the results' ``regions.cameras``: ``n_frames``,
+    ``frames_with_boxes`` (frames with at least one box in the image), ``boxes`` (raw boxes per
+    class, in the order of ``classes`` then as met; motion boxes are class ``motion``) and, with
+    motion masks, ``mask_fraction`` (mean and max share of the frame's pixels marked moving, over
+    the frames with a mask)."""
+    counts: dict[str, int] = dict.fromkeys(classes, 0)
+    for r in regions:
+        if r.raw_boxes is None:
+            continue
+        if r.records is None:
+            counts["motion"] = counts.get("motion", 0) + len(r.raw_boxes)
+            continue
+        for rec in r.records:
+            counts[str(rec["class"])] = counts.get(str(rec["class"]), 0) + 1
+    out: dict[str, Any] = {
+        "source": source, "n_frames": len(regions),
+        "frames_with_boxes": sum(r.boxes is not None for r in regions), "boxes": counts,
+    }
+    fractions = [float(r.mask.mean()) for r in regions if r.mask is not None]
+    if any(r.mask is not None or r.mask_reason for r in regions):
+        out["mask_fraction"] = ({"mean": float(np.mean(fractions)), "max": max(fractions)}
+                                if fractions else None)
+    if regions and regions[0].camera_motion is not None:
+        out["global_motion_px"] = regions[0].camera_motion["global_motion_px"]
+    return out
+
+
+def describe_regions(camera: str, summary: dict[str, Any]) -> str:
+    """One console line: ``cam07: 12 person and 3 ball boxes in 10 of 12 frames``."""
+    parts = [f"{n} {c}" for c, n in summary["boxes"].items()]
+    listed = (" and ".join([", ".join(parts[:-1]), parts[-1]]) if len(parts) > 1 else
+              parts[0] if parts else "0")
+    return (f"{camera}: {listed} boxes in {summary['frames_with_boxes']} of "
+            f"{summary['n_frames']} frames ({summary['source']})")

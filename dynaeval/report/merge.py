@@ -15,7 +15,13 @@ from typing import Any
 
 from dynaeval.errors import InputError
 from dynaeval.io.frames import natural_key
-from dynaeval.report.results import FRAME_FIELDS, build_results, load_results, restore_infinite
+from dynaeval.report.results import (
+    FRAME_FIELDS,
+    NO_REGIONS,
+    build_results,
+    load_results,
+    restore_infinite,
+)
 
 
 def merge_results(paths: list[str | Path]) -> dict[str, Any]:
@@ -76,7 +82,7 @@ def merge_results(paths: list[str | Path]) -> dict[str, Any]:
     warnings: list[dict] = []
     for _, doc in docs:
         for w in doc["warnings"]:
-            if "camera" in w or (not w["reason"].startswith("summary is null")
+            if "camera" in w or (not w["reason"].startswith(("summary is null", NO_REGIONS))
                                  and w not in warnings):
                 warnings.append(w)
     timing: dict[str, float] = {}
@@ -99,4 +105,15 @@ def merge_results(paths: list[str | Path]) -> dict[str, Any]:
         timing=timing,
         version=first["dynaeval_version"],
         camera_values=camera_values,
+        regions=_merged_regions([doc for _, doc in docs]),
     )
+
+
+def _merged_regions(docs: list[dict[str, Any]]) -> dict[str, Any] | None:
+    """The shards' ``regions``: their common fields and every shard's cameras, in natural order."""
+    with_regions = [d["regions"] for d in docs if d.get("regions")]
+    if not with_regions:
+        return None
+    cameras = {c: v for r in with_regions for c, v in r["cameras"].items()}
+    return {**{k: v for k, v in with_regions[0].items() if k != "cameras"},
+            "cameras": {c: cameras[c] for c in sorted(cameras, key=natural_key)}}

@@ -156,6 +156,53 @@ def _summaries(
     return cameras, summary, counts, camera_only
 
 
+NO_REGIONS = "no focus box in any of the"
+"""How the headline warning of a run without any box begins (``merge`` recomputes it)."""
+
+_NO_REGIONS_FIX = {
+    "bundled": ("the bundled detector knows only dynaeval's synthetic scenes: for real footage "
+                "fetch a COCO detector (dynaeval detector fetch retinanet, then --detector "
+                "retinanet) or score with --focus motion"),
+    "detector": ("check --classes (the detector keeps: {classes}) and that the footage is what "
+                 "the detector was trained on, or score with --focus motion"),
+    "boxes": ("check that the file's keys are '<camera>/<frame>' of these frames (dynaeval "
+              "detect GT -o boxes.json writes them)"),
+    "motion": ("motion boxes need a static camera and moving objects: score with --focus "
+               "detector or --focus boxes:FILE"),
+}
+
+
+def no_regions_warning(regions: dict[str, Any] | None) -> dict[str, str] | None:
+    """The one headline warning of a run whose ``regions`` hold no box in any frame (None
+    otherwise): what found nothing, that every focused (and presence) value is null, the fix."""
+    if not regions or regions.get("source") in (None, "none") or not regions.get("cameras"):
+        return None
+    cams = list(regions["cameras"].values())
+    if any(c["frames_with_boxes"] for c in cams):
+        return None
+    source = regions["source"]
+    key = "bundled" if source == "detector" and regions.get("bundled_detector") else source
+    who = {"bundled": "the bundled synthetic-scene detector found none",
+           "detector": "the detector found none", "boxes": "the boxes file lists none",
+           "motion": "the motion masks hold no moving region"}[key]
+    classes = ", ".join(dict.fromkeys(c for cam in cams for c in cam["boxes"])) or "?"
+    nulls = "focused_* value" + (" and presence value" if source in ("detector", "boxes") else "")
+    return {"reason": f"{NO_REGIONS} {sum(c['n_frames'] for c in cams)} ground-truth frames: "
+                      f"{who}, so every {nulls} is null. Fix: "
+                      f"{_NO_REGIONS_FIX[key].format(classes=classes)}"}
+
+
+def _explained_by_no_regions(warning: dict, regions: dict[str, Any]) -> bool:
+    """A run-level null-summary warning of a metric that the no-box headline explains."""
+    from dynaeval.metrics.registry import METRICS
+
+    info = METRICS.get(warning.get("metric", ""))
+    if "camera" in warning or info is None or not warning["reason"].startswith("summary is null"):
+        return False
+    explained = {"focused", "person", "ball", *(("masked",) if regions["source"] == "motion" else ())}
+    return info.variant in explained
+
+
 def build_results(
     *,
     rows: list[dict[str, Any]],
@@ -174,6 +221,7 @@ def build_results(
     camera_values: dict[str, dict[str, float | None]] | None = None,
     shard: tuple[int, int] | None = None,
     inputs_extra: dict[str, Any] | None = None,
+    regions: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """Assemble the results document from per-frame rows (values may be inf; made strict here).
 
@@ -183,6 +231,9 @@ def build_results(
     term's per-frame value is that of the pair (previous frame, this frame), so its summary is
     the mean over all frame pairs of all cameras. Camera-level terms (``flicker``; or
     ``camera_values`` given directly, as ``merge`` does) are summarised as the mean over cameras.
+    ``regions`` (``{"source", "bundled_detector", "cameras": {camera: regions_summary}}``) is
+    written as is; when no frame has a box, one headline warning (``no_regions_warning``) replaces
+    the null-summary warnings of the focused and presence metrics.
     """
     warnings = list(warnings)
     camera_values = {c: dict(v) for c, v in (camera_values or {}).items()}
@@ -197,6 +248,9 @@ def build_results(
             if k not in FRAME_FIELDS and k not in names and (v is None or isinstance(v, float)):
                 names.append(k)
     cameras, summary, counts, camera_only = _summaries(rows, names, camera_values, warnings)
+    headline = no_regions_warning(regions)
+    if headline is not None:
+        warnings = [headline, *(w for w in warnings if not _explained_by_no_regions(w, regions))]
     metric_names = [*names, *camera_only]
     frames = [
         {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in r.items()}
@@ -226,6 +280,7 @@ def build_results(
         "counts": counts,
         "timing": {k: round(v, 6) for k, v in timing.items()},
         "warnings": warnings,
+        **({"regions": regions} if regions is not None else {}),
     }
     return strict(doc)
 

@@ -323,3 +323,91 @@ def test_every_key_of_a_full_run_is_registered_and_documented(random_lpips):
     undocumented = [k for k in keys if f"`{k}`" not in doc]
     assert not undocumented, f"not in docs/metrics.md: {undocumented}"
     assert res["settings"]["lpips"]["enabled"] and res["summary"]["tlp"] is not None
+
+
+# ------------------------------------------------------------------------------------------
+# issue 17 item 3: the bundled detector says what it is; every run says what regions it found
+
+
+def _photo_sequence(root, name="chelsea", n=3, noise=3):
+    """A real photograph without people (scikit-image) as an n-frame static sequence, the
+    prediction a few grey levels off."""
+    skdata = pytest.importorskip("skimage.data")
+    photo = getattr(skdata, name)()[:150, :225]
+    rng = np.random.default_rng(0)
+    gt = [np.clip(photo.astype(int) + rng.integers(-1, 2, photo.shape), 0, 255).astype(np.uint8)
+          for _ in range(n)]
+    for cam_root, frames in ((root / "gt", gt), (root / "pred", [
+            np.clip(f.astype(int) + noise, 0, 255).astype(np.uint8) for f in gt])):
+        write_frames(cam_root, "cam00", frames)
+    return root / "pred", root / "gt"
+
+
+def test_bundled_detector_on_a_real_photo_says_once_what_it_is(tmp_path):
+    from dynaeval.regions.focus import SYNTHETIC_DETECTOR
+
+    pred, gt = _photo_sequence(tmp_path)
+    with pytest.warns(dynaeval.DynaevalWarning, match="bundled synthetic-scene detector"):
+        res = dynaeval.score(pred, gt, metrics=("psnr",), temporal=False, progress=False)
+    said = [w for w in res["warnings"] if w["reason"] == SYNTHETIC_DETECTOR]
+    assert len(said) == 1 and "camera" not in said[0]
+    assert "dynaeval detector fetch retinanet" in SYNTHETIC_DETECTOR and "--focus motion" in SYNTHETIC_DETECTOR
+    regions = res["regions"]
+    assert regions["source"] == "detector" and regions["bundled_detector"] is True
+    cam = regions["cameras"]["cam00"]
+    assert cam["n_frames"] == 3 and list(cam["boxes"])[:2] == ["person", "ball"]
+    n_records = sum(len(f["objects"]) for f in res["frames"])  # presence lists every GT object
+    assert sum(cam["boxes"].values()) >= n_records
+    assert cam["frames_with_boxes"] == sum(f["focused_psnr"] is not None for f in res["frames"])
+    _validate(res)
+
+
+def _validate(res):
+    jsonschema = pytest.importorskip("jsonschema")
+    jsonschema.validate(json.loads(json.dumps(res)), json.loads(schema_path().read_text()))
+
+
+def test_another_detector_is_not_called_synthetic(tmp_path):
+    pytest.importorskip("onnx")
+    from tests.dynaeval.regions.test_detector import yolo_model, yolo_pred
+
+    model = yolo_model(tmp_path / "y.onnx", yolo_pred([(32, 32, 20, 20, 0, 0.9)]))
+    pred, gt = _photo_sequence(tmp_path)
+    res = dynaeval.score(pred, gt, metrics=("psnr",), temporal=False, progress=False,
+                         focus=FocusConfig(detector_model=str(model)))
+    assert not any("synthetic" in w["reason"] for w in res["warnings"])
+    assert res["regions"]["bundled_detector"] is False
+    assert res["regions"]["cameras"]["cam00"]["boxes"] == {"person": 3, "ball": 0}
+
+
+@pytest.mark.filterwarnings("ignore::dynaeval.DynaevalWarning")
+def test_no_box_anywhere_gives_one_headline_instead_of_null_summaries(tmp_path):
+    from dynaeval.report.results import NO_REGIONS
+
+    pred, gt = _photo_sequence(tmp_path)
+    boxes = tmp_path / "boxes.json"
+    write_boxes_file(boxes, {f"cam00/{t:04d}": [] for t in range(3)}, {"kind": "test"})
+    res = dynaeval.score(pred, gt, metrics=("psnr", "ssim"), progress=False,
+                         focus=FocusConfig.parse(f"boxes:{boxes}"))
+    run_level = [w for w in res["warnings"] if "camera" not in w]
+    assert run_level[0]["reason"].startswith(f"{NO_REGIONS} 3 ground-truth frames: the boxes file "
+                                             "lists none, so every focused_* value and presence "
+                                             "value is null. Fix: check that the file's keys")
+    explained = [w for w in run_level if w.get("metric", "").startswith(("focused_", "presence_", "tight_"))]
+    assert explained == []  # the per-metric "summary is null" lines are replaced
+    assert res["summary"]["focused_psnr"] is None and res["summary"]["psnr"] is not None
+    assert res["regions"]["cameras"]["cam00"]["frames_with_boxes"] == 0
+
+
+@pytest.mark.filterwarnings("ignore::dynaeval.DynaevalWarning")
+def test_bundled_detector_finding_nothing_names_the_coco_fix(tmp_path):
+    from dynaeval.report.results import NO_REGIONS
+
+    root = tmp_path
+    grey = [np.full((64, 96, 3), 128, np.uint8)] * 3  # nothing to find
+    write_frames(root / "gt", "cam00", grey)
+    write_frames(root / "pred", "cam00", [g + 2 for g in grey])
+    res = dynaeval.score(root / "pred", root / "gt", metrics=("psnr",), temporal=False, progress=False)
+    head = [w["reason"] for w in res["warnings"] if w["reason"].startswith(NO_REGIONS)]
+    assert len(head) == 1 and "the bundled synthetic-scene detector found none" in head[0]
+    assert "dynaeval detector fetch retinanet" in head[0] and "--focus motion" in head[0]

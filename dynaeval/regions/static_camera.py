@@ -1,0 +1,110 @@
+"""Is a camera static? Motion masks (``dynaeval.regions.motion``) assume it is.
+
+A motion mask marks the pixels that differ from the camera's temporal median: on a panning or
+zooming camera every textured pixel differs, the mask covers most of the frame and the masked
+(and ``--focus motion``) values equal the whole-frame ones, silently. Two checks, per camera,
+on its ground truth:
+
+* **global motion**: corners (Shi-Tomasi) tracked from frame ``t`` to ``t+1`` (pyramidal
+  Lucas-Kanade), a similarity transform fitted to them with RANSAC
+  (``cv2.estimateAffinePartial2D``), and the largest displacement of a frame corner under it;
+  the camera moves when the median over its consecutive pairs exceeds ``MOVING_CAMERA_PX``. Moving
+  objects are outliers of the fit as long as the background holds most of the tracked corners
+  (at least ``MIN_INLIERS`` of them, else the pair gives no estimate);
+* **mask area**: the mask covers more than ``MASK_FRACTION_MAX`` of the frame on average.
+
+Measured (``python benchmarks/static_camera.py``, docs/regions.md "When the camera moves"): the
+bundled sample's two static cameras give 0.00 px and masks of 2.7 % / 4.0 % of the frame; pans of
+1, 2 and 4 px per frame over scikit-image's photographs give 1.00-4.02 px and masks of 45-95 % on
+average. The mask area alone misses the slow pans of ``coffee`` and ``astronaut`` (45 %, 48 %):
+the fit is the check that holds, the area a second one (flicker, exposure changes).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+MOVING_CAMERA_PX = 0.5
+"""Global motion (px per frame, median over consecutive pairs) above which a camera moves."""
+MASK_FRACTION_MAX = 0.5
+"""Mean share of the frame a motion mask may cover before it is taken to mark no object."""
+MIN_INLIERS = 0.5
+"""Share of tracked corners the fitted transform must explain for a pair to give an estimate."""
+MAX_PAIRS = 16
+"""At most this many consecutive pairs (evenly spaced) are fitted per camera."""
+FIT_SIDE = 640
+"""Frames are downscaled to at most this many pixels per side for the fit (px reported at the
+frame's own size)."""
+
+
+def _grey(frame: np.ndarray, scale: float) -> np.ndarray:
+    import cv2
+
+    f = np.asarray(frame, dtype=np.float32)
+    g = f if f.ndim == 2 else f[..., :3].mean(axis=2) if f.shape[2] >= 3 else f[..., 0]
+    g8 = np.clip(np.round(g * 255.0), 0, 255).astype(np.uint8)
+    if scale == 1.0:
+        return g8
+    h, w = g8.shape
+    return cv2.resize(g8, (max(1, round(w * scale)), max(1, round(h * scale))), interpolation=cv2.INTER_AREA)
+
+
+def global_motion(a: np.ndarray, b: np.ndarray) -> float | None:
+    """Camera motion from frame ``a`` to ``b`` in pixels of ``a``'s size: the largest
+    displacement of a frame corner under the similarity transform fitted to the tracked corners.
+
+    ``a``, ``b``: ``(H, W, C)`` or ``(H, W)`` float in [0, 1], same shape. None when fewer than 8
+    corners are tracked or the fit explains less than ``MIN_INLIERS`` of them.
+    """
+    import cv2
+
+    h, w = a.shape[:2]
+    scale = min(1.0, FIT_SIDE / max(h, w))
+    ga, gb = _grey(a, scale), _grey(b, scale)
+    pts = cv2.goodFeaturesToTrack(ga, maxCorners=400, qualityLevel=0.01, minDistance=8)
+    if pts is None or len(pts) < 8:
+        return None
+    nxt, status, _ = cv2.calcOpticalFlowPyrLK(ga, gb, pts, None)
+    ok = status.ravel() == 1
+    if ok.sum() < 8:
+        return None
+    m, inliers = cv2.estimateAffinePartial2D(pts[ok], nxt[ok], method=cv2.RANSAC,
+                                             ransacReprojThreshold=1.0)
+    if m is None or inliers.mean() < MIN_INLIERS:
+        return None
+    sh, sw = ga.shape
+    corners = np.array([[0, 0], [sw, 0], [0, sh], [sw, sh]], np.float64)
+    moved = corners @ m[:, :2].T + m[:, 2]
+    return float(np.max(np.hypot(*(moved - corners).T)) / scale)
+
+
+def camera_motion(load: Callable[[int], np.ndarray], n_frames: int) -> float | None:
+    """Median ``global_motion`` over up to ``MAX_PAIRS`` evenly spaced consecutive pairs
+    ``(i, i+1)`` of a camera's frames (``load(i)``); None when no pair gives an estimate."""
+    if n_frames < 2:
+        return None
+    starts = np.unique(np.linspace(0, n_frames - 2, min(MAX_PAIRS, n_frames - 1)).round().astype(int))
+    found = [global_motion(load(int(i)), load(int(i) + 1)) for i in starts]
+    found = [v for v in found if v is not None]
+    return float(np.median(found)) if found else None
+
+
+def moving_camera_reason(motion_px: float | None, mask_fraction: float | None,
+                         focus: str) -> str | None:
+    """Why the camera's motion masks cannot be trusted, with the fix, or None when it looks
+    static. ``motion_px``: ``camera_motion``; ``mask_fraction``: the mean share of the frame its
+    masks cover (None: no mask); ``focus``: the focus source (``motion`` boxes are masks too)."""
+    moves = motion_px is not None and motion_px > MOVING_CAMERA_PX
+    covers = mask_fraction is not None and mask_fraction > MASK_FRACTION_MAX
+    if not (moves or covers):
+        return None
+    what = (f"its ground truth moves by {motion_px:.1f} px per frame (median; a static camera: "
+            f"<= {MOVING_CAMERA_PX} px)" if moves else
+            "its motion mask covers most of the frame")
+    area = "" if mask_fraction is None else f"; the motion mask covers {mask_fraction:.0%} of each frame on average"
+    uses = "masked_* values and --focus motion boxes" if focus == "motion" else "masked_* values"
+    return (f"motion masks need a static camera, and {what}{area}: its {uses} are close to the "
+            "whole-frame ones and flicker's 'static' pixels are not static. Score this footage "
+            "with --no-masked, and --focus detector or --focus boxes:FILE")

@@ -1,0 +1,68 @@
+"""The CLI's region options and lines (issue 17 items 2, 3): ``--classes`` for ``score`` and
+``detect``, the regions found per camera, the bundled-detector warning and the no-box headline."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from dynaeval.cli import main, parse_classes
+from dynaeval.errors import InputError
+
+from .test_cli import run
+
+
+def test_parse_classes_names_ids_commas_and_spaces():
+    assert parse_classes(["person,32", " sports ball "]) == ("person", 32, "sports ball")
+    assert parse_classes(["person", "ball"]) == ("person", "ball")
+    assert parse_classes(None) is None
+    with pytest.raises(InputError, match="--classes names no class"):
+        parse_classes([" , "])
+
+
+def test_score_classes_select_the_detector_classes(tmp_path, scene, capsys):
+    pred, gt = scene
+    out = tmp_path / "r.json"
+    code, _, err = run(capsys, "score", pred, gt, "--no-lpips", "-q", "--no-temporal",
+                       "--classes", "ball", "-o", out)
+    assert code == 0, err
+    doc = json.loads(out.read_text())
+    assert doc["settings"]["focus"]["detector"]["class_ids"] == [1]  # the bundled {0: person, 1: ball}
+    assert list(doc["regions"]["cameras"]["cam00"]["boxes"]) == ["ball"]
+    assert "dynaeval: regions: cam00: " in err and " ball boxes in " in err
+
+
+def test_unknown_class_exits_2_naming_it_and_the_model_names(tmp_path, scene, capsys):
+    pred, gt = scene
+    code, _, err = run(capsys, "score", pred, gt, "--no-lpips", "--classes", "person,cat")
+    assert code == 2
+    assert "class 'cat' is not among the detector's classes (ball, person)" in err
+    code, _, err = run(capsys, "detect", gt, "-o", tmp_path / "b.json", "--classes", "referee")
+    assert code == 2 and "'referee' is not among" in err and not (tmp_path / "b.json").exists()
+    code, _, err = run(capsys, "score", pred, gt, "--no-lpips", "--focus", "motion", "--classes", "person")
+    assert code == 2 and "need focus 'detector'" in err
+
+
+def test_detect_with_classes_and_the_bundled_detector_warning(tmp_path, scene, capsys):
+    _, gt = scene
+    code, out, err = run(capsys, "detect", gt, "-o", tmp_path / "b.json", "-q", "--classes", "0")
+    assert code == 0, err
+    assert err.count("bundled synthetic-scene detector") == 1
+    doc = json.loads((tmp_path / "b.json").read_text())
+    assert doc["source"]["detector"]["class_ids"] == [0]
+    assert all(r["class"] == "person" for recs in doc["boxes"].values() for r in recs)
+
+
+def test_no_box_headline_replaces_the_null_summary_lines(tmp_path, scene, capsys):
+    pred, gt = scene
+    boxes = tmp_path / "empty.json"
+    keys = [f"{c}/{t:04d}" for c in ("cam00", "cam01") for t in range(4)]
+    boxes.write_text(json.dumps(dict.fromkeys(keys, [])))
+    code, _, err = run(capsys, "score", pred, gt, "--no-lpips", "-q", "--focus", f"boxes:{boxes}")
+    assert code == 0, err
+    lines = [ln for ln in err.splitlines() if ln.startswith("dynaeval: warning:")]
+    assert lines[0].startswith("dynaeval: warning: no focus box in any of the 8 ground-truth frames")
+    assert not any("focused_" in ln and "summary is null" in ln for ln in lines), lines
+    assert not any("presence_" in ln and "summary is null" in ln for ln in lines), lines
+    assert "dynaeval: regions: cam00: 0 person and 0 ball boxes in 0 of 4 frames (boxes)" in err

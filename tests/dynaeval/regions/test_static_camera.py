@@ -1,0 +1,90 @@
+"""Static-camera check of the motion masks (issue 17 item 5): a pan of a real photograph is
+flagged, the bundled sample's static cameras are not."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+import dynaeval
+from dynaeval.regions.focus import FocusConfig
+from dynaeval.regions.static_camera import (
+    MASK_FRACTION_MAX,
+    MOVING_CAMERA_PX,
+    camera_motion,
+    global_motion,
+    moving_camera_reason,
+)
+
+from ..helpers import write_frames
+
+SAMPLE = Path(dynaeval.__file__).resolve().parent / "data" / "sample"
+
+
+def _pan(step: float, n: int = 6, name: str = "chelsea") -> list[np.ndarray]:
+    """n crops (120 x 200) of a photograph, the window moving ``step`` px right per frame."""
+    skdata = pytest.importorskip("skimage.data")
+    photo = getattr(skdata, name)().astype(np.float32) / 255
+    m = np.float32([[1, 0, 0], [0, 1, 0]])
+    out = []
+    for t in range(n):
+        m[0, 2] = -step * t  # sub-pixel shifts through warpAffine
+        out.append(cv2.warpAffine(photo, m, (photo.shape[1], photo.shape[0]))[20:140, 20:220])
+    return out
+
+
+@pytest.mark.parametrize("step", [1.0, 2.5, 4.0])
+@pytest.mark.parametrize("name", ["chelsea", "coffee"])
+def test_global_motion_measures_a_pan(step, name):
+    frames = _pan(step, name=name)
+    assert camera_motion(lambda i: frames[i], len(frames)) == pytest.approx(step, abs=0.15)
+
+
+def test_global_motion_of_a_static_frame_is_zero_and_of_a_flat_one_unknown():
+    frames = _pan(0.0)
+    assert camera_motion(lambda i: frames[i], len(frames)) < 0.05
+    flat = np.full((50, 60, 3), 0.5, np.float32)
+    assert global_motion(flat, flat) is None
+    assert camera_motion(lambda i: flat, 1) is None
+
+
+def _sample_frames(cam: str) -> list[np.ndarray]:
+    return [cv2.imread(str(p))[..., ::-1].astype(np.float32) / 255
+            for p in sorted((SAMPLE / "gt" / cam).glob("*.png"))]
+
+
+@pytest.mark.parametrize("cam", ["cam07", "eval00"])
+def test_the_sample_cameras_are_static(cam):
+    frames = _sample_frames(cam)
+    px = camera_motion(lambda i: frames[i], len(frames))
+    assert px is not None and px < 0.05 < MOVING_CAMERA_PX
+
+
+def test_reason_rules():
+    assert moving_camera_reason(0.2, 0.1, "detector") is None
+    assert moving_camera_reason(None, None, "detector") is None
+    why = moving_camera_reason(2.0, 0.6, "motion")
+    assert "moves by 2.0 px per frame" in why and "covers 60%" in why and "--focus motion boxes" in why
+    assert "--no-masked" in why
+    assert "covers most of the frame" in moving_camera_reason(0.1, MASK_FRACTION_MAX + 0.01, "none")
+
+
+@pytest.mark.filterwarnings("ignore::dynaeval.DynaevalWarning")
+def test_a_panning_camera_is_flagged_per_camera_and_the_sample_is_not(tmp_path):
+    pan = [np.round(f * 255).astype(np.uint8) for f in _pan(2.0)]
+    write_frames(tmp_path / "gt", "pan", pan)
+    write_frames(tmp_path / "pred", "pan", [np.clip(f.astype(int) + 3, 0, 255).astype(np.uint8) for f in pan])
+    kw = dict(metrics=("psnr",), presence=False, temporal=False, progress=False)
+    res = dynaeval.score(tmp_path / "pred", tmp_path / "gt", focus=FocusConfig(source="motion"), **kw)
+    flagged = [w for w in res["warnings"] if w.get("camera") == "pan" and "frame" not in w
+               and "motion masks need a static camera" in w["reason"]]
+    assert len(flagged) == 1 and "--focus motion boxes" in flagged[0]["reason"]
+    assert res["regions"]["cameras"]["pan"]["global_motion_px"] == pytest.approx(2.0, abs=0.15)
+    sample = dynaeval.score(SAMPLE / "pred", SAMPLE / "gt",
+                            focus=FocusConfig.parse(f"boxes:{SAMPLE / 'boxes.json'}"), **kw)
+    assert not any("static camera" in w["reason"] for w in sample["warnings"])
+    for cam in sample["regions"]["cameras"].values():
+        assert cam["global_motion_px"] < 0.05 and cam["mask_fraction"]["mean"] < 0.05
