@@ -515,3 +515,38 @@ def test_torchvision_both_output_orders_named_retinanet_style(tmp_path, order, b
         assert src["outputs"] == {"boxes": "boxes", "scores": "labels", "labels": "scores"}
         assert "took 'boxes' (tensor(float)) as boxes, 'labels' (tensor(float)) as scores, " \
                "'scores' (tensor(int64)) as labels" in src["outputs_note"]
+
+
+@pytest.mark.slow
+def test_exported_faster_rcnn_read_right_under_either_naming(tmp_path):
+    """Faster R-CNN returns boxes, labels, scores. The recipe of docs/regions.md names the
+    outputs in the model's own order; the old recipe named them boxes, scores, labels (RetinaNet's),
+    which failed with "labels must be integer class ids": now the dtypes decide, with a note.
+    Both files give the graph's own outputs in the model's order. (Against the torch model only
+    the count: with random weights many scores tie and the exported RPN keeps other proposals.)"""
+    torch = pytest.importorskip("torch")
+    tvd = pytest.importorskip("torchvision.models.detection")
+    torch.manual_seed(0)
+    model = tvd.fasterrcnn_mobilenet_v3_large_320_fpn(
+        weights=None, weights_backbone=None, box_score_thresh=0.0, box_detections_per_img=50).eval()
+    x = torch.rand(3, 90, 160)
+    with torch.no_grad():
+        ref = model([x])[0]
+    assert list(ref) == ["boxes", "labels", "scores"]
+    image = x.permute(1, 2, 0).numpy()
+    got = {}
+    for label, names in (("own", list(ref)), ("retinanet", ["boxes", "scores", "labels"])):
+        path = tmp_path / f"frcnn-{label}.onnx"
+        torch.onnx.export(model, ([x],), str(path), opset_version=17, dynamo=False,
+                          input_names=["image"], output_names=names,
+                          dynamic_axes={"image": {1: "height", 2: "width"}, **{n: {0: "n"} for n in names}})
+        det = Detector(DetectorConfig(model=path, classes=tuple(range(91)), score_threshold=0.0, nms_iou=1.0))
+        assert det.convention == "torchvision" and (det.outputs_note is None) == (label == "own")
+        graph = det.session.run(None, {"image": x.numpy()})  # positions: boxes, labels, scores
+        got[label] = det.raw(image)
+        np.testing.assert_array_equal(got[label][0], graph[0])
+        np.testing.assert_array_equal(got[label][1], graph[2])
+        np.testing.assert_array_equal(got[label][2], graph[1])
+        assert len(got[label][0]) == len(ref["boxes"]) > 0
+    for a, b in zip(got["own"], got["retinanet"], strict=True):
+        np.testing.assert_array_equal(a, b)

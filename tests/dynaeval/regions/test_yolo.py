@@ -133,3 +133,23 @@ def test_equals_ultralytics_itself(tmp_path):
     # float32 in Ultralytics against float64 here: a coordinate within 1e-3 px of an integer
     # may round the other way
     np.testing.assert_allclose(got.boxes, ib[ok], atol=1)
+
+
+def test_clipping_before_nms_would_lose_boxes(tmp_path):
+    """The old order (clip to the image, then NMS) on the same candidates keeps fewer boxes
+    (docs/regions.md quotes the counts printed with ``pytest -s -k clipping_before``)."""
+    from dynaeval.regions.detector import postprocess
+
+    kept = []
+    for seed in (0, 1, 2):
+        pred = _random_pred(np.random.default_rng(seed))
+        det = Detector(DetectorConfig(model=yolo_model(tmp_path / f"y{seed}.onnx", pred,
+                                                       input_shape=(1, 3, 96, 96))))
+        image = np.zeros((60, 140, 3), np.float32)
+        boxes, scores, cls = det.raw(image)
+        boxes[:, [0, 2]] = boxes[:, [0, 2]].clip(0, 140)
+        boxes[:, [1, 3]] = boxes[:, [1, 3]].clip(0, 60)
+        old = postprocess(boxes, scores, cls, det.config, det.selected_ids, det.class_names, 60, 140)
+        kept.append((len(old), len(det(image))))
+    print("(clip then NMS, NMS then clip) boxes kept per seed:", kept)
+    assert all(old < new for old, new in kept)
