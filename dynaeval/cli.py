@@ -321,9 +321,10 @@ def _print_warnings(results: dict) -> None:
 
 def _print_regions(results: dict, most: int = 12) -> None:
     """One line per camera (at most ``most``): the boxes its regions hold."""
-    from dynaeval.regions.focus import describe_regions
+    from dynaeval.regions.summary import describe_regions
 
-    cameras = (results.get("regions") or {}).get("cameras", {})
+    regions = results.get("regions") or {}
+    cameras = regions.get("cameras", {}) if regions.get("source") != "none" else {}
     for cam, summary in list(cameras.items())[:most]:
         print(f"dynaeval: regions: {describe_regions(cam, summary)}", file=sys.stderr)
     if len(cameras) > most:

@@ -348,7 +348,7 @@ def score_camera(camera: str, pairs: list[FramePair], run: Run, *,
 
 def _summary_of(regions: list[FrameRegions], run: Run) -> dict[str, Any] | None:
     """The camera's ``regions_summary`` (None when it has neither boxes nor masks)."""
-    from dynaeval.regions.focus import regions_summary
+    from dynaeval.regions.summary import regions_summary
 
     focus = run.config.focus
     if focus.source == "none" and not focus.masked:

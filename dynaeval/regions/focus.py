@@ -186,29 +186,12 @@ def open_sources(config: FocusConfig) -> RegionSources:
         src.detector = det
         src.classes = det.selected_names
         settings["detector"] = det.source()
+        from dynaeval.regions.summary import detector_warnings
+
         src.warnings.extend(detector_warnings(det))
     if config.masked or config.source == "motion":
         settings["motion"] = {"kind": config.motion_kind, "min_frames": MIN_MOTION_FRAMES}
     return src
-
-
-SYNTHETIC_DETECTOR = (
-    "the boxes come from the bundled synthetic-scene detector (dynaeval/models/detector.onnx, "
-    "trained on renders of dynaeval's procedural soccer scenes): it is not for real footage, "
-    "where it finds 'persons' and 'balls' in anything. For real footage fetch a COCO detector "
-    "(dynaeval detector fetch retinanet, then --detector retinanet) or score with --focus motion")
-"""The one warning of a run whose boxes come from the bundled detector."""
-
-
-def detector_warnings(detector: Any) -> list[dict]:
-    """Run-level warnings about an opened ``Detector``: the bundled synthetic-scene one, output
-    names overruled by the dtypes (each once per run)."""
-    out = []
-    if detector.bundled:
-        out.append({"reason": SYNTHETIC_DETECTOR})
-    if detector.outputs_note:
-        out.append({"reason": f"detector {detector.path}: {detector.outputs_note}"})
-    return out
 
 
 def _expand_settings(rule: str) -> dict[str, Any]:
@@ -455,40 +438,3 @@ def detect_ground_truth(
                 bar.update(1)
     return mapping, {"kind": source, **sources.settings}
 
-
-def regions_summary(regions: Sequence[FrameRegions], source: str,
-                    classes: Sequence[str] = ()) -> dict[str, Any]:
-    """What one camera's regions hold, for the results' ``regions.cameras``: ``n_frames``,
-    ``frames_with_boxes`` (frames with at least one box in the image), ``boxes`` (raw boxes per
-    class, in the order of ``classes`` then as met; motion boxes are class ``motion``) and, with
-    motion masks, ``mask_fraction`` (mean and max share of the frame's pixels marked moving, over
-    the frames with a mask)."""
-    counts: dict[str, int] = dict.fromkeys(classes, 0)
-    for r in regions:
-        if r.raw_boxes is None:
-            continue
-        if r.records is None:
-            counts["motion"] = counts.get("motion", 0) + len(r.raw_boxes)
-            continue
-        for rec in r.records:
-            counts[str(rec["class"])] = counts.get(str(rec["class"]), 0) + 1
-    out: dict[str, Any] = {
-        "source": source, "n_frames": len(regions),
-        "frames_with_boxes": sum(r.boxes is not None for r in regions), "boxes": counts,
-    }
-    fractions = [float(r.mask.mean()) for r in regions if r.mask is not None]
-    if any(r.mask is not None or r.mask_reason for r in regions):
-        out["mask_fraction"] = ({"mean": float(np.mean(fractions)), "max": max(fractions)}
-                                if fractions else None)
-    if regions and regions[0].camera_motion is not None:
-        out["global_motion_px"] = regions[0].camera_motion["global_motion_px"]
-    return out
-
-
-def describe_regions(camera: str, summary: dict[str, Any]) -> str:
-    """One console line: ``cam07: 12 person and 3 ball boxes in 10 of 12 frames``."""
-    parts = [f"{n} {c}" for c, n in summary["boxes"].items()]
-    listed = (" and ".join([", ".join(parts[:-1]), parts[-1]]) if len(parts) > 1 else
-              parts[0] if parts else "0")
-    return (f"{camera}: {listed} boxes in {summary['frames_with_boxes']} of "
-            f"{summary['n_frames']} frames ({summary['source']})")

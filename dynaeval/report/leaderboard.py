@@ -45,8 +45,10 @@ RUN_IGNORED_SETTINGS = (
     "focus.detector.settings.model",
     "focus.detector.settings.device",
     "focus.detector.onnxruntime",
+    "focus.detector.outputs_note",
 )
-"""Run settings that never change a number (paths, devices): not compared."""
+"""Run settings that never change a number (paths, devices, the text saying which detector
+output was taken as what: ``focus.detector.outputs`` is compared): not compared."""
 
 
 def _ignored_settings() -> tuple[str, ...]:
