@@ -24,7 +24,7 @@ from dynaeval.errors import EmptyRegionError, InputError, UndefinedMetricError
 from dynaeval.io import FramePair
 from dynaeval.io.cache import FrameCache
 from dynaeval.metrics.flow import check_flow_size
-from dynaeval.metrics.registry import REGION_RULES, FrameFn, keys_of
+from dynaeval.metrics.registry import METRICS, REGION_RULES, FrameFn, keys_of
 from dynaeval.regions.focus import FrameRegions
 from dynaeval.report.results import INFINITE_MARK
 
@@ -368,8 +368,6 @@ def name_regionless_frames(camera: str, pairs: list[FramePair], regions: list[Fr
     why = "; ".join(dict.fromkeys(r or "no box" for _, r in missing))
     shown = ", ".join(repr(f) for f, _ in missing[:8]) + (" ..." if len(missing) > 8 else "")
     frames = f"{len(missing)} of {len(pairs)} frames have no box ({why}): {shown}"
-    from dynaeval.metrics.registry import METRICS
-
     out = []
     for key, entry in temporal.items():
         if METRICS[key].variant != "focused":

@@ -130,9 +130,7 @@ def test_equals_ultralytics_itself(tmp_path):
     assert len(got) > 20
     np.testing.assert_array_equal(got.class_ids, out[:, 5].numpy().astype(np.int64)[ok])
     np.testing.assert_allclose(got.scores, out[:, 4].numpy()[ok], rtol=1e-6)
-    # float32 in Ultralytics against float64 here: a coordinate within 1e-3 px of an integer
-    # may round the other way
-    np.testing.assert_allclose(got.boxes, ib[ok], atol=1)
+    np.testing.assert_array_equal(got.boxes, ib[ok])  # Ultralytics in float32: equal after rounding
 
 
 def test_clipping_before_nms_would_lose_boxes(tmp_path):
