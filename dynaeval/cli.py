@@ -394,7 +394,8 @@ def _run_detect(args: argparse.Namespace) -> int:
                                           progress=not args.quiet,
                                           classes=parse_classes(args.classes), warnings=notes)
     for note in notes:
-        print(f"dynaeval: warning: {note['reason']}", file=sys.stderr)
+        where = f"camera {note['camera']}: " if "camera" in note else ""
+        print(f"dynaeval: warning: {where}{note['reason']}", file=sys.stderr)
     write_boxes_file(args.output, mapping, source, overwrite=args.overwrite)
     n_boxes = sum(len(v) for v in mapping.values())
     empty = sum(not v for v in mapping.values())

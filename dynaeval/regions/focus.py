@@ -392,8 +392,8 @@ def detect_ground_truth(
         device: onnxruntime device (``cpu`` or ``cuda``).
         progress: show a progress bar on stderr.
         classes: the detector's classes to keep (names or ids; None: person and sports ball).
-        warnings: if given, the run-level warnings about the detector (``detector_warnings``)
-            are appended to it.
+        warnings: if given, the warnings about the detector (``detector_warnings``) and, with
+            ``source="motion"``, about cameras that move are appended to it.
 
     Returns:
         ``(mapping, source)``: ``"<camera>/<frame>"`` -> records ``{class, id, box, ...}`` of the
@@ -429,6 +429,9 @@ def detect_ground_truth(
             cache = FrameCache(2**30)  # the motion pass reads every frame twice
             regions = camera_regions(cam.name, names, lambda i, r=refs, c=cache: c.read(r[i]),
                                      cache.read(refs[0]).shape[:2], sources)
+            moving = regions[0].camera_motion if regions else None
+            if warnings is not None and moving is not None and moving["reason"]:
+                warnings.append({"camera": cam.name, "reason": moving["reason"]})
             for name, reg in zip(names, regions, strict=True):
                 boxes = reg.raw_boxes if reg.raw_boxes is not None else np.zeros((0, 4), int)
                 mapping[frame_key(cam.name, name)] = [

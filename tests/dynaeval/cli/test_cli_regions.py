@@ -66,3 +66,17 @@ def test_no_box_headline_replaces_the_null_summary_lines(tmp_path, scene, capsys
     assert not any("focused_" in ln and "summary is null" in ln for ln in lines), lines
     assert not any("presence_" in ln and "summary is null" in ln for ln in lines), lines
     assert "dynaeval: regions: cam00: 0 person and 0 ball boxes in 0 of 4 frames (boxes)" in err
+
+
+def test_detect_motion_on_a_panning_camera_warns(tmp_path, capsys):
+    skdata = pytest.importorskip("skimage.data")
+
+    from ..helpers import write_frames
+
+    photo = skdata.chelsea()
+    write_frames(tmp_path / "gt", "pan", [photo[20:140, 20 + 2 * t:220 + 2 * t] for t in range(5)])
+    code, _, err = run(capsys, "detect", tmp_path / "gt", "-o", tmp_path / "b.json", "-q",
+                       "--source", "motion")
+    assert code == 0, err
+    assert "warning: camera pan: motion masks need a static camera" in err
+    assert len(json.loads((tmp_path / "b.json").read_text())["boxes"]) == 5  # written all the same
