@@ -7,7 +7,7 @@ import json
 
 import pytest
 
-from dynaeval.cli import main, parse_classes
+from dynaeval.cli import parse_classes
 from dynaeval.errors import InputError
 
 from .test_cli import run

@@ -11,7 +11,6 @@ from dynaeval.errors import InputError
 from dynaeval.regions import torchvision_onnx, yolo
 from dynaeval.regions.detector import DECODERS
 
-
 TV_ROLES = {"boxes": 0, "scores": 1, "labels": 2}
 
 
