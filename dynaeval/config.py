@@ -77,9 +77,9 @@ class ScoreConfig:
     """Score only slice ``(I, N)`` (or ``"I/N"``) of the cameras (``dynaeval.io.frames.select_shard``); the
     shards' results combine with ``dynaeval merge`` into exactly the unsharded numbers."""
     protocol: str = "dynaeval"
-    """Whose whole-frame PSNR/SSIM and 8-bit step to reproduce: ``dynaeval``, ``nerfbaselines``
-    or ``nerfstudio`` (``dynaeval.metrics.protocols``; ``quantize`` then defaults to the
-    protocol's)."""
+    """Whose whole-frame PSNR/SSIM and 8-bit step to reproduce: ``dynaeval``, ``nerfbaselines``,
+    ``nerfstudio`` or ``kplanes`` (``dynaeval.metrics.protocols``; ``quantize`` then defaults to
+    the protocol's; ``kplanes`` also computes ``msssim`` and ``dssim``)."""
 
     def __post_init__(self) -> None:
         self.metrics = _check_metrics(self.metrics)
@@ -98,11 +98,12 @@ class ScoreConfig:
             raise InputError(f"focus must be a FocusConfig, got {type(self.focus).__name__}")
         _check_choice("focus source", self.focus.source, FOCUS_SOURCES)
         from dynaeval.metrics.flow import FlowConfig
-        from dynaeval.metrics.protocols import check_lpips_net, get_protocol
+        from dynaeval.metrics.protocols import check_background, check_lpips_net, get_protocol
 
         FlowConfig(method=self.flow)  # raises InputError for an unknown method
         protocol = get_protocol(self.protocol)
         check_lpips_net(protocol, self.lpips_net)
+        check_background(protocol, self.background)
         self.resolved_quantize()  # raises when the protocol fixes another 8-bit step
         if self.shard is not None:
             from dynaeval.io.frames import parse_shard

@@ -77,7 +77,7 @@ def prepare_run(config: ScoreConfig) -> Run:
     Raises:
         InputError: an unusable detector or boxes file.
     """
-    from dynaeval.metrics.protocols import get_protocol
+    from dynaeval.metrics.protocols import get_protocol, run_metrics
     from dynaeval.metrics.registry import SPECS, FrameContext, build_frame_metrics
     from dynaeval.regions.focus import open_sources
     from dynaeval.runtime import resolve_device
@@ -91,7 +91,7 @@ def prepare_run(config: ScoreConfig) -> Run:
     regions = ("whole",
                *(("focused",) if config.focus.source != "none" else ()),
                *(("masked",) if config.focus.masked else ()))
-    built = build_frame_metrics(ctx, config.metrics, regions)
+    built = build_frame_metrics(ctx, run_metrics(protocol, config.metrics), regions)
     warnings = [{"metric": name, "reason": f"{SPECS[name].title} not computed: {why}"}
                 for name, why in built.unavailable.items()]
     settings: dict[str, Any] = {

@@ -1,6 +1,6 @@
 """Evaluation protocols: reproduce the whole-frame numbers other evaluators publish.
 
-``--protocol dynaeval|nerfbaselines|nerfstudio`` (``ScoreConfig.protocol``) changes how the
+``--protocol dynaeval|nerfbaselines|nerfstudio|kplanes`` (``ScoreConfig.protocol``) changes how the
 whole-frame PSNR and SSIM are computed and how images are prepared, so that dynaeval's figures can
 sit next to tables produced by those tools. docs/protocols.md lists every difference and where it
 comes from; in short:
@@ -19,6 +19,10 @@ comes from; in short:
   5 px and *every* window averaged, border included; variances clamped at 0; float32); LPIPS
   AlexNet as torchmetrics' ``LearnedPerceptualImagePatchSimilarity(normalize=True)`` (inputs in
   [0, 1] mapped to [-1, 1]).
+* ``kplanes``: K-Planes' trainers (``dynaeval.metrics.protocol_kplanes``): float renders, images
+  clipped to [0, 1], PSNR from a float32 MSE, mip-NeRF's SSIM (valid windows, float64 statistics,
+  variances clipped at 0, covariance at ``+-sqrt(var_x var_y)``), and MS-SSIM / D-SSIM
+  (``dynaeval.metrics.multiscale``) added to the run's metrics; LPIPS AlexNet; RGBA over white.
 
 The ``focused_*``/``masked_*``/temporal metrics are dynaeval's own under every protocol (the other
 tools have none); the protocol's 8-bit step applies to them too, since it changes the images.
@@ -34,9 +38,10 @@ from typing import Any
 import numpy as np
 
 from dynaeval.errors import InputError
+from dynaeval.metrics.protocol_kplanes import KPLANES_CHOICES, KPLANES_REFERENCE
 from dynaeval.validation import check_data_range, check_pair
 
-PROTOCOL_NAMES = ("dynaeval", "nerfbaselines", "nerfstudio")
+PROTOCOL_NAMES = ("dynaeval", "nerfbaselines", "nerfstudio", "kplanes")
 
 
 def _as_hwc(p: np.ndarray) -> np.ndarray:
@@ -162,20 +167,35 @@ class Protocol:
     psnr: str
     """``float64`` (dynaeval) or ``float32`` (mean squared error in float32)."""
     ssim: str
-    """``skimage-gaussian`` (dynaeval), ``dm_pix`` (valid windows, clamped) or ``torchmetrics``
-    (reflect-padded, every window, float32)."""
+    """``skimage-gaussian`` (dynaeval), ``dm_pix`` (valid windows, clamped), ``torchmetrics``
+    (reflect-padded, every window, float32) or ``mipnerf`` (K-Planes: valid windows, float64
+    statistics, variances clipped at 0)."""
     clip: bool
     """Clip images to [0, 1] before PSNR/SSIM."""
     lpips_net: str
     """The LPIPS backbone the evaluator reports as ``lpips``."""
     reference: str
     """Where the definitions come from."""
+    metrics: tuple[str, ...] = ()
+    """Per-frame metrics the evaluator reports beyond PSNR/SSIM/LPIPS (registry names): a run
+    under this protocol computes them too (``run_metrics``)."""
+    background: str | None = None
+    """The background RGBA ground truth is blended over (``white``/``black``), None: any."""
+    choices: tuple[tuple[str, str], ...] = ()
+    """Every further choice of the evaluator, ``(what, how and where from)``, for the results."""
 
     def describe(self) -> dict[str, Any]:
         """Settings for the results JSON."""
-        return {"name": self.name, "quantize": self.quantize, "psnr": self.psnr,
-                "ssim": self.ssim, "clip": self.clip, "lpips_net": self.lpips_net,
-                "reference": self.reference}
+        out = {"name": self.name, "quantize": self.quantize, "psnr": self.psnr,
+               "ssim": self.ssim, "clip": self.clip, "lpips_net": self.lpips_net,
+               "reference": self.reference}
+        if self.metrics:
+            out["metrics"] = list(self.metrics)
+        if self.background is not None:
+            out["background"] = self.background
+        if self.choices:
+            out["choices"] = dict(self.choices)
+        return out
 
     def _check_range(self, data_range: float) -> None:
         if self.clip and data_range != 1.0:
@@ -200,6 +220,10 @@ class Protocol:
             from dynaeval.metrics.structural import ssim
 
             return ssim(pred, gt, data_range=data_range)
+        if self.ssim == "mipnerf":
+            from dynaeval.metrics.protocol_kplanes import kplanes_ssim
+
+            return kplanes_ssim(pred, gt, data_range=data_range, clip=self.clip)
         if self.ssim == "dm_pix":
             return ssim_variant(pred, gt, data_range=data_range, border="valid", clamp="dm_pix",
                                 clip=self.clip, precision="float64")
@@ -219,6 +243,8 @@ PROTOCOLS: dict[str, Protocol] = {
         "nerfstudio models' get_image_metrics_and_images (torchmetrics PSNR, SSIM, LPIPS "
         "normalize=True) averaged per image by ns-eval",
     ),
+    "kplanes": Protocol("kplanes", "none", "float32", "mipnerf", True, "alex", KPLANES_REFERENCE,
+                        metrics=("msssim", "dssim"), background="white", choices=KPLANES_CHOICES),
 }
 
 
@@ -259,3 +285,17 @@ def check_lpips_net(protocol: Protocol, net: str) -> None:
             f"protocol {protocol.name} reports LPIPS with the {protocol.lpips_net} backbone, not "
             f"{net}; drop --lpips-net or use --protocol dynaeval"
         )
+
+
+def check_background(protocol: Protocol, background: str) -> None:
+    """Raise InputError when the protocol blends RGBA ground truth over another background."""
+    if protocol.background is not None and background != protocol.background:
+        raise InputError(
+            f"protocol {protocol.name} blends RGBA ground truth over {protocol.background}, not "
+            f"{background}; drop --background or use --protocol dynaeval"
+        )
+
+
+def run_metrics(protocol: Protocol, names: tuple[str, ...]) -> tuple[str, ...]:
+    """The per-frame metrics of a run: those asked for, then the protocol's own (``metrics``)."""
+    return (*names, *(m for m in protocol.metrics if m not in names))

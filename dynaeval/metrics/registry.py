@@ -238,6 +238,21 @@ SPECS: dict[str, MetricSpec] = {
             ),
         ),
         MetricSpec(
+            "msssim", "frame", True, (0.0, 1.0), "",
+            "MS-SSIM as torchmetrics 1.9 computes it (5 scales, Gaussian 11 taps, sigma 1.5, "
+            "reflect padding, relu-normalised), as K-Planes logs it",
+            regions=("whole",), default=False, label="MS-SSIM",
+            build="dynaeval.metrics.multiscale:build_msssim",
+            settings="dynaeval.metrics.multiscale:msssim_settings", doc="MS-SSIM and D-SSIM",
+        ),
+        MetricSpec(
+            "dssim", "frame", False, (0.0, 0.5), "",
+            "D-SSIM = (1 - MS-SSIM) / 2, as the DyNeRF-benchmark tables report it",
+            regions=("whole",), default=False, label="D-SSIM",
+            build="dynaeval.metrics.multiscale:build_dssim",
+            settings="dynaeval.metrics.multiscale:msssim_settings", doc="MS-SSIM and D-SSIM",
+        ),
+        MetricSpec(
             "presence", "object", True, (0.0, 1.0), "",
             "fraction of the frame's ground-truth objects of the class the prediction shows "
             "(tight-box NCC and PSNR against calibrated thresholds, plus the detector when it "
