@@ -361,7 +361,10 @@ def _run_score(pred: str, gt: str | None, args: argparse.Namespace, *, overwrite
         warnings.simplefilter("ignore", DynaevalWarning)
         results = score(pred, gt, config, on_regions=recorder)
     layout = results["inputs"].get("layout")
-    if layout:
+    if layout and layout["name"] == "kplanes":
+        print(f"dynaeval: K-Planes evaluation stack: scored the top third (prediction) of "
+              f"{results['inputs']['pred']} against its middle third (ground truth)", file=sys.stderr)
+    elif layout:
         print(f"dynaeval: {layout['name']} render folder: scored {results['inputs']['pred']} "
               f"against {results['inputs']['gt']}", file=sys.stderr)
     _print_warnings(results)

@@ -67,7 +67,8 @@ def score(
     Args:
         pred_dir: predictions: images (flat, or one sub-folder per camera) or videos; or a
             render folder of a known layout (NeRFBaselines ``color/`` + ``gt-color/``,
-            ``ns-render`` ``rgb/`` + ``gt-rgb/``) with ``gt_dir`` None (``dynaeval.io.layouts``).
+            ``ns-render`` ``rgb/`` + ``gt-rgb/``) with ``gt_dir`` None, or a K-Planes evaluation
+            stack file ``step<N>.mp4`` alone (``dynaeval.io.layouts``, ``dynaeval.io.kplanes``).
         gt_dir: ground truth in the same layout; frames are paired by relative path with the
             extension ignored (``dynaeval.io.frames`` gives the rules).
         config: settings (default ``ScoreConfig()``, the CLI's defaults); keyword
@@ -89,7 +90,12 @@ def score(
     config = replace(config or ScoreConfig(), **overrides)  # __post_init__ checks the fields
     t_start = time.perf_counter()
     layout = detect_layout(pred_dir, gt_dir)
-    pairing = pair_frames(layout.pred, layout.gt, allow_missing=config.allow_missing)
+    if layout.name == "kplanes":
+        from dynaeval.io.kplanes import pair_stack
+
+        pairing = pair_stack(layout.pred)
+    else:
+        pairing = pair_frames(layout.pred, layout.gt, allow_missing=config.allow_missing)
     if config.shard is not None:
         from dynaeval.io.frames import select_shard
 
@@ -98,12 +104,13 @@ def score(
 
     run = prepare_run(config)
     run.warnings.extend(pairing.warnings)  # damaged video files
-    if layout.name != "folders" and config.temporal:
+    if not layout.sequence and config.temporal:
         run.warnings.append({"reason": (
             f"{layout.name} render folders hold separate test views; temporal metrics treat them "
             "as a sequence (pass temporal=False / --no-temporal unless they are one)")})
     rows, warnings, temporal, regions = _score_cameras(pairing.pairs, run, on_regions)
-    run_name = None if layout.name == "folders" else Path(pred_dir).resolve().name
+    run_name = None if layout.name == "folders" else (layout.root if layout.name == "kplanes"
+                                                      else Path(pred_dir)).resolve().name
     results = _assemble(layout, run_name, pairing, run, rows, warnings, temporal, t_start, regions)
     for w in results["warnings"]:
         if "camera" not in w:
@@ -169,6 +176,10 @@ def _assemble(layout: Any, run_name: str | None, pairing: Any, run: Any, rows: l
     scene = config.scene or run_name or layout.gt.resolve().name
     inputs_extra = ({} if run_name is None else
                     {"layout": {"name": layout.name, "root": str(layout.root)}})
+    if layout.name == "kplanes":
+        from dynaeval.io.kplanes import describe_stack
+
+        inputs_extra["layout"]["stack"] = describe_stack(pairing)
     return Results(build_results(
         rows=rows, metric_names=run.metric_names, method=method, scene=scene,
         pred_dir=str(layout.pred), gt_dir=str(layout.gt), settings=run.settings,

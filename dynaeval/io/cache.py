@@ -24,7 +24,7 @@ class FrameCache:
         self.bytes = 0
         self.hits = 0
         self.misses = 0
-        self._frames: dict[tuple, np.ndarray] = {}
+        self._frames: dict[tuple[FrameRef, str | float], np.ndarray] = {}
         self._lock = threading.Lock()
 
     def read(self, ref: FrameRef, background: str | float = "white") -> np.ndarray:
@@ -32,7 +32,7 @@ class FrameCache:
 
         Returns a read-only (H, W, C) float32 array: callers must not modify it in place.
         """
-        key = (ref.path, ref.index, background)
+        key = (ref, background)  # the whole reference: a K-Planes stack's parts share path and index
         with self._lock:
             frame = self._frames.get(key)
             if frame is not None:

@@ -89,7 +89,8 @@ class Pairing:
     """With ``allow_missing``: ground-truth frames with no prediction, ``{camera, frame}``."""
     warnings: list[dict] = field(default_factory=list)
     """``{camera, reason}`` of the scored cameras' damaged video files (``Camera.warnings``),
-    for the results' warnings."""
+    and run-level ``{reason}`` ones (a K-Planes stack read from a lossy video), for the results'
+    warnings."""
 
 
 @dataclass
@@ -278,5 +279,6 @@ def select_shard(pairing: Pairing, index: int, count: int) -> Pairing:
         pairs=[p for p in pairing.pairs if p.camera in mine],
         unscored_cameras=list(pairing.unscored_cameras),
         skipped=[s for s in pairing.skipped if s["camera"] in mine],
-        warnings=[w for w in pairing.warnings if w["camera"] in mine],
+        warnings=[w for w in pairing.warnings  # run-level ones (no camera) go to every shard
+                  if "camera" not in w or w["camera"] in mine],
     )

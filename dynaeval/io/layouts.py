@@ -15,7 +15,10 @@ Rules (docs/integration.md repeats them with examples):
    If PRED is itself a render folder (holds ``color/`` + ``gt-color/`` or ``rgb/`` + ``gt-rgb/``)
    and GT is the same folder, rule 1 applies; the same ordinary folder twice is scored as given
    (the ground truth against itself: a sanity check that gives the ideal values).
-3. nerfstudio ``ns-eval --render-output-path`` writes ``NNNNNN-img.jpg`` files that hold the ground
+3. K-Planes ``step<N>.mp4`` (or ``step<N>-<i>.png``), one file given alone: each frame stacks
+   prediction, ground truth and an error map vertically (``dynaeval.io.kplanes``); its pairs
+   come from ``kplanes.pair_stack``.
+4. nerfstudio ``ns-eval --render-output-path`` writes ``NNNNNN-img.jpg`` files that hold the ground
    truth and the prediction side by side in one 8-bit JPEG: they are refused with a message
    (JPEG loss and the shared file make them unfit for scoring); render with ``ns-render`` instead.
 
@@ -42,7 +45,8 @@ class RenderLayout:
     """Where predictions and ground truth of one run are, and what wrote them."""
 
     name: str
-    """``nerfbaselines``, ``nerfstudio`` or ``folders`` (PRED and GT as given)."""
+    """``nerfbaselines``, ``nerfstudio``, ``kplanes`` (a stack file: ``pred`` and ``gt`` are that
+    file) or ``folders`` (PRED and GT as given)."""
     pred: Path
     """Folder of predictions."""
     gt: Path
@@ -72,6 +76,21 @@ def _check_not_ns_eval(folder: Path) -> None:
         )
 
 
+def _stack_layout(path: Path) -> RenderLayout:
+    """A K-Planes evaluation stack (``step<N>.mp4``, ``step<N>-<i>.png``) given alone."""
+    from dynaeval.io.kplanes import check_stack, is_stack_file
+
+    if not is_stack_file(path):
+        raise InputError(
+            "one file was given: dynaeval reads a single file only as K-Planes' evaluation stack "
+            "(prediction, ground truth and error map stacked vertically), named step<N>.mp4 or "
+            "step<N>-<i>.png; pass PRED and GT folders (or videos in them) otherwise",
+            path=path,
+        )
+    check_stack(path)  # the height is three parts, before any work
+    return RenderLayout("kplanes", path, path, path.parent, sequence=True)
+
+
 def detect_layout(pred: str | Path, gt: str | Path | None = None) -> RenderLayout:
     """Find the prediction and ground-truth folders of a run (rules in the module docstring).
 
@@ -92,6 +111,8 @@ def detect_layout(pred: str | Path, gt: str | Path | None = None) -> RenderLayou
         for folder in (pred, Path(gt)):
             _check_not_ns_eval(folder)
         return RenderLayout("folders", pred, Path(gt))
+    if (gt is None or same) and pred.is_file():
+        return _stack_layout(pred)
     if not pred.is_dir():
         raise InputError("render folder not found (or not a folder)", path=pred)
     _check_not_ns_eval(pred)

@@ -112,6 +112,9 @@ class VideoReader:
         self._lock = threading.Lock()
         self._cap = None
         self._next = 0
+        self._last: tuple[int, np.ndarray] | None = None
+        """The frame decoded last (a K-Planes stack reads one frame twice: prediction, then
+        ground truth)."""
 
     def _open(self) -> None:
         import cv2
@@ -124,8 +127,10 @@ class VideoReader:
         self._next = 0
 
     def read(self, index: int) -> np.ndarray:
-        """Frame ``index`` (0-based) as (H, W, 3) uint8 RGB."""
+        """Frame ``index`` (0-based) as (H, W, 3) uint8 RGB (read-only)."""
         with self._lock:
+            if self._last is not None and self._last[0] == index:
+                return self._last[1]
             if self._cap is None or index < self._next:
                 self._open()
             while self._next < index:
@@ -136,13 +141,17 @@ class VideoReader:
             if not ok:
                 raise InputError(f"cannot decode frame {index}", path=self.path)
             self._next += 1
-        return np.ascontiguousarray(frame[..., ::-1])
+            rgb = np.ascontiguousarray(frame[..., ::-1])
+            rgb.flags.writeable = False
+            self._last = (index, rgb)
+        return rgb
 
     def close(self) -> None:
         with self._lock:
             if self._cap is not None:
                 self._cap.release()
                 self._cap = None
+            self._last = None
 
 
 _readers: dict[Path, VideoReader] = {}
