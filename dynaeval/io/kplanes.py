@@ -124,6 +124,29 @@ def _lossy_warning(path: Path, is_video: bool) -> str:
             "so these numbers differ slightly from the ones K-Planes logged on the float render")
 
 
+GREY_TOLERANCE = 12 / 255
+"""Largest mean channel spread (|R - G| + |G - B|, in [0, 1] units) of a grey error map after
+lossy coding: measured 5/255 for a grey part through OpenCV's mp4v, against 19-107/255 for
+scikit-image's colour photos and their 60 x 70 crops."""
+
+
+def _grey_warning(path: Path, is_video: bool, rows: int) -> str | None:
+    """A warning when the first frame's third part is not grey (then it is no K-Planes error map,
+    and the file is likely not a K-Planes stack)."""
+    frame = read_video_frame(path, 0) if is_video else read_image(path)
+    third = np.asarray(frame[2 * rows:], np.float32)
+    if third.ndim < 3 or third.shape[2] < 3:
+        return None
+    if np.issubdtype(frame.dtype, np.integer):
+        third /= np.iinfo(frame.dtype).max
+    spread = float(np.mean(np.abs(third[..., 0] - third[..., 1]) + np.abs(third[..., 1] - third[..., 2])))
+    if spread <= GREY_TOLERANCE:
+        return None
+    return (f"{path}: the bottom third of the first frame is not grey (mean channel spread "
+            f"{spread * 255:.1f}/255), but K-Planes' third part is a grey error map: check that "
+            "this file stacks prediction, ground truth and error map (top to bottom)")
+
+
 def check_stack(path: str | Path) -> tuple[int, list[str]]:
     """Check a K-Planes stack file before scoring: (rows of one part, warnings).
 
@@ -140,7 +163,8 @@ def check_stack(path: str | Path) -> tuple[int, list[str]]:
     is_video = path.suffix.lower() in VIDEO_EXTENSIONS
     height, _ = _frame_size(path, is_video)
     rows, cut = part_rows(height, path, is_video)
-    return rows, [w for w in (cut, _lossy_warning(path, is_video)) if w]
+    notes = (cut, _grey_warning(path, is_video, rows), _lossy_warning(path, is_video))
+    return rows, [w for w in notes if w]
 
 
 def pair_stack(path: str | Path) -> Pairing:

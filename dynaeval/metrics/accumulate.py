@@ -59,12 +59,12 @@ class ImageMetrics:
 
     Args:
         metrics: registry names (default: those ``dynaeval score`` runs by default, ``psnr``,
-            ``ssim``, ``lpips``).
+            ``ssim``, ``lpips``, plus the protocol's own: ``msssim``, ``dssim`` for ``kplanes``).
         data_range: peak value of the images (1.0 for [0, 1]); LPIPS needs [0, 1].
         lpips_net: ``alex`` (default) or ``vgg``.
         device: torch device for LPIPS; None: the device of the first tensor given (CPU for numpy).
-        protocol: ``dynaeval`` (default), ``nerfbaselines`` or ``nerfstudio``: whose whole-frame
-            PSNR/SSIM and 8-bit step to use (``dynaeval.metrics.protocols``).
+        protocol: ``dynaeval`` (default), ``nerfbaselines``, ``nerfstudio`` or ``kplanes``: whose
+            whole-frame PSNR/SSIM and 8-bit step to use (``dynaeval.metrics.protocols``).
         pretrained_backbone: False only in tests (LPIPS with a random backbone, see ``load_lpips``).
 
     Raises:
@@ -80,10 +80,11 @@ class ImageMetrics:
         protocol: str = "dynaeval",
         pretrained_backbone: bool = True,
     ) -> None:
-        from dynaeval.metrics.protocols import check_lpips_net, get_protocol
+        from dynaeval.metrics.protocols import check_lpips_net, get_protocol, run_metrics
         from dynaeval.validation import check_data_range
 
-        metrics = default_frame_metrics() if metrics is None else tuple(metrics)
+        metrics = (run_metrics(get_protocol(protocol), default_frame_metrics()) if metrics is None
+                   else tuple(metrics))
         unknown = [m for m in metrics if m not in SUPPORTED]
         if unknown or not metrics:
             raise InputError(f"metrics must be a non-empty subset of {', '.join(SUPPORTED)}, "

@@ -89,6 +89,7 @@ def test_mp4v_stack_as_kplanes_writes_it(tmp_path):
     assert np.abs(decoded[0].astype(int) - stacks[0]).max() > 0  # lossy
     res = dynaeval.score(path, protocol="kplanes", **FAST)
     assert any("MPEG-4" in w["reason"] for w in res["warnings"])
+    assert not any("not grey" in w["reason"] for w in res["warnings"])  # survives the codec
     h = 180
     u = lambda a: a / np.float32(255)  # noqa: E731
     expect = [psnr(u(d[:h]), u(d[h:2 * h])) for d in decoded]  # the decoded frames, in thirds
@@ -184,3 +185,14 @@ def test_each_video_frame_is_decoded_once(tmp_path, monkeypatch):
         res = dynaeval.score(path, metrics=("psnr",), focus=NO_FOCUS, temporal=False,
                              progress=False, cache_mb=0)
     assert res["summary"]["n_frames"] == 4 and len(opens) == 1
+
+
+def test_a_colour_bottom_third_warns_that_it_is_no_error_map(tmp_path):
+    stacks, _, _ = _stack_frames(1, h=60, w=70)
+    good, bad = tmp_path / "step1-0.png", tmp_path / "step2-0.png"
+    cv2.imwrite(str(good), stacks[0][..., ::-1])
+    swapped = np.concatenate([stacks[0][:60], stacks[0][120:], stacks[0][60:120]])  # colour last
+    cv2.imwrite(str(bad), swapped[..., ::-1])
+    assert not any("not grey" in w["reason"] for w in pair_stack(good).warnings)
+    (warning,) = [w for w in pair_stack(bad).warnings if "not grey" in w["reason"]]
+    assert "step2-0.png" in warning["reason"]

@@ -227,3 +227,16 @@ def test_score_under_kplanes_reports_msssim_and_dssim(tmp_path):
     plain = dynaeval.score(tmp_path / "pred", tmp_path / "gt", metrics=("psnr",), focus=NO_FOCUS,
                            temporal=False, progress=False)
     assert "msssim" not in plain["summary"]  # off by default under the other protocols
+
+
+def test_image_metrics_under_kplanes_adds_the_protocols_metrics():
+    from dynaeval.metrics.accumulate import ImageMetrics
+
+    _, pred, gt = next(_photo_pairs())
+    acc = ImageMetrics(protocol="kplanes", metrics=("psnr", "ssim", "msssim", "dssim"))
+    acc.update(pred, gt)
+    out = acc.compute()
+    assert out["ssim"] == pytest.approx(kplanes_ssim_reference(pred, gt), abs=SSIM_TOL)
+    assert out["dssim"] == pytest.approx((1 - ms_ssim(pred, gt, clip=True)) / 2, abs=1e-15)
+    assert ImageMetrics(protocol="kplanes").metrics[-2:] == ("msssim", "dssim")
+    assert "msssim" not in ImageMetrics().metrics
