@@ -362,8 +362,10 @@ def _run_score(pred: str, gt: str | None, args: argparse.Namespace, *, overwrite
         results = score(pred, gt, config, on_regions=recorder)
     layout = results["inputs"].get("layout")
     if layout and layout["name"] == "kplanes":
+        files = layout["stack"]["files"]
+        shown = files[0] if len(files) == 1 else f"{len(files)} files ({files[0]}, ...)"
         print(f"dynaeval: K-Planes evaluation stack: scored the top third (prediction) of "
-              f"{results['inputs']['pred']} against its middle third (ground truth)", file=sys.stderr)
+              f"{shown} against its middle third (ground truth)", file=sys.stderr)
     elif layout:
         print(f"dynaeval: {layout['name']} render folder: scored {results['inputs']['pred']} "
               f"against {results['inputs']['gt']}", file=sys.stderr)

@@ -167,28 +167,57 @@ def check_stack(path: str | Path) -> tuple[int, list[str]]:
     return rows, [w for w in notes if w]
 
 
+def latest_stacks(folder: str | Path) -> list[Path]:
+    """The stack files of a K-Planes log folder's latest evaluation: the ``step<N>.mp4`` of the
+    highest N, else every ``step<N>-<i>.png`` of the highest N (in order of i); [] if none."""
+    videos: dict[int, Path] = {}
+    images: dict[int, list[tuple[int, Path]]] = {}
+    for p in sorted(Path(folder).iterdir()):
+        m = STACK_NAME.match(p.stem)
+        if not m or not p.is_file() or p.name.startswith("."):
+            continue
+        ext = p.suffix.lower()
+        if ext in VIDEO_EXTENSIONS and m.group(2) is None:
+            videos[int(m.group(1))] = p
+        elif ext in IMAGE_EXTENSIONS and m.group(2) is not None:
+            images.setdefault(int(m.group(1)), []).append((int(m.group(2)[1:]), p))
+    if videos:
+        return [videos[max(videos)]]
+    return [p for _, p in sorted(images[max(images)])] if images else []
+
+
 def pair_stack(path: str | Path) -> Pairing:
-    """The (prediction, ground truth) pairs of a K-Planes stack file: one camera named after the
-    file (``step30000``), one frame per video frame (or the one PNG).
+    """The (prediction, ground truth) pairs of a K-Planes stack file, or of a log folder's latest
+    stacks (``latest_stacks``): one camera, named after the video (``step30000``) or the step of
+    the PNGs; one frame per video frame or PNG.
 
     Raises:
-        InputError: as ``check_stack``, or a damaged video with no decodable frame.
+        InputError: as ``check_stack``, a damaged video with no decodable frame, or a folder
+            with no stack.
     """
     path = Path(path)
-    rows, notes = check_stack(path)
-    warnings = [{"reason": n} for n in notes]
-    camera = path.stem
-    if path.suffix.lower() in VIDEO_EXTENSIONS:
-        scan = scan_video(path)
-        if scan.problem():
-            warnings.append({"camera": camera, "reason": f"{path}: {scan.problem()}"})
-        indices: list[int | None] = list(range(scan.n_frames))
-    else:
-        indices = [None]
-    pairs = [FramePair(camera, str(i if i is not None else 0), k,
-                       StackedFrameRef(path, i, part=0, rows=rows),
-                       StackedFrameRef(path, i, part=1, rows=rows))
-             for k, i in enumerate(indices)]
+    files = latest_stacks(path) if path.is_dir() else [path]
+    if not files:
+        raise InputError("no K-Planes evaluation stack (step<N>.mp4, step<N>-<i>.png) here", path=path)
+    pairs: list[FramePair] = []
+    warnings: list[dict] = []
+    for n, file in enumerate(files):
+        rows, notes = check_stack(file)
+        if n == 0:  # the notes of a PNG set are the same for each file
+            warnings += [{"reason": w} for w in notes]
+        if file.suffix.lower() in VIDEO_EXTENSIONS:
+            camera, scan = file.stem, scan_video(file)
+            if scan.problem():
+                warnings.append({"camera": camera, "reason": f"{file}: {scan.problem()}"})
+            frames: list[tuple[str, int | None]] = [(str(i), i) for i in range(scan.n_frames)]
+        elif len(files) > 1:  # a folder's PNG set: camera step<N>, frames by test image i
+            m = STACK_NAME.match(file.stem)
+            camera, frames = f"step{m.group(1)}", [(m.group(2)[1:], None)]
+        else:
+            camera, frames = file.stem, [("0", None)]
+        pairs += [FramePair(camera, name, len(pairs) + k, StackedFrameRef(file, i, part=0, rows=rows),
+                            StackedFrameRef(file, i, part=1, rows=rows))
+                  for k, (name, i) in enumerate(frames)]
     return Pairing(pairs=pairs, warnings=warnings)
 
 
@@ -197,6 +226,7 @@ def describe_stack(pairing: Pairing) -> dict:
     ref = pairing.pairs[0].pred if pairing.pairs else None
     rows = getattr(ref, "rows", None)
     return {
+        "files": sorted({str(p.pred.path) for p in pairing.pairs}),
         "parts": list(STACK_PARTS), "axis": "vertical (rows)", "part_rows": rows,
         "prediction_rows": [0, rows], "ground_truth_rows": [rows, 2 * rows] if rows else None,
         "source": "K-Planes base_trainer.evaluate_metrics (torch.cat((pred, gt, err), dim=0), "

@@ -15,9 +15,10 @@ Rules (docs/integration.md repeats them with examples):
    If PRED is itself a render folder (holds ``color/`` + ``gt-color/`` or ``rgb/`` + ``gt-rgb/``)
    and GT is the same folder, rule 1 applies; the same ordinary folder twice is scored as given
    (the ground truth against itself: a sanity check that gives the ideal values).
-3. K-Planes ``step<N>.mp4`` (or ``step<N>-<i>.png``), one file given alone: each frame stacks
-   prediction, ground truth and an error map vertically (``dynaeval.io.kplanes``); its pairs
-   come from ``kplanes.pair_stack``.
+3. K-Planes ``step<N>.mp4`` (or ``step<N>-<i>.png``), one file given alone, or a K-Planes log
+   folder (no layout above), whose latest ``step<N>.mp4`` (else ``step<N>-*.png`` set) is read:
+   each frame stacks prediction, ground truth and an error map vertically
+   (``dynaeval.io.kplanes``); its pairs come from ``kplanes.pair_stack``.
 4. nerfstudio ``ns-eval --render-output-path`` writes ``NNNNNN-img.jpg`` files that hold the ground
    truth and the prediction side by side in one 8-bit JPEG: they are refused with a message
    (JPEG loss and the shared file make them unfit for scoring); render with ``ns-render`` instead.
@@ -122,6 +123,13 @@ def detect_layout(pred: str | Path, gt: str | Path | None = None) -> RenderLayou
             found += _pairs_in(sub)
     if len(found) == 1:
         return found[0]
+    if not found:
+        from dynaeval.io.kplanes import latest_stacks
+
+        stacks = latest_stacks(pred)
+        if stacks:  # a K-Planes log folder: its latest evaluation
+            video = len(stacks) == 1 and stacks[0].suffix.lower() != ".png"
+            return RenderLayout("kplanes", pred, pred, pred, sequence=video)
     if same and not found:  # PRED and GT are one ordinary folder: a self-check, scored as given
         return RenderLayout("folders", pred, pred)
     known = "; ".join(f"{n}: {p}/ + {g}/" for n, (p, g) in LAYOUTS.items())

@@ -196,3 +196,30 @@ def test_a_colour_bottom_third_warns_that_it_is_no_error_map(tmp_path):
     assert not any("not grey" in w["reason"] for w in pair_stack(good).warnings)
     (warning,) = [w for w in pair_stack(bad).warnings if "not grey" in w["reason"]]
     assert "step2-0.png" in warning["reason"]
+
+
+def test_log_folder_scores_its_latest_evaluation(tmp_path):
+    stacks, preds, gts = _stack_frames(3, h=60, w=70)
+    log = tmp_path / "lego_run"
+    log.mkdir()
+    for step in (1000, 30000):
+        _write_video(log / f"step{step}.mkv", stacks if step == 30000 else stacks[:1], "FFV1")
+    _write_video(log / "step30000-depth.mkv", stacks, "FFV1")  # K-Planes' depth video: ignored
+    lay = detect_layout(log)
+    assert (lay.name, lay.pred, lay.sequence) == ("kplanes", log, True)
+    res = dynaeval.score(log, **FAST)
+    assert res["inputs"]["layout"]["stack"]["files"] == [str(log / "step30000.mkv")]
+    assert res["inputs"]["cameras"] == ["step30000"] and res["summary"]["n_frames"] == 3
+    assert res["method"] == "lego_run"
+    # a static-scene log folder: one PNG per test image, the latest step's set in image order
+    png = tmp_path / "static"
+    png.mkdir()
+    for step in (10, 20):
+        for i, st in enumerate(stacks):
+            cv2.imwrite(str(png / f"step{step}-{i}.png"), st[..., ::-1])
+    assert detect_layout(png).sequence is False  # separate test views
+    pairing = pair_stack(png)
+    assert [(p.camera, p.frame) for p in pairing.pairs] == [("step20", "0"), ("step20", "1"), ("step20", "2")]
+    assert np.array_equal(pairing.pairs[2].gt.read(), gts[2] / np.float32(255))
+    with pytest.raises(InputError, match="no K-Planes evaluation stack"):
+        pair_stack(tmp_path)  # folders only
