@@ -68,7 +68,8 @@ def score(
         pred_dir: predictions: images (flat, or one sub-folder per camera) or videos; or a
             render folder of a known layout (NeRFBaselines ``color/`` + ``gt-color/``,
             ``ns-render`` ``rgb/`` + ``gt-rgb/``) with ``gt_dir`` None, or a K-Planes evaluation
-            stack file ``step<N>.mp4`` alone (``dynaeval.io.layouts``, ``dynaeval.io.kplanes``).
+            stack ``step<N>.mp4`` (or its log folder) alone (``dynaeval.io.layouts``,
+            ``dynaeval.io.kplanes``).
         gt_dir: ground truth in the same layout; frames are paired by relative path with the
             extension ignored (``dynaeval.io.frames`` gives the rules).
         config: settings (default ``ScoreConfig()``, the CLI's defaults); keyword

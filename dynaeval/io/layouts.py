@@ -46,8 +46,9 @@ class RenderLayout:
     """Where predictions and ground truth of one run are, and what wrote them."""
 
     name: str
-    """``nerfbaselines``, ``nerfstudio``, ``kplanes`` (a stack file: ``pred`` and ``gt`` are that
-    file) or ``folders`` (PRED and GT as given)."""
+    """``nerfbaselines``, ``nerfstudio``, ``kplanes`` (a stack file or a K-Planes log folder:
+    ``pred`` and ``gt`` are that path, ``kplanes.pair_stack`` pairs it) or ``folders`` (PRED and
+    GT as given)."""
     pred: Path
     """Folder of predictions."""
     gt: Path
