@@ -100,7 +100,7 @@ def _add_score_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scene", help="scene name for the leaderboard (default: GT's folder name)")
     _add_metric_flags(p)
     p.add_argument("--lpips-net", choices=LPIPS_NETS, default=d.lpips_net,
-                   help=f"LPIPS backbone (default: {d.lpips_net})")
+                   help="LPIPS backbone (default: alex, or the protocol's: vgg for 3dgs)")
     p.add_argument("--lpips-backend", choices=LPIPS_BACKENDS, default=d.lpips_backend,
                    help="run the LPIPS network with torch (the lpips package, default) or the same "
                         "network exported to onnxruntime (faster on CPU, equal to 1e-6)")
@@ -110,6 +110,10 @@ def _add_score_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--protocol", choices=PROTOCOL_NAMES, default=d.protocol,
                    help="reproduce another evaluator's whole-frame PSNR/SSIM and 8-bit step "
                         "(docs/protocols.md; default: dynaeval)")
+    p.add_argument("--iteration", type=int, metavar="N",
+                   help="3DGS-family MODEL folder: score ours_N (default: the latest rendered)")
+    p.add_argument("--split", metavar="NAME",
+                   help="3DGS-family MODEL folder: score this split (default: test)")
     p.add_argument("--background", choices=BACKGROUNDS, default=d.background,
                    help=f"colour RGBA frames are composited over (default: {d.background})")
     p.add_argument("--allow-missing", action="store_true",
@@ -145,6 +149,9 @@ def _add_score_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("-o", "--output", metavar="results.json",
                    help="write the results JSON here (atomically)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing -o file")
+    p.add_argument("--3dgs-json", dest="gs_json", metavar="DIR",
+                   help="also write DIR/results.json and DIR/per_view.json in the shape of the "
+                        "3DGS family's metrics.py (their numbers with --protocol 3dgs)")
     p.add_argument("--report", metavar="DIR",
                    help="also write an HTML report (DIR/index.html + DIR/img/): summary, per-frame "
                         "curves, worst frames with the scored regions drawn")
@@ -210,6 +217,7 @@ def config_from_args(args: argparse.Namespace) -> Any:
         temporal=not getattr(args, "no_temporal", False),
         presence=not getattr(args, "no_presence", False),
         flow=opt("flow"), protocol=opt("protocol"),
+        iteration=getattr(args, "iteration", None), split=getattr(args, "split", None),
     )
 
 
@@ -332,6 +340,17 @@ def _print_regions(results: dict, most: int = 12) -> None:
               "('regions')", file=sys.stderr)
 
 
+def _write_gs_json(results: dict, folder: str, *, overwrite: bool) -> None:
+    from dynaeval.report.gaussian_splatting import write_gs_json
+
+    paths = write_gs_json(results, folder, overwrite=overwrite)
+    print(f"3DGS results written to {paths[0]} and {paths[1]}", file=sys.stderr)
+    name = results["settings"]["protocol"]["name"]
+    if name != "3dgs":
+        print(f"dynaeval: warning: these files hold --protocol {name} numbers, not the 3DGS "
+              "family's own (pass --protocol 3dgs for those)", file=sys.stderr)
+
+
 def _run_score(pred: str, gt: str | None, args: argparse.Namespace, *, overwrite: bool) -> int:
     import warnings
 
@@ -345,6 +364,12 @@ def _run_score(pred: str, gt: str | None, args: argparse.Namespace, *, overwrite
     # every output checked before the long run (and before reading a frame)
     check_writable(output, overwrite=overwrite, what="results file", inputs=inputs)
     check_writable(report, overwrite=overwrite, what="report folder", inputs=inputs, folder=True)
+    gs_json = getattr(args, "gs_json", None)
+    if gs_json:
+        from dynaeval.report.gaussian_splatting import gs_paths
+
+        for path in gs_paths(gs_json):
+            check_writable(path, overwrite=overwrite, what="3DGS results file", inputs=inputs)
     if report and (Path(report) / "index.html").exists() and not overwrite:
         raise InputError("report exists; pass --overwrite or choose another --report folder",
                          path=Path(report) / "index.html")
@@ -375,6 +400,8 @@ def _run_score(pred: str, gt: str | None, args: argparse.Namespace, *, overwrite
         print(f"results written to {output}", file=sys.stderr)
     else:
         print("(pass -o results.json to save the per-frame results)", file=sys.stderr)
+    if gs_json:
+        _write_gs_json(results, gs_json, overwrite=overwrite)
     if report:
         from dynaeval.report.html import write_report
 

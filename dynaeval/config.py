@@ -38,8 +38,9 @@ class ScoreConfig:
     """Options of single metrics, ``{metric: {option: value}}``, as each declares them in the
     registry (``MetricSpec.options``), e.g. ``{"flip": {"pixels_per_degree": 40.0}}``; recorded in
     that metric's settings."""
-    lpips_net: str = "alex"
-    """LPIPS backbone: ``alex`` (default, as most NeRF papers report) or ``vgg``."""
+    lpips_net: str | None = None
+    """LPIPS backbone: ``alex`` (as most NeRF papers report) or ``vgg``; None (default): the
+    protocol's (``alex``; ``vgg`` for ``3dgs``), ``resolved_lpips_net()``."""
     lpips_backend: str = "torch"
     """Runtime of the LPIPS network: ``torch`` (the lpips package) or ``onnxruntime`` (the same
     network exported, ~1.2x faster on CPU, equal to 1e-6: docs/benchmarks.md)."""
@@ -78,8 +79,14 @@ class ScoreConfig:
     shards' results combine with ``dynaeval merge`` into exactly the unsharded numbers."""
     protocol: str = "dynaeval"
     """Whose whole-frame PSNR/SSIM and 8-bit step to reproduce: ``dynaeval``, ``nerfbaselines``,
-    ``nerfstudio`` or ``kplanes`` (``dynaeval.metrics.protocols``; ``quantize`` then defaults to
-    the protocol's; ``kplanes`` also computes ``msssim`` and ``dssim``)."""
+    ``nerfstudio`` (nerfacto and siblings), ``nerfstudio-splatfacto``, ``3dgs`` or ``kplanes``
+    (``dynaeval.metrics.protocols``; ``quantize`` then defaults to the protocol's; ``kplanes``
+    also computes ``msssim`` and ``dssim``)."""
+    iteration: int | None = None
+    """3DGS-family render folders (``MODEL/<split>/ours_<N>``): the ``<N>`` to score; default
+    the latest rendered (the others are listed in the warnings)."""
+    split: str | None = None
+    """3DGS-family render folders: the split to score from ``MODEL`` (default ``test``)."""
 
     def __post_init__(self) -> None:
         self.metrics = _check_metrics(self.metrics)
@@ -87,7 +94,15 @@ class ScoreConfig:
         _check_choice("quantize", self.quantize, QUANTIZE_MODES)
         _check_choice("background", self.background, BACKGROUNDS)
         _check_choice("lpips_backend", self.lpips_backend, LPIPS_BACKENDS)
-        _check_choice("lpips_net", self.lpips_net, LPIPS_NETS)
+        if self.lpips_net is not None:
+            _check_choice("lpips_net", self.lpips_net, LPIPS_NETS)
+        if self.iteration is not None and (isinstance(self.iteration, bool) or not isinstance(
+                self.iteration, int) or self.iteration < 0):
+            raise InputError(f"iteration must be an integer >= 0 or None, got {self.iteration!r}")
+        if self.split is not None and (not isinstance(self.split, str) or "/" in self.split
+                                       or self.split in ("", ".", "..")):
+            raise InputError(f"split must be a folder name such as 'test' or 'train', got "
+                             f"{self.split!r}")
         if not (self.device in DEVICES or str(self.device).startswith("cuda:")):
             raise InputError(f"device must be cpu, cuda, cuda:N or auto, got {self.device!r}")
         for name, low in (("workers", 1), ("cache_mb", 0)):
@@ -102,7 +117,7 @@ class ScoreConfig:
 
         FlowConfig(method=self.flow)  # raises InputError for an unknown method
         protocol = get_protocol(self.protocol)
-        check_lpips_net(protocol, self.lpips_net)
+        check_lpips_net(protocol, self.resolved_lpips_net())
         check_background(protocol, self.background)
         self.resolved_quantize()  # raises when the protocol fixes another 8-bit step
         if self.shard is not None:
@@ -110,6 +125,12 @@ class ScoreConfig:
 
             spec = self.shard if isinstance(self.shard, str) else "/".join(map(str, self.shard))
             self.shard = parse_shard(spec)
+
+    def resolved_lpips_net(self) -> str:
+        """The LPIPS backbone of the run: the one asked for, else the protocol's."""
+        from dynaeval.metrics.protocols import get_protocol
+
+        return self.lpips_net or get_protocol(self.protocol).lpips_net
 
     def resolved_quantize(self) -> str:
         """The 8-bit step of the run: the protocol's unless a compatible one was asked for."""

@@ -67,9 +67,10 @@ def score(
     Args:
         pred_dir: predictions: images (flat, or one sub-folder per camera) or videos; or a
             render folder of a known layout (NeRFBaselines ``color/`` + ``gt-color/``,
-            ``ns-render`` ``rgb/`` + ``gt-rgb/``) with ``gt_dir`` None, or a K-Planes evaluation
-            stack ``step<N>.mp4`` (or its log folder) alone (``dynaeval.io.layouts``,
-            ``dynaeval.io.kplanes``).
+            ``ns-render`` ``rgb/`` + ``gt-rgb/``, a 3DGS-family ``MODEL`` or
+            ``MODEL/test/ours_<N>``: ``config.iteration`` / ``config.split`` choose) with
+            ``gt_dir`` None, or a K-Planes evaluation stack ``step<N>.mp4`` (or its log folder)
+            alone (``dynaeval.io.layouts``, ``dynaeval.io.kplanes``).
         gt_dir: ground truth in the same layout; frames are paired by relative path with the
             extension ignored (``dynaeval.io.frames`` gives the rules).
         config: settings (default ``ScoreConfig()``, the CLI's defaults); keyword
@@ -90,7 +91,7 @@ def score(
 
     config = replace(config or ScoreConfig(), **overrides)  # __post_init__ checks the fields
     t_start = time.perf_counter()
-    layout = detect_layout(pred_dir, gt_dir)
+    layout = detect_layout(pred_dir, gt_dir, iteration=config.iteration, split=config.split)
     if layout.name == "kplanes":
         from dynaeval.io.kplanes import pair_stack
 
@@ -105,13 +106,15 @@ def score(
 
     run = prepare_run(config)
     run.warnings.extend(pairing.warnings)  # damaged video files
+    run.warnings.extend({"reason": note} for note in layout.notes)
     if not layout.sequence and config.temporal:
         run.warnings.append({"reason": (
             f"{layout.name} render folders hold separate test views; temporal metrics treat them "
             "as a sequence (pass temporal=False / --no-temporal unless they are one)")})
     rows, warnings, temporal, regions = _score_cameras(pairing.pairs, run, on_regions)
-    run_name = None if layout.name == "folders" else (layout.root if layout.name == "kplanes"
-                                                      else Path(pred_dir)).resolve().name
+    run_name = None if layout.name == "folders" else (
+        layout.root if layout.name == "kplanes" else Path(layout.details.get("model", pred_dir))
+    ).resolve().name
     results = _assemble(layout, run_name, pairing, run, rows, warnings, temporal, t_start, regions)
     for w in results["warnings"]:
         if "camera" not in w:
@@ -176,7 +179,7 @@ def _assemble(layout: Any, run_name: str | None, pairing: Any, run: Any, rows: l
     method = config.method or run_name or layout.pred.resolve().name
     scene = config.scene or run_name or layout.gt.resolve().name
     inputs_extra = ({} if run_name is None else
-                    {"layout": {"name": layout.name, "root": str(layout.root)}})
+                    {"layout": {"name": layout.name, "root": str(layout.root), **layout.details}})
     if layout.name == "kplanes":
         from dynaeval.io.kplanes import describe_stack
 

@@ -38,7 +38,7 @@ class Run:
     """Per-run state shared by every camera."""
 
     config: ScoreConfig
-    """The run's settings (``quantize`` resolved to the protocol's)."""
+    """The run's settings (``quantize`` and ``lpips_net`` resolved to the protocol's)."""
     fns: dict[str, tuple[str, FrameFn]]
     """Result key -> (region variant, function), from the registry."""
     settings: dict[str, Any]
@@ -82,7 +82,8 @@ def prepare_run(config: ScoreConfig) -> Run:
     from dynaeval.regions.focus import open_sources
     from dynaeval.runtime import resolve_device
 
-    config = replace(config, quantize=config.resolved_quantize())
+    config = replace(config, quantize=config.resolved_quantize(),
+                     lpips_net=config.resolved_lpips_net())
     protocol = get_protocol(config.protocol)
     device = resolve_device(config.device)
     ctx = FrameContext(data_range=config.data_range, protocol=protocol, device=device,

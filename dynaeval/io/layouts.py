@@ -11,6 +11,10 @@ Rules (docs/integration.md repeats them with examples):
      (ns-render writes them under ``OUT/<split>/``, hence the one level of sub-folders).
 
    Several matches (e.g. ``test/`` and ``train/`` splits) are an error listing them: point at one.
+   The 3DGS family (gaussian-splatting, 4DGaussians, Deformable-3DGS: ``MODEL/<split>/ours_<N>/
+   renders/`` + ``gt/``) is read at any of its levels, ``MODEL``, ``MODEL/test`` or
+   ``MODEL/test/ours_<N>``, its latest iteration of the ``test`` split unless ``iteration`` /
+   ``split`` say otherwise (``dynaeval.io.layout_3dgs``).
 2. ``score PRED GT`` (two folders): used as given, so ``score RUN/color RUN/gt-color`` works too.
    If PRED is itself a render folder (holds ``color/`` + ``gt-color/`` or ``rgb/`` + ``gt-rgb/``)
    and GT is the same folder, rule 1 applies; the same ordinary folder twice is scored as given
@@ -29,8 +33,9 @@ Frames in these folders are usually *different test views*, not a video: the lay
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from dynaeval.errors import InputError
 
@@ -46,9 +51,9 @@ class RenderLayout:
     """Where predictions and ground truth of one run are, and what wrote them."""
 
     name: str
-    """``nerfbaselines``, ``nerfstudio``, ``kplanes`` (a stack file or a K-Planes log folder:
-    ``pred`` and ``gt`` are that path, ``kplanes.pair_stack`` pairs it) or ``folders`` (PRED and
-    GT as given)."""
+    """``nerfbaselines``, ``nerfstudio``, ``3dgs``, ``kplanes`` (a stack file or a K-Planes log
+    folder: ``pred`` and ``gt`` are that path, ``kplanes.pair_stack`` pairs it) or ``folders``
+    (PRED and GT as given)."""
     pred: Path
     """Folder of predictions."""
     gt: Path
@@ -57,6 +62,11 @@ class RenderLayout:
     """The render folder the pair was found in (None for ``folders``)."""
     sequence: bool = True
     """False when frames are independent test views (temporal metrics are then meaningless)."""
+    details: dict[str, Any] = field(default_factory=dict)
+    """What the layout found besides the folders (3DGS: family, split, iteration, model), for
+    the results' ``inputs.layout``."""
+    notes: tuple[str, ...] = ()
+    """Messages for the run's warnings (other iterations or splits rendered, ...)."""
 
 
 def _pairs_in(folder: Path) -> list[RenderLayout]:
@@ -93,12 +103,34 @@ def _stack_layout(path: Path) -> RenderLayout:
     return RenderLayout("kplanes", path, path, path.parent, sequence=True)
 
 
-def detect_layout(pred: str | Path, gt: str | Path | None = None) -> RenderLayout:
+def _layout_3dgs(folder: Path, iteration: int | None, split: str | None) -> RenderLayout | None:
+    from dynaeval.io.layout_3dgs import GT_DIR, PRED_DIR, find_3dgs
+
+    found = find_3dgs(folder, iteration=iteration, split=split)
+    if found is None:
+        return None
+    ours, details, notes = found
+    return RenderLayout("3dgs", ours / PRED_DIR, ours / GT_DIR, ours,
+                        sequence=details["sequence"], details=details, notes=tuple(notes))
+
+
+def _check_no_selection(iteration: int | None, split: str | None, pred: Path) -> None:
+    if iteration is not None or split is not None:
+        asked = " and ".join(f"--{k} {v}" for k, v in (("iteration", iteration), ("split", split))
+                             if v is not None)
+        raise InputError(f"{asked} only selects within a 3DGS-family render folder "
+                         "(MODEL/<split>/ours_<N>/renders + gt), which this is not", path=pred)
+
+
+def detect_layout(pred: str | Path, gt: str | Path | None = None, *,
+                  iteration: int | None = None, split: str | None = None) -> RenderLayout:
     """Find the prediction and ground-truth folders of a run (rules in the module docstring).
 
     Args:
         pred: a render folder (with ``gt`` None or equal to it), or the prediction folder.
         gt: the ground-truth folder, or None.
+        iteration, split: which ``ours_<N>`` and split of a 3DGS-family render to score
+            (default: the latest, ``test``); an error for any other layout.
 
     Returns:
         RenderLayout; ``name="folders"`` when PRED and GT are ordinary folders used as given.
@@ -112,12 +144,17 @@ def detect_layout(pred: str | Path, gt: str | Path | None = None) -> RenderLayou
     if gt is not None and not same:
         for folder in (pred, Path(gt)):
             _check_not_ns_eval(folder)
+        _check_no_selection(iteration, split, pred)
         return RenderLayout("folders", pred, Path(gt))
     if (gt is None or same) and pred.is_file():
         return _stack_layout(pred)
     if not pred.is_dir():
         raise InputError("render folder not found (or not a folder)", path=pred)
     _check_not_ns_eval(pred)
+    layout = _layout_3dgs(pred, iteration, split)
+    if layout is not None:
+        return layout
+    _check_no_selection(iteration, split, pred)
     found = _pairs_in(pred)
     if not found:
         for sub in sorted(p for p in pred.iterdir() if p.is_dir() and not p.name.startswith(".")):
@@ -133,7 +170,8 @@ def detect_layout(pred: str | Path, gt: str | Path | None = None) -> RenderLayou
             return RenderLayout("kplanes", pred, pred, pred, sequence=video)
     if same and not found:  # PRED and GT are one ordinary folder: a self-check, scored as given
         return RenderLayout("folders", pred, pred)
-    known = "; ".join(f"{n}: {p}/ + {g}/" for n, (p, g) in LAYOUTS.items())
+    known = "; ".join([*(f"{n}: {p}/ + {g}/" for n, (p, g) in LAYOUTS.items()),
+                       "3dgs: MODEL/<split>/ours_<N>/renders/ + gt/"])
     if not found:
         raise InputError(
             f"one folder was given but it holds no known render layout ({known}), neither directly "

@@ -61,10 +61,11 @@ class ImageMetrics:
         metrics: registry names (default: those ``dynaeval score`` runs by default, ``psnr``,
             ``ssim``, ``lpips``, plus the protocol's own: ``msssim``, ``dssim`` for ``kplanes``).
         data_range: peak value of the images (1.0 for [0, 1]); LPIPS needs [0, 1].
-        lpips_net: ``alex`` (default) or ``vgg``.
+        lpips_net: ``alex`` or ``vgg``; default None: the protocol's (``alex``; ``vgg`` for
+            ``3dgs``).
         device: torch device for LPIPS; None: the device of the first tensor given (CPU for numpy).
-        protocol: ``dynaeval`` (default), ``nerfbaselines``, ``nerfstudio`` or ``kplanes``: whose
-            whole-frame PSNR/SSIM and 8-bit step to use (``dynaeval.metrics.protocols``).
+        protocol: ``dynaeval`` (default) or another of ``PROTOCOL_NAMES``: whose whole-frame
+            PSNR/SSIM and 8-bit step to use (``dynaeval.metrics.protocols``).
         pretrained_backbone: False only in tests (LPIPS with a random backbone, see ``load_lpips``).
 
     Raises:
@@ -75,7 +76,7 @@ class ImageMetrics:
         self,
         metrics: Sequence[str] | None = None,
         data_range: float = 1.0,
-        lpips_net: str = "alex",
+        lpips_net: str | None = None,
         device: Any = None,
         protocol: str = "dynaeval",
         pretrained_backbone: bool = True,
@@ -89,14 +90,14 @@ class ImageMetrics:
         if unknown or not metrics:
             raise InputError(f"metrics must be a non-empty subset of {', '.join(SUPPORTED)}, "
                              f"got {list(metrics)}")
-        if lpips_net not in ("alex", "vgg"):
+        if lpips_net not in ("alex", "vgg", None):
             raise InputError(f"lpips_net must be alex or vgg, got {lpips_net!r}")
         self.metrics = tuple(metrics)
         self.data_range = check_data_range(data_range)
-        self.lpips_net = lpips_net
         self.device = device
         self.protocol = get_protocol(protocol)
-        check_lpips_net(self.protocol, lpips_net)
+        self.lpips_net = lpips_net or self.protocol.lpips_net
+        check_lpips_net(self.protocol, self.lpips_net)
         self.pretrained_backbone = pretrained_backbone
         self._fns: dict[str, FrameFn] | None = None
         self._values: dict[str, list[float]] = {m: [] for m in self.metrics}

@@ -454,8 +454,13 @@ def build_lpips(ctx: Any) -> Any:
     pretrained = ctx.pretrained_backbone
     loader = load_lpips_onnx if backend == "onnxruntime" else load_lpips
     loader(net, device=device, pretrained_backbone=pretrained)
+    from dynaeval.metrics.protocol_3dgs import whole_lpips
+
+    whole = whole_lpips(ctx)  # a protocol that feeds the network its own way (3dgs), or None
 
     def fn(pred: np.ndarray, gt: np.ndarray, region: dict[str, Any]) -> float:
+        if whole is not None and not region:
+            return whole(pred, gt)
         return lpips(pred, gt, net=net, device=device, backend=backend,
                      pretrained_backbone=pretrained, **region)
 

@@ -1,6 +1,6 @@
 """Evaluation protocols: reproduce the whole-frame numbers other evaluators publish.
 
-``--protocol dynaeval|nerfbaselines|nerfstudio|kplanes`` (``ScoreConfig.protocol``) changes how the
+``--protocol NAME`` (``ScoreConfig.protocol``, names in ``PROTOCOLS``) changes how the
 whole-frame PSNR and SSIM are computed and how images are prepared, so that dynaeval's figures can
 sit next to tables produced by those tools. docs/protocols.md lists every difference and where it
 comes from; in short:
@@ -13,16 +13,23 @@ comes from; in short:
   the dm_pix variant (Gaussian 11 taps, sigma 1.5, valid windows, float64 statistics of the float32
   images, variances clamped to at least ``eps_float32 ** 2`` and the covariance to
   ``+-sqrt(var_x var_y)``); LPIPS AlexNet.
-* ``nerfstudio``: float images as rendered (no 8-bit step); PSNR as torchmetrics'
+* ``nerfstudio`` (nerfacto and the models that share its metrics: instant-ngp, mipnerf, tensorf,
+  vanilla-nerf, semantic-nerfw): float images as rendered (no 8-bit step); PSNR as torchmetrics'
   ``PeakSignalNoiseRatio(data_range=1)`` (float32); SSIM as torchmetrics' (1.9)
-  ``structural_similarity_index_measure`` (Gaussian 11 taps, sigma 1.5, image reflect-padded by
-  5 px and *every* window averaged, border included; variances clamped at 0; float32); LPIPS
+  ``structural_similarity_index_measure`` called with *no* ``data_range``, i.e. the images' own
+  range ``max(ptp(pred), ptp(gt))`` per image (Gaussian 11 taps, sigma 1.5, image reflect-padded
+  by 5 px and *every* window averaged, border included; variances clamped at 0; float32); LPIPS
   AlexNet as torchmetrics' ``LearnedPerceptualImagePatchSimilarity(normalize=True)`` (inputs in
   [0, 1] mapped to [-1, 1]).
 * ``kplanes``: K-Planes' trainers (``dynaeval.metrics.protocol_kplanes``): float renders, images
   clipped to [0, 1], PSNR from a float32 MSE, mip-NeRF's SSIM (valid windows, float64 statistics,
   variances clipped at 0, covariance at ``+-sqrt(var_x var_y)``), and MS-SSIM / D-SSIM
   (``dynaeval.metrics.multiscale``) added to the run's metrics; LPIPS AlexNet; RGBA over white.
+* ``nerfstudio-splatfacto``: as ``nerfstudio`` but SSIM as ``pytorch_msssim.SSIM(data_range=1)``
+  (valid windows, no clamp, float32) — ``dynaeval.metrics.protocol_nerfstudio``.
+* ``3dgs`` (gaussian-splatting, 4DGaussians, Deformable-3DGS ``metrics.py``): PSNR
+  ``20 log10(1 / sqrt(MSE))`` in float32, SSIM with zero padding (every pixel's window, float32),
+  LPIPS VGG fed the [0, 1] images unscaled — ``dynaeval.metrics.protocol_3dgs``.
 
 The ``focused_*``/``masked_*``/temporal metrics are dynaeval's own under every protocol (the other
 tools have none); the protocol's 8-bit step applies to them too, since it changes the images.
@@ -41,7 +48,8 @@ from dynaeval.errors import InputError
 from dynaeval.metrics.protocol_kplanes import KPLANES_CHOICES, KPLANES_REFERENCE
 from dynaeval.validation import check_data_range, check_pair
 
-PROTOCOL_NAMES = ("dynaeval", "nerfbaselines", "nerfstudio", "kplanes")
+PROTOCOL_NAMES = ("dynaeval", "nerfbaselines", "nerfstudio", "kplanes", "nerfstudio-splatfacto",
+                  "3dgs")
 
 
 def _as_hwc(p: np.ndarray) -> np.ndarray:
@@ -71,7 +79,7 @@ def psnr_float32(pred: object, gt: object, *, data_range: float = 1.0, clip: boo
     return 10.0 * math.log10(data_range * data_range / mse)
 
 
-SSIM_BORDERS = ("valid", "reflect")
+SSIM_BORDERS = ("valid", "reflect", "zero")
 SSIM_CLAMPS = ("none", "zero", "dm_pix")
 
 
@@ -84,6 +92,7 @@ def ssim_variant(
     clamp: str = "none",
     clip: bool = False,
     precision: str = "float32",
+    window: np.ndarray | None = None,
 ) -> float:
     """SSIM with a Gaussian window (11 taps, sigma 1.5) in the variants other evaluators use.
 
@@ -93,7 +102,8 @@ def ssim_variant(
         border: ``"valid"``: only windows entirely inside the image (scikit-image, dm_pix,
             NeRFBaselines); ``"reflect"``: the image is padded by 5 px by reflection without
             repeating the edge (torch's ``reflect``) and all H x W windows are averaged
-            (torchmetrics 1.9, which nerfstudio calls).
+            (torchmetrics 1.9, which nerfstudio calls); ``"zero"``: padded by 5 px of zeros and
+            all H x W windows averaged (3DGS ``utils/loss_utils.ssim``: ``conv2d(padding=5)``).
         clamp: ``"none"``; ``"zero"``: variances ``max(0, var)`` (torchmetrics); ``"dm_pix"``:
             variances ``max(eps_f32^2, var)`` and covariance ``sign(cov) min(sqrt(var_x var_y),
             |cov|)`` (dm_pix / NeRFBaselines).
@@ -101,6 +111,9 @@ def ssim_variant(
         precision: ``"float32"`` (torchmetrics: float32 tensors throughout) or ``"float64"``
             (NeRFBaselines' numpy port of dm_pix: float32 images convolved with a float64
             window, so the statistics are float64).
+        window: the 1-D taps, (11,), as the evaluator computes them (float32 weights normalised
+            in float32 sum to 1 only within rounding, which moves SSIM by ~1e-5 on flat regions);
+            default ``structural.gaussian_window()`` (float64).
 
     Returns:
         Mean SSIM over the windows and channels, a Python float in [-1, 1].
@@ -124,7 +137,7 @@ def ssim_variant(
         p, g = np.clip(p, 0, 1), np.clip(g, 0, 1)
     p, g = p.astype(dtype), g.astype(dtype)
     _check_size(*p.shape[:2])
-    k = gaussian_window().astype(dtype)
+    k = (gaussian_window() if window is None else np.asarray(window)).astype(dtype)
     r = RADIUS
     depth = cv2.CV_32F if dtype == np.float32 else cv2.CV_64F
 
@@ -132,6 +145,8 @@ def ssim_variant(
         a = np.ascontiguousarray(a)
         if border == "reflect":
             return cv2.sepFilter2D(a, depth, k, k, borderType=cv2.BORDER_REFLECT_101)
+        if border == "zero":
+            return cv2.sepFilter2D(a, depth, k, k, borderType=cv2.BORDER_CONSTANT)
         return cv2.sepFilter2D(a, depth, k, k, borderType=cv2.BORDER_REFLECT)[r:-r, r:-r]
 
     c1 = dtype.type((K1 * data_range) ** 2)
@@ -161,15 +176,17 @@ class Protocol:
     """How one evaluator prepares images and computes whole-frame PSNR/SSIM."""
 
     name: str
-    """``dynaeval``, ``nerfbaselines`` or ``nerfstudio``."""
+    """A key of ``PROTOCOLS``."""
     quantize: str
     """8-bit step applied to both images before every metric: ``none`` or ``truncate``."""
     psnr: str
-    """``float64`` (dynaeval) or ``float32`` (mean squared error in float32)."""
+    """``float64`` (dynaeval), ``float32`` (mean squared error in float32) or ``3dgs``
+    (``20 log10(1 / sqrt(MSE))``, all in float32)."""
     ssim: str
     """``skimage-gaussian`` (dynaeval), ``dm_pix`` (valid windows, clamped), ``torchmetrics``
-    (reflect-padded, every window, float32) or ``mipnerf`` (K-Planes: valid windows, float64
-    statistics, variances clipped at 0)."""
+    (reflect-padded, every window, float32), ``mipnerf`` (K-Planes: valid windows, float64
+    statistics, variances clipped at 0), ``pytorch_msssim`` (valid windows, float32) or ``3dgs``
+    (zero-padded, every window, float32)."""
     clip: bool
     """Clip images to [0, 1] before PSNR/SSIM."""
     lpips_net: str
@@ -183,9 +200,19 @@ class Protocol:
     """The background RGBA ground truth is blended over (``white``/``black``), None: any."""
     choices: tuple[tuple[str, str], ...] = ()
     """Every further choice of the evaluator, ``(what, how and where from)``, for the results."""
+    ssim_data_range: str = "fixed"
+    """L of SSIM's constants: ``fixed`` (the run's ``data_range``) or ``image`` (each pair's own
+    range, ``max(ptp(pred), ptp(gt))``: torchmetrics called without ``data_range``)."""
+    lpips_input: str = "signed"
+    """How [0, 1] images reach the LPIPS network: ``signed`` (mapped to [-1, 1], the package's
+    convention) or ``unit`` (given as they are, as 3DGS' ``metrics.py`` does)."""
+    family: str = ""
+    """The models whose evaluation code this protocol follows (empty: a tool, not a model)."""
 
     def describe(self) -> dict[str, Any]:
-        """Settings for the results JSON."""
+        """Settings for the results JSON: every choice the protocol implies. The fields after
+        ``reference`` are written when they differ from their defaults, so the results of the
+        older protocols stay as they were."""
         out = {"name": self.name, "quantize": self.quantize, "psnr": self.psnr,
                "ssim": self.ssim, "clip": self.clip, "lpips_net": self.lpips_net,
                "reference": self.reference}
@@ -195,6 +222,10 @@ class Protocol:
             out["background"] = self.background
         if self.choices:
             out["choices"] = dict(self.choices)
+        for key, default in (("ssim_data_range", "fixed"), ("lpips_input", "signed"),
+                             ("family", "")):
+            if getattr(self, key) != default:
+                out[key] = getattr(self, key)
         return out
 
     def _check_range(self, data_range: float) -> None:
@@ -209,6 +240,10 @@ class Protocol:
         self._check_range(data_range)
         if self.psnr == "float32":
             return psnr_float32(pred, gt, data_range=data_range, clip=self.clip)
+        if self.psnr == "3dgs":
+            from dynaeval.metrics.protocol_3dgs import psnr_3dgs
+
+            return psnr_3dgs(pred, gt, data_range=data_range)
         from dynaeval.metrics.pixel import psnr
 
         return psnr(pred, gt, data_range=data_range)
@@ -227,6 +262,18 @@ class Protocol:
         if self.ssim == "dm_pix":
             return ssim_variant(pred, gt, data_range=data_range, border="valid", clamp="dm_pix",
                                 clip=self.clip, precision="float64")
+        if self.ssim == "3dgs":
+            return ssim_variant(pred, gt, data_range=data_range, border="zero", clamp="none",
+                                clip=self.clip, precision="float32")
+        if self.ssim == "pytorch_msssim":
+            from dynaeval.metrics.protocol_nerfstudio import msssim_window
+
+            return ssim_variant(pred, gt, data_range=data_range, border="valid", clamp="none",
+                                clip=self.clip, precision="float32", window=msssim_window())
+        if self.ssim_data_range == "image":
+            from dynaeval.metrics.protocol_nerfstudio import image_data_range
+
+            data_range = image_data_range(pred, gt)
         return ssim_variant(pred, gt, data_range=data_range, border="reflect", clamp="zero",
                             clip=self.clip, precision="float32")
 
@@ -241,7 +288,23 @@ PROTOCOLS: dict[str, Protocol] = {
     "nerfstudio": Protocol(
         "nerfstudio", "none", "float32", "torchmetrics", False, "alex",
         "nerfstudio models' get_image_metrics_and_images (torchmetrics PSNR, SSIM, LPIPS "
-        "normalize=True) averaged per image by ns-eval",
+        "normalize=True) averaged per image by ns-eval; torchmetrics 1.9 functional/image/ssim.py "
+        "(data_range=None: the images' own range)",
+        ssim_data_range="image",
+        family="nerfacto, instant-ngp, mipnerf, tensorf, vanilla-nerf, semantic-nerfw",
+    ),
+    "nerfstudio-splatfacto": Protocol(
+        "nerfstudio-splatfacto", "none", "float32", "pytorch_msssim", False, "alex",
+        "nerfstudio models/splatfacto.py get_image_metrics_and_images (torchmetrics PSNR, "
+        "pytorch_msssim.SSIM(data_range=1.0, size_average=True), LPIPS normalize=True)",
+        family="splatfacto",
+    ),
+    "3dgs": Protocol(
+        "3dgs", "none", "3dgs", "3dgs", False, "vgg",
+        "gaussian-splatting / 4DGaussians / Deformable-3DGS metrics.py (utils/image_utils.psnr, "
+        "utils/loss_utils.ssim, lpipsPyTorch or lpips.LPIPS(net='vgg') on [0, 1] images)",
+        lpips_input="unit",
+        family="gaussian-splatting, 4DGaussians, Deformable-3DGS",
     ),
     "kplanes": Protocol("kplanes", "none", "float32", "mipnerf", True, "alex", KPLANES_REFERENCE,
                         metrics=("msssim", "dssim"), background="white", choices=KPLANES_CHOICES),

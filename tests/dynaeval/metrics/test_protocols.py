@@ -137,8 +137,8 @@ def test_protocol_errors():
         dynaeval.score(".", ".", protocol="nerfstudio", lpips_net="vgg")
     with pytest.raises(InputError, match="precision must be one of float32, float64"):
         ssim_variant(np.zeros((12, 12)), np.zeros((12, 12)), precision="float16")
-    with pytest.raises(InputError, match="border must be one of valid, reflect"):
-        ssim_variant(np.zeros((12, 12)), np.zeros((12, 12)), border="zero")
+    with pytest.raises(InputError, match="border must be one of valid, reflect, zero"):
+        ssim_variant(np.zeros((12, 12)), np.zeros((12, 12)), border="mirror")
     with pytest.raises(InputError, match="clamp must be one of none, zero, dm_pix"):
         ssim_variant(np.zeros((12, 12)), np.zeros((12, 12)), clamp="yes")
     with pytest.raises(InputError, match="protocol nerfbaselines clips images to \\[0, 1\\], so it needs data_range=1"):

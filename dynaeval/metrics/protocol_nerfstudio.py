@@ -1,0 +1,59 @@
+"""What nerfstudio's model families call for SSIM (``--protocol nerfstudio`` / ``nerfstudio-splatfacto``).
+
+nerfstudio has no evaluator of its own: each model's ``get_image_metrics_and_images`` builds its
+metrics (read, not copied; docs/protocols.md cites the files), and two families differ:
+
+* nerfacto and its siblings (``models/nerfacto.py``, ``instant_ngp.py``, ``mipnerf.py``,
+  ``tensorf.py``, ``vanilla_nerf.py``, ``semantic_nerfw.py``): ``self.ssim =
+  structural_similarity_index_measure`` called as ``self.ssim(gt, pred)`` with **no**
+  ``data_range``. torchmetrics 1.9 (``functional/image/ssim.py``, ``_ssim_update``) then takes
+  ``data_range = max(preds.max() - preds.min(), target.max() - target.min())`` over the batch,
+  which ns-eval makes one image: each pair's own range (``image_data_range``). A render whose
+  values span 0.6 gets constants ``(0.01 * 0.6)^2``, not ``0.01^2``.
+* splatfacto (``models/splatfacto.py``): ``pytorch_msssim.SSIM(data_range=1.0,
+  size_average=True, channel=3)``: valid Gaussian windows (11 taps, sigma 1.5, separable
+  ``conv2d`` without padding), float32, no clamp, mean over the map.
+
+Both use torchmetrics' ``PeakSignalNoiseRatio(data_range=1.0)`` and
+``LearnedPerceptualImagePatchSimilarity(normalize=True)`` (AlexNet).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dynaeval.errors import UndefinedMetricError
+from dynaeval.validation import check_pair
+
+
+def image_data_range(pred: object, gt: object) -> float:
+    """torchmetrics' ``data_range=None``: ``max(ptp(pred), ptp(gt))`` of the float32 images.
+
+    Args:
+        pred, gt: (H, W) or (H, W, C) arrays/tensors (any range).
+
+    Returns:
+        The range as a Python float (> 0).
+
+    Raises:
+        UndefinedMetricError: both images are constant (torchmetrics then divides 0 by 0: NaN).
+    """
+    p, g = check_pair(pred, gt)
+    p32, g32 = p.astype(np.float32), g.astype(np.float32)
+    value = max(float(p32.max() - p32.min()), float(g32.max() - g32.min()))
+    if value <= 0:
+        raise UndefinedMetricError(
+            "nerfstudio's SSIM takes its data range from the images (torchmetrics without "
+            "data_range) and both images are constant: the range is 0 and SSIM is 0/0 (NaN "
+            "in nerfstudio); use --protocol dynaeval for a defined value"
+        )
+    return value
+
+
+def msssim_window() -> np.ndarray:
+    """pytorch_msssim's ``_fspecial_gauss_1d(11, 1.5)``: (11,) float32 taps ``exp(-x^2 / 4.5)``,
+    ``x = -5..5``, normalised by their float32 sum (it filters separably with them, so using
+    the same float32 taps keeps dynaeval within float32 rounding of it, ~2e-7)."""
+    x = np.arange(11, dtype=np.float32) - np.float32(5)
+    g = np.exp(-(x * x) / np.float32(2 * 1.5**2))
+    return g / g.sum(dtype=np.float32)
