@@ -1,0 +1,267 @@
+"""``--protocol 3dgs`` and the nerfstudio families against their sources, on real photographs.
+
+Oracles: float64 re-implementations of the sources' torch code written here from reading it
+(gaussian-splatting / 4DGaussians ``utils/loss_utils.ssim``, ``utils/image_utils.psnr``,
+``lpipsPyTorch``), the same code in float32 as they run it, and the real packages where they
+install (torchmetrics 1.9, pytorch_msssim, lpips). Tolerances come from float32 rounding:
+SSIM's variances E[x^2] - E[x]^2 are biased by (sum of the window - 1) * E[x]^2, and one float32
+ulp in a tap (torch's exp against numpy's) or another order of the float32 sums moves SSIM of
+8-bit photos by up to ~2e-5 (measured in docs/protocols.md). So each source is checked twice:
+in float64 with its own taps (the formula: 1e-9 .. 2e-6) and against its float32 code (3e-5).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from dynaeval.errors import UndefinedMetricError
+from dynaeval.metrics.protocols import get_protocol, ssim_variant
+
+torch = pytest.importorskip("torch")
+F = torch.nn.functional
+
+CROPS = {"astronaut": (101, 131), "chelsea": (97, 143), "coffee": (121, 89), "rocket": (77, 163)}
+
+
+def photo_pairs():
+    """(name, pred, gt): real photos cut to odd sizes, ``gt`` 8-bit as 3DGS' PNGs, ``pred`` the
+    same with noise (8 bit), and a dim render whose values span 0.6 (a range < 1)."""
+    data = pytest.importorskip("skimage.data")
+    rng = np.random.default_rng(3)
+    out = []
+    for name, (h, w) in CROPS.items():
+        gt8 = getattr(data, name)()[:h, :w, :3]
+        pred8 = np.clip(gt8 + rng.normal(0, 8, gt8.shape), 0, 255).astype(np.uint8)
+        gt, pred = gt8.astype(np.float32) / 255, pred8.astype(np.float32) / 255
+        out.append((name, pred, gt))
+        dim_gt = (np.float32(0.2) + np.float32(0.6) * gt).astype(np.float32)
+        dim_pred = np.clip(dim_gt + rng.normal(0, 0.04, gt.shape), 0.2, 0.8).astype(np.float32)
+        out.append((name + "-dim", dim_pred, dim_gt))
+    return out
+
+
+PAIRS = photo_pairs()
+IDS = [p[0] for p in PAIRS]
+
+
+def nchw(a: np.ndarray, dtype=torch.float32):
+    return torch.from_numpy(np.ascontiguousarray(a.transpose(2, 0, 1)))[None].to(dtype)
+
+
+def gs_taps():
+    """3DGS' gaussian(11, 1.5): taps from math.exp in a float32 tensor, normalised in float32."""
+    g = torch.tensor([math.exp(-(x - 5) ** 2 / float(2 * 1.5**2)) for x in range(11)],
+                     dtype=torch.float32)
+    return g / g.sum()
+
+
+def gs_window(dtype):
+    """3DGS' create_window(11, 3): the taps' outer product in float32, one per channel, cast to
+    ``dtype``."""
+    g = gs_taps()[:, None]
+    return (g @ g.t()).float().expand(3, 1, 11, 11).contiguous().to(dtype)
+
+
+def gs_ssim(a, b, dtype):
+    """utils/loss_utils._ssim in ``dtype``: conv2d with padding 5 (zeros), mean of the map."""
+    w = gs_window(dtype)
+    x, y = nchw(a, dtype), nchw(b, dtype)
+    conv = lambda z: F.conv2d(z, w, padding=5, groups=3)  # noqa: E731
+    mx, my = conv(x), conv(y)
+    sxx, syy, sxy = conv(x * x) - mx**2, conv(y * y) - my**2, conv(x * y) - mx * my
+    c1, c2 = 0.01**2, 0.03**2
+    m = ((2 * mx * my + c1) * (2 * sxy + c2)) / ((mx**2 + my**2 + c1) * (sxx + syy + c2))
+    return float(m.mean())
+
+
+def gs_psnr(a, b, dtype):
+    """utils/image_utils.psnr in ``dtype``: 20 log10(1 / sqrt(mean squared error))."""
+    mse = ((nchw(a, dtype) - nchw(b, dtype)) ** 2).reshape(1, -1).mean(1, keepdim=True)
+    return float(20 * torch.log10(1.0 / torch.sqrt(mse)))
+
+
+@pytest.mark.parametrize("name,pred,gt", PAIRS, ids=IDS)
+def test_3dgs_ssim_and_psnr_match_their_torch_code(name, pred, gt):
+    proto = get_protocol("3dgs")
+    s, p = proto.whole_ssim(pred, gt), proto.whole_psnr(pred, gt)
+    assert s == pytest.approx(gs_ssim(pred, gt, torch.float64), abs=3e-5)
+    assert s == pytest.approx(gs_ssim(pred, gt, torch.float32), abs=3e-5)
+    assert p == pytest.approx(gs_psnr(pred, gt, torch.float64), abs=2e-5)
+    assert p == pytest.approx(gs_psnr(pred, gt, torch.float32), abs=1e-5)
+    # the zero-padded border windows count: not the valid-window SSIM of the other tools
+    assert abs(s - ssim_variant(pred, gt, border="valid")) > 1e-4
+
+
+def test_3dgs_float64_form_of_the_filter_equals_their_conv2d():
+    """The zero border of the separable filter equals conv2d(padding=5) exactly in float64 (so
+    only float32 rounding separates dynaeval from their code)."""
+    _, pred, gt = PAIRS[0]
+    ours = ssim_variant(pred, gt, border="zero", precision="float64",
+                        window=gs_taps().double().numpy())
+    assert ours == pytest.approx(gs_ssim(pred, gt, torch.float64), abs=2e-6)
+
+
+def test_3dgs_psnr_identical_is_inf():
+    _, _, gt = PAIRS[0]
+    assert get_protocol("3dgs").whole_psnr(gt, gt) == math.inf
+    assert get_protocol("3dgs").whole_ssim(gt, gt) == pytest.approx(1.0, abs=1e-6)
+
+
+def test_3dgs_reads_pngs_as_pil_to_tensor(tmp_path):
+    """metrics.py: PIL.Image.open -> to_tensor (v / 255 in float32) -> [:3]; dynaeval's reader
+    gives the same float32 values for all 256 levels."""
+    tf = pytest.importorskip("torchvision.transforms.functional")
+    image = pytest.importorskip("PIL.Image")
+    import cv2
+
+    from dynaeval.io.images import read_image
+
+    levels = np.arange(256, dtype=np.uint8).reshape(16, 16)
+    rgb = np.stack([levels, levels[::-1], levels.T], -1)
+    cv2.imwrite(str(tmp_path / "a.png"), rgb[..., ::-1])
+    theirs = tf.to_tensor(image.open(tmp_path / "a.png"))[:3].permute(1, 2, 0).numpy()
+    np.testing.assert_array_equal(read_image(tmp_path / "a.png").astype(np.float32), theirs)
+
+
+# --- LPIPS: lpipsPyTorch (3DGS) against the lpips package -------------------------------------
+
+VGG_FILE = Path("/work/golden/torch/hub/checkpoints/vgg16-397923af.pth")
+
+
+@pytest.fixture
+def random_vgg(monkeypatch):
+    """TORCH_HOME with a random-weight VGG16 checkpoint under torchvision's file name, so the
+    'pretrained' backbone of every implementation is the same random one (no download)."""
+    import os
+
+    home = Path(os.environ.get("RANDOM_BACKBONE_CACHE", VGG_FILE.parents[2]))
+    if not (home / "hub" / "checkpoints" / VGG_FILE.name).is_file():
+        pytest.skip("no random-weight vgg16 checkpoint (set RANDOM_BACKBONE_CACHE)")
+    monkeypatch.setenv("TORCH_HOME", str(home))
+    return home / "hub" / "checkpoints" / VGG_FILE.name
+
+
+class LpipsPyTorchVGG(torch.nn.Module):
+    """lpipsPyTorch's LPIPS('vgg', '0.1') re-written from its source: torchvision vgg16
+    ``features``, z-score with shift (-0.030, -0.088, -0.188) / scale (0.458, 0.448, 0.450),
+    outputs after layers 4, 9, 16, 23, 30 (1-based enumeration), each divided by
+    (its channel norm + 1e-10), squared differences through the v0.1 1x1 linear layers
+    (``richzhang/PerceptualSimilarity`` ``lpips/weights/v0.1/vgg.pth``, keys renamed), spatial
+    mean, summed."""
+
+    def __init__(self, backbone: Path):
+        import lpips
+        import torchvision
+
+        super().__init__()
+        vgg = torchvision.models.vgg16(weights=None)
+        vgg.load_state_dict(torch.load(backbone, map_location="cpu", weights_only=True))
+        self.layers = vgg.features.eval()
+        self.register_buffer("mean", torch.tensor([-0.030, -0.088, -0.188])[None, :, None, None])
+        self.register_buffer("std", torch.tensor([0.458, 0.448, 0.450])[None, :, None, None])
+        lin = torch.load(Path(lpips.__file__).parent / "weights" / "v0.1" / "vgg.pth",
+                         map_location="cpu", weights_only=True)
+        self.lins = [lin[f"lin{i}.model.1.weight"] for i in range(5)]
+
+    def forward(self, x, y):
+        fx, fy = self._features(x), self._features(y)
+        res = [F.conv2d((a - b) ** 2, w).mean((2, 3), True) for a, b, w in zip(fx, fy, self.lins)]
+        return torch.sum(torch.cat(res, 0), 0, True)
+
+    def _features(self, x):
+        x = (x - self.mean) / self.std
+        out = []
+        for i, layer in enumerate(self.layers, 1):
+            x = layer(x)
+            if i in (4, 9, 16, 23, 30):
+                out.append(x / (torch.sqrt(torch.sum(x**2, dim=1, keepdim=True)) + 1e-10))
+        return out
+
+
+def test_lpipspytorch_vgg_is_the_lpips_package_vgg_fed_unit_images(random_vgg):
+    import lpips as lpips_pkg
+
+    from dynaeval.metrics.protocol_3dgs import lpips_unit_input
+
+    theirs = LpipsPyTorchVGG(random_vgg)
+    package = lpips_pkg.LPIPS(net="vgg", pnet_rand=True, verbose=False).eval()
+    package.net.load_state_dict(_sliced(random_vgg, package.net.state_dict()), strict=True)
+    for _, pred, gt in PAIRS[:4]:
+        x, y = nchw(pred), nchw(gt)
+        with torch.no_grad():
+            ref = float(theirs(x, y))
+            # same network: the package on the same [0, 1] tensors, and on [-1, 1] ones
+            assert float(package(x, y)) == pytest.approx(ref, rel=1e-5, abs=1e-7)
+            assert float(theirs(2 * x - 1, 2 * y - 1)) == pytest.approx(
+                float(package(x, y, normalize=True)), rel=1e-5, abs=1e-7)
+            signed = float(package(x, y, normalize=True))
+        assert lpips_unit_input(pred, gt, net="vgg") == pytest.approx(ref, rel=1e-5, abs=1e-7)
+        assert abs(signed - ref) > 1e-3 * max(ref, signed)  # the unscaled input matters
+
+
+def _sliced(backbone: Path, keys) -> dict:
+    """torchvision's ``features.N.*`` tensors under the lpips package's ``sliceK.N.*`` keys."""
+    state = torch.load(backbone, map_location="cpu", weights_only=True)
+    return {k: state["features." + k.split(".", 1)[1]] for k in keys}
+
+
+# --- nerfstudio: nerfacto (torchmetrics, no data_range) and splatfacto (pytorch_msssim) --------
+
+@pytest.mark.parametrize("name,pred,gt", PAIRS, ids=IDS)
+def test_nerfstudio_ssim_is_torchmetrics_without_data_range(name, pred, gt):
+    tm = pytest.importorskip("torchmetrics.functional.image")
+    ours = get_protocol("nerfstudio").whole_ssim(pred, gt)
+    # nerfacto.py: self.ssim(gt_rgb, predicted_rgb), no data_range
+    ref = float(tm.structural_similarity_index_measure(nchw(gt), nchw(pred)))
+    assert ours == pytest.approx(ref, abs=3e-5)
+    # the formula, in float64 (torchmetrics' taps are the float64 Gaussian's within 1e-16 there)
+    from dynaeval.metrics.protocol_nerfstudio import image_data_range
+
+    f64 = ssim_variant(pred, gt, data_range=image_data_range(pred, gt), border="reflect",
+                       clamp="zero", precision="float64")
+    ref64 = float(tm.structural_similarity_index_measure(nchw(gt, torch.float64),
+                                                         nchw(pred, torch.float64)))
+    assert f64 == pytest.approx(ref64, abs=1e-6)
+    fixed = float(tm.structural_similarity_index_measure(nchw(gt), nchw(pred), data_range=1.0))
+    if name.endswith("-dim"):  # range 0.6: the per-image constants change SSIM clearly
+        assert abs(ours - fixed) > 1e-3
+    psnr_ref = float(tm.peak_signal_noise_ratio(nchw(gt), nchw(pred), data_range=1.0))
+    assert get_protocol("nerfstudio").whole_psnr(pred, gt) == pytest.approx(psnr_ref, abs=1e-4)
+
+
+@pytest.mark.parametrize("name,pred,gt", PAIRS, ids=IDS)
+def test_splatfacto_ssim_is_pytorch_msssim(name, pred, gt):
+    pm = pytest.importorskip("pytorch_msssim")
+    ours = get_protocol("nerfstudio-splatfacto").whole_ssim(pred, gt)
+    module = pm.SSIM(data_range=1.0, size_average=True, channel=3)  # splatfacto.py
+    assert ours == pytest.approx(float(module(nchw(gt), nchw(pred))), abs=3e-5)
+    # the formula, in float64 with pytorch_msssim's own float32 taps
+    from pytorch_msssim.ssim import _fspecial_gauss_1d
+
+    taps = _fspecial_gauss_1d(11, 1.5).reshape(-1).double().numpy()
+    f64 = ssim_variant(pred, gt, border="valid", precision="float64", window=taps)
+    ref64 = float(pm.ssim(nchw(gt, torch.float64), nchw(pred, torch.float64), data_range=1.0))
+    assert f64 == pytest.approx(ref64, abs=1e-9)
+
+
+def test_nerfstudio_constant_images_are_undefined():
+    flat = np.full((20, 20, 3), 0.5, np.float32)
+    with pytest.raises(UndefinedMetricError, match="both images are constant"):
+        get_protocol("nerfstudio").whole_ssim(flat, flat)
+    assert get_protocol("nerfstudio-splatfacto").whole_ssim(flat, flat) == pytest.approx(1.0)
+
+
+def test_protocols_record_their_choices():
+    d3 = get_protocol("3dgs").describe()
+    assert (d3["ssim"], d3["psnr"], d3["lpips_net"], d3["lpips_input"]) == ("3dgs", "3dgs", "vgg", "unit")
+    ns = get_protocol("nerfstudio").describe()
+    assert ns["ssim_data_range"] == "image" and "nerfacto" in ns["family"]
+    sp = get_protocol("nerfstudio-splatfacto").describe()
+    assert sp["ssim"] == "pytorch_msssim" and sp["family"] == "splatfacto"
+    assert "ssim_data_range" not in sp and "lpips_input" not in sp  # the defaults
+    assert set(get_protocol("dynaeval").describe()) == {
+        "name", "quantize", "psnr", "ssim", "clip", "lpips_net", "reference"}
