@@ -52,8 +52,13 @@ def image_data_range(pred: object, gt: object) -> float:
 
 def msssim_window() -> np.ndarray:
     """pytorch_msssim's ``_fspecial_gauss_1d(11, 1.5)``: (11,) float32 taps ``exp(-x^2 / 4.5)``,
-    ``x = -5..5``, normalised by their float32 sum (it filters separably with them, so using
-    the same float32 taps keeps dynaeval within float32 rounding of it, ~2e-7)."""
+    ``x = -5..5``, divided by their sum.
+
+    torch rounds its float32 ``exp`` and ``sum`` correctly here, so the taps are computed in
+    float64 and rounded to float32 (numpy's own float32 ``exp`` is off by one ulp in two taps,
+    which moves SSIM of 8-bit photos by ~1e-5: docs/protocols.md). With these taps dynaeval's
+    separable filter is pytorch_msssim's within float32 summation order (~2e-7)."""
     x = np.arange(11, dtype=np.float32) - np.float32(5)
-    g = np.exp(-(x * x) / np.float32(2 * 1.5**2))
-    return g / g.sum(dtype=np.float32)
+    arg = -(x * x) / np.float32(2 * 1.5**2)  # float32, as torch computes the exponent
+    g = np.exp(arg.astype(np.float64)).astype(np.float32)
+    return g / np.float32(g.astype(np.float64).sum())

@@ -238,11 +238,14 @@ def test_splatfacto_ssim_is_pytorch_msssim(name, pred, gt):
     pm = pytest.importorskip("pytorch_msssim")
     ours = get_protocol("nerfstudio-splatfacto").whole_ssim(pred, gt)
     module = pm.SSIM(data_range=1.0, size_average=True, channel=3)  # splatfacto.py
-    assert ours == pytest.approx(float(module(nchw(gt), nchw(pred))), abs=3e-5)
-    # the formula, in float64 with pytorch_msssim's own float32 taps
+    assert ours == pytest.approx(float(module(nchw(gt), nchw(pred))), abs=1e-6)
+    # the same float32 taps, and the formula in float64 with them
     from pytorch_msssim.ssim import _fspecial_gauss_1d
 
+    from dynaeval.metrics.protocol_nerfstudio import msssim_window
+
     taps = _fspecial_gauss_1d(11, 1.5).reshape(-1).double().numpy()
+    np.testing.assert_array_equal(msssim_window(), taps.astype(np.float32))
     f64 = ssim_variant(pred, gt, border="valid", precision="float64", window=taps)
     ref64 = float(pm.ssim(nchw(gt, torch.float64), nchw(pred, torch.float64), data_range=1.0))
     assert f64 == pytest.approx(ref64, abs=1e-9)
@@ -265,3 +268,30 @@ def test_protocols_record_their_choices():
     assert "ssim_data_range" not in sp and "lpips_input" not in sp  # the defaults
     assert set(get_protocol("dynaeval").describe()) == {
         "name", "quantize", "psnr", "ssim", "clip", "lpips_net", "reference"}
+
+
+def test_3dgs_run_uses_vgg_and_the_unscaled_whole_frame_lpips(tmp_path, random_lpips):
+    import dynaeval
+    from dynaeval.errors import InputError
+    from dynaeval.io.images import read_image
+    from dynaeval.metrics import perceptual
+    from dynaeval.metrics.accumulate import ImageMetrics
+    from dynaeval.metrics.protocol_3dgs import lpips_unit_input
+    from dynaeval.regions.focus import FocusConfig
+
+    from ..io.test_layout_3dgs import _iteration
+
+    assert dynaeval.ScoreConfig(protocol="3dgs").resolved_lpips_net() == "vgg"
+    assert dynaeval.ScoreConfig().resolved_lpips_net() == "alex"
+    with pytest.raises(InputError, match="reports LPIPS with the vgg backbone, not alex"):
+        dynaeval.ScoreConfig(protocol="3dgs", lpips_net="alex")
+    assert ImageMetrics(protocol="3dgs").lpips_net == "vgg"
+    ours = _iteration(tmp_path / "m", "test", 100, frames=2)
+    res = dynaeval.score(tmp_path / "m", protocol="3dgs", metrics=("lpips",), temporal=False,
+                         focus=FocusConfig(source="none", masked=False), progress=False)
+    assert res["settings"]["lpips"]["net"] == "vgg"
+    for row in res["frames"]:
+        p, g = read_image(row["pred"]), read_image(row["gt"])
+        assert row["pred"].startswith(str(ours))
+        assert row["lpips"] == pytest.approx(lpips_unit_input(p, g), rel=1e-6)
+        assert abs(row["lpips"] - perceptual.lpips(p, g, net="vgg")) > 1e-4
