@@ -295,3 +295,13 @@ def test_3dgs_run_uses_vgg_and_the_unscaled_whole_frame_lpips(tmp_path, random_l
         assert row["pred"].startswith(str(ours))
         assert row["lpips"] == pytest.approx(lpips_unit_input(p, g), rel=1e-6)
         assert abs(row["lpips"] - perceptual.lpips(p, g, net="vgg")) > 1e-4
+
+
+def test_3dgs_lpips_onnxruntime_backend_equals_torch(random_lpips):
+    pytest.importorskip("onnxruntime")
+    from dynaeval.metrics.protocol_3dgs import lpips_unit_input
+
+    _, pred, gt = PAIRS[2]
+    ref = lpips_unit_input(pred, gt, net="vgg")
+    assert lpips_unit_input(pred, gt, net="vgg", backend="onnxruntime") == pytest.approx(
+        ref, rel=1e-5, abs=1e-7)
