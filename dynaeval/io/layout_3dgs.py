@@ -100,6 +100,21 @@ def _pick_split(model: Path, split: str | None) -> tuple[Path, list[str]]:
     return model / name, notes
 
 
+def _refuse_renders_without_gt(folder: Path) -> None:
+    """InputError when ``folder`` looks like a 3DGS render whose ``gt/`` is missing everywhere."""
+    if not folder.is_dir():
+        return
+    levels = [folder, *(p for p in folder.iterdir() if p.is_dir())]
+    candidates = [folder] if ITERATION_DIR.fullmatch(folder.name) else []
+    for level in levels:
+        candidates += [p for p in level.iterdir() if p.is_dir() and ITERATION_DIR.fullmatch(p.name)]
+    half = [p for p in candidates if (p / PRED_DIR).is_dir() and not (p / GT_DIR).is_dir()]
+    if half:
+        raise InputError(f"3DGS render folder without ground truth: {half[0]} has {PRED_DIR}/ but "
+                         f"no {GT_DIR}/ (was render.py interrupted, or is this a split without "
+                         "ground truth, like 4DGaussians' video/?)", path=folder)
+
+
 def find_3dgs(folder: Path, *, iteration: int | None = None,
               split: str | None = None) -> tuple[Path, dict[str, Any], list[str]] | None:
     """The iteration folder to score when ``folder`` is a 3DGS-family render (module docstring).
@@ -131,6 +146,7 @@ def find_3dgs(folder: Path, *, iteration: int | None = None,
         ours, more = _pick_iteration(split_dir, iteration)
         notes += more
     else:
+        _refuse_renders_without_gt(folder)
         return None
     if split is not None and ours.parent.name != split and ours.parent.parent != folder:
         raise InputError(f"--split {split} asked but this folder is of split {ours.parent.name!r}",

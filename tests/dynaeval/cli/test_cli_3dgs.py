@@ -43,6 +43,9 @@ def test_bad_model_exits_2_with_a_clear_message(model, tmp_path, capsys):
     broken = tmp_path / "broken"
     (broken / "test" / "ours_1" / "renders").mkdir(parents=True)  # render.py stopped before gt/
     code, _, err = run(capsys, "score", broken, *FAST)
+    assert code == 2 and "ours_1 has renders/ but no gt/" in err
+    (tmp_path / "empty").mkdir()
+    code, _, err = run(capsys, "score", tmp_path / "empty", *FAST)
     assert code == 2 and "holds no known render layout" in err and "3dgs: MODEL" in err
     assert "Traceback" not in err
 
