@@ -107,6 +107,10 @@ def score(
     run = prepare_run(config)
     run.warnings.extend(pairing.warnings)  # damaged video files
     run.warnings.extend({"reason": note} for note in layout.notes)
+    if layout.name == "3dgs" and config.protocol != "3dgs":
+        run.warnings.append({"reason": (
+            f"3DGS render folder scored under --protocol {config.protocol}: the numbers of its "
+            "own metrics.py are --protocol 3dgs / protocol='3dgs'")})
     if not layout.sequence and config.temporal:
         run.warnings.append({"reason": (
             f"{layout.name} render folders hold separate test views; temporal metrics treat them "

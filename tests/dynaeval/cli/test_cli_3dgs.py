@@ -33,8 +33,10 @@ def test_score_model_exits_0_and_names_the_iteration(model, capsys):
     assert code == 0, err
     assert "3dgs render folder: scored" in err and "ours_30000" in err
     assert "also rendered: ours_7000" in err
+    assert "the numbers of its own metrics.py are --protocol 3dgs" not in err
     code, _, err = run(capsys, "score", model, "--iteration", "7000", *FAST)
     assert code == 0, err
+    assert "the numbers of its own metrics.py are --protocol 3dgs" in err
 
 
 def test_bad_model_exits_2_with_a_clear_message(model, tmp_path, capsys):
