@@ -123,8 +123,10 @@ def _add_score_options(p: argparse.ArgumentParser) -> None:
                    help="boxes for the focused_* metrics, from the ground truth: the ONNX detector "
                         "(default), connected components of the motion masks, a boxes file "
                         "(dynaeval detect, or the scene generator's boxes.json), or none")
-    p.add_argument("--detector", metavar="MODEL.onnx",
-                   help="ONNX detector for --focus detector (default: the one shipped with dynaeval)")
+    p.add_argument("--detector", metavar="MODEL.onnx|NAME",
+                   help="ONNX detector for --focus detector, or the name of one fetched with "
+                        "'dynaeval detector fetch' (default: the one shipped with dynaeval, for "
+                        "the synthetic scenes)")
     _add_classes_flag(p)
     p.add_argument("--expand", choices=["paper", "margin", "none"], default=d.focus.expand,
                    help="box expansion: paper = width x7, height x2.5 as in the seed study "
@@ -270,12 +272,15 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("-o", "--output", required=True, metavar="boxes.json")
     t.add_argument("--source", choices=["detector", "motion"], default="detector",
                    help="ONNX detector (default) or connected components of the motion masks")
-    t.add_argument("--detector", metavar="MODEL.onnx",
-                   help="ONNX detector (default: the one shipped with dynaeval)")
+    t.add_argument("--detector", metavar="MODEL.onnx|NAME",
+                   help="ONNX detector, or a name fetched with 'dynaeval detector fetch' "
+                        "(default: the one shipped with dynaeval)")
     _add_classes_flag(t)
     t.add_argument("--device", choices=["cpu", "cuda"], default="cpu")
     t.add_argument("--overwrite", action="store_true", help="replace an existing -o file")
     t.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+
+    _add_detector_command(sub)
 
     lb = sub.add_parser("leaderboard", help="combine results files into one table",
                         description="Combine results files (methods x scenes) into one table: "
@@ -305,6 +310,37 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--workers", type=int, default=_defaults().workers, metavar="N")
     d.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     return parser
+
+
+def _add_detector_command(sub: Any) -> None:
+    from dynaeval.regions.fetch import CACHE_ENV, KNOWN
+
+    dp = sub.add_parser("detector", help="fetch COCO detectors (ONNX) for --detector NAME",
+                        description="Fetch a COCO-trained detector once (its weights downloaded "
+                                    "by torchvision or Ultralytics, exported to ONNX into the "
+                                    f"user cache, ${CACHE_ENV} to override), then score with "
+                                    "--detector NAME.")
+    dsub = dp.add_subparsers(dest="detector_command", required=True, metavar="ACTION")
+    f = dsub.add_parser("fetch", help="download, export and store a detector",
+                        description="; ".join(f"{k}: {v.description}" for k, v in KNOWN.items()))
+    f.add_argument("name", choices=list(KNOWN), metavar="NAME", help=", ".join(KNOWN))
+    f.add_argument("--overwrite", action="store_true", help="fetch again over a fetched copy")
+    dsub.add_parser("list", help="the fetched detectors and the known names not fetched yet")
+
+
+def _run_detector(args: argparse.Namespace) -> int:
+    from dynaeval.regions import fetch
+
+    if args.detector_command == "fetch":
+        path = fetch.fetch(args.name, overwrite=args.overwrite)
+        print(f"detector {args.name!r} written to {path} (provenance: "
+              f"{path.with_suffix('.json')}); score with --detector {args.name}")
+        return EXIT_OK
+    print(f"detectors in {fetch.cache_dir()}:")
+    for row in fetch.list_detectors():
+        state = f"fetched {row['date'] or ''}".strip() if row["fetched"] else "not fetched"
+        print(f"  {row['name']:<22} {state:<36} {row['description']}")
+    return EXIT_OK
 
 
 def _print_warnings(results: dict) -> None:
@@ -476,6 +512,8 @@ def main(argv: list[str] | None = None) -> int:
             return _run_detect(args)
         if args.command == "leaderboard":
             return _run_leaderboard(args)
+        if args.command == "detector":
+            return _run_detector(args)
         if args.command == "demo":
             root = sample_dir()
             if not (root / "pred").is_dir():

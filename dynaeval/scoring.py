@@ -133,9 +133,11 @@ def _presence_step(config: ScoreConfig, sources: Any, settings: dict) -> Presenc
     from dynaeval.regions.boxes_file import frame_key
 
     pcfg = PresenceConfig(data_range=config.data_range)
+    detector = sources.detector  # --focus detector's, or the one that wrote the boxes file
     settings["presence"] = {
-        "enabled": True, **pcfg.describe(), "detector_test": src == "detector",
+        "enabled": True, **pcfg.describe(), "detector_test": detector is not None,
         "objects": "the boxes file's records" if src == "boxes" else "the detector on the ground truth",
+        **({"detector_test_skipped": sources.detector_note} if sources.detector_note else {}),
     }
 
     def step(pair: FramePair, pred: np.ndarray, gt: np.ndarray, regions: FrameRegions):
@@ -143,7 +145,7 @@ def _presence_step(config: ScoreConfig, sources: Any, settings: dict) -> Presenc
         if records is None:
             why = f"frame {frame_key(pair.camera, pair.frame)!r} is not in the boxes file"
             return dict.fromkeys(PRESENCE_METRICS), dict.fromkeys(PRESENCE_METRICS, why), []
-        detections = sources.detector(pred) if src == "detector" else None
+        detections = detector(pred) if detector is not None else None
         fp = frame_presence(pred, gt, records, detections=detections, config=pcfg)
         return fp.values, fp.reasons, fp.objects
 

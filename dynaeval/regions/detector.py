@@ -81,6 +81,11 @@ class DetectorConfig:
     """At most this many boxes per image (highest scores first)."""
     device: str = "cpu"
     """``"cpu"``, ``"cuda"`` (error if onnxruntime has no CUDA provider) or ``"auto"``."""
+    model_thresholds: bool = True
+    """Also apply the model's per-class minimum scores, its ``score_thresholds`` metadata (e.g.
+    ``"{'person': 0.25, 'ball': 0.5}"``: the bundled detector's, calibrated on held-out renders,
+    docs/detector.md): a box is kept when its score is above both ``score_threshold`` and its
+    class's. False: ``score_threshold`` alone (precision-recall curves)."""
 
     def __post_init__(self) -> None:
         if self.convention not in CONVENTIONS:
@@ -104,7 +109,8 @@ class DetectorConfig:
 
 
 def resolve_model_path(model: str | Path | None) -> Path:
-    """The detector file to load; InputError when it does not exist."""
+    """The detector file to load: ``model`` itself when it is a file, else a name fetched by
+    ``dynaeval detector fetch`` (``dynaeval.regions.fetch``); InputError when neither."""
     if model is None:
         if not DEFAULT_DETECTOR.is_file():
             raise InputError(
@@ -115,9 +121,14 @@ def resolve_model_path(model: str | Path | None) -> Path:
             )
         return DEFAULT_DETECTOR
     path = Path(model)
-    if not path.is_file():
-        raise InputError("detector model not found: expected an .onnx file", path=path)
-    return path
+    if path.is_file():
+        return path
+    if path.suffix.lower() != ".onnx" and path.parent == Path("."):  # a name: fetched detector
+        from dynaeval.regions.fetch import resolve_name
+
+        return resolve_name(str(model))
+    raise InputError("detector model not found: expected an .onnx file, or the name of a "
+                     "detector fetched with 'dynaeval detector fetch NAME'", path=path)
 
 
 # --------------------------------------------------------------------------------------------
@@ -216,6 +227,7 @@ class Detector:
         ``output``), and the note saying the output names were overruled (else None)."""
         self.class_names = self._class_names()
         self.selected_ids = self._select_ids()
+        self.class_thresholds = self._class_thresholds()
 
     # -- setup -----------------------------------------------------------------------------
     def _infer_convention(self) -> str:
@@ -238,6 +250,25 @@ class Detector:
         meta = self.session.get_modelmeta().custom_metadata_map
         names = _parse_names(meta.get("names"))
         return names if names is not None else self._decoder.default_names(self.outputs)
+
+    def _class_thresholds(self) -> dict[int, float]:
+        """Class id -> the model's minimum score (``score_thresholds`` metadata, by class name;
+        checked to be numbers in [0, 1]); empty when unused or absent."""
+        if not self.config.model_thresholds:
+            return {}
+        raw = self.session.get_modelmeta().custom_metadata_map.get("score_thresholds")
+        if not raw:
+            return {}
+        try:
+            table = ast.literal_eval(raw)
+            table = {self._canonical(str(k)): float(v) for k, v in dict(table).items()}
+        except (ValueError, SyntaxError, TypeError) as err:
+            raise InputError(f"the model's score_thresholds metadata is not a {{class: score}} "
+                             f"mapping: {raw!r}", path=self.path) from err
+        if not all(0.0 <= v <= 1.0 for v in table.values()):
+            raise InputError(f"the model's score_thresholds must be in [0, 1]: {raw!r}", path=self.path)
+        return {i: table[self._canonical(n)] for i, n in self.class_names.items()
+                if self._canonical(n) in table}
 
     def _canonical(self, name: str) -> str:
         return dict(self.config.aliases).get(name, name)
@@ -296,6 +327,9 @@ class Detector:
             "class_ids": list(self.selected_ids),
             "outputs": self._roles_by_name(),
             **({"outputs_note": self.outputs_note} if self.outputs_note else {}),
+            "class_score_thresholds": {self.class_names.get(i, str(i)): t for i, t in
+                                       sorted(self.class_thresholds.items())
+                                       if i in self.selected_ids},
             "settings": settings,
             "onnxruntime": ort.__version__,
         }
@@ -354,8 +388,9 @@ class Detector:
         """Detect in one ``(H, W, 3)`` RGB image (uint8 or float in [0, 1])."""
         h, w = np.asarray(image).shape[:2]
         boxes, scores, cls, geometry = self.candidates(image)
-        return postprocess(boxes, scores, cls, self.config, self.selected_ids, self.class_names, h, w,
-                           to_image=lambda b: self.to_image(b, geometry))
+        found = postprocess(boxes, scores, cls, self.config, self.selected_ids, self.class_names,
+                            h, w, to_image=lambda b: self.to_image(b, geometry))
+        return with_class_thresholds(found, self.class_thresholds)
 
 
 def _grey_to_rgb(image: object) -> object:
@@ -412,6 +447,21 @@ def postprocess(
     alias = dict(config.aliases)
     names = tuple(alias.get(n, n) for n in (class_names.get(int(c), str(int(c))) for c in class_ids[ok]))
     return Detections(ib[ok], scores[ok].astype(np.float32), class_ids[ok], names)
+
+
+def with_class_thresholds(found: Detections, thresholds: Mapping[int, float]) -> Detections:
+    """``found`` without the boxes not scoring above their class's minimum in ``thresholds``
+    (class id -> score). After per-class NMS this equals filtering before it (up to the
+    ``max_detections`` cap): a box is suppressed only by a higher-scored box of its class, which
+    passes that class's threshold too."""
+    if not thresholds or not len(found):
+        return found
+    mins = np.array([thresholds.get(int(c), 0.0) for c in found.class_ids], dtype=np.float64)
+    keep = found.scores.astype(np.float64) > mins  # above, as score_threshold
+    if keep.all():
+        return found
+    return Detections(found.boxes[keep], found.scores[keep], found.class_ids[keep],
+                      tuple(c for c, k in zip(found.classes, keep, strict=True) if k))
 
 
 def detect(image: np.ndarray, detector: Detector | DetectorConfig | None = None) -> Detections:

@@ -146,6 +146,8 @@ class RegionSources:
 
     config: FocusConfig
     detector: Any = None
+    """The detector of ``--focus detector``, or the one that wrote the boxes file (``dynaeval
+    detect``), re-opened so presence runs the same detector test on the prediction; or None."""
     boxes: dict[str, list[dict]] | None = None
     classes: tuple[str, ...] = ()
     """Classes the boxes are counted under in ``regions_summary`` (the detector's selection;
@@ -154,6 +156,8 @@ class RegionSources:
     warnings: list[dict] = field(default_factory=list)
     """Run-level warnings about the sources (``{"reason"}``): the bundled detector on footage it
     was not trained for, output names overruled by dtypes."""
+    detector_note: str | None = None
+    """Why a detector's boxes file does not re-run its detector (its model is not here)."""
 
 
 def open_sources(config: FocusConfig) -> RegionSources:
@@ -179,6 +183,7 @@ def open_sources(config: FocusConfig) -> RegionSources:
             "sha256": file_sha256(config.boxes_file),
             "source": bf.source,
         }
+        src.detector, src.detector_note = boxes_file_detector(bf.source, config.device)
     elif config.source == "detector":
         from dynaeval.regions.detector import Detector
 
@@ -192,6 +197,36 @@ def open_sources(config: FocusConfig) -> RegionSources:
     if config.masked or config.source == "motion":
         settings["motion"] = {"kind": config.motion_kind, "min_frames": MIN_MOTION_FRAMES}
     return src
+
+
+def boxes_file_detector(source: dict[str, Any] | None, device: str) -> tuple[Any, str | None]:
+    """The detector that wrote a boxes file (``dynaeval detect``: ``source`` has its model, hash
+    and settings), re-opened with the same settings, so that ``--focus boxes:FILE`` scores what
+    ``--focus detector`` scores; ``(None, None)`` for a file no detector wrote (the scene
+    generator's), ``(None, why)`` when its model is not here with the same SHA-256."""
+    if not isinstance(source, dict) or source.get("kind") != "detector":
+        return None, None  # the scene generator's boxes, or motion boxes: region test only
+    from dynaeval.regions.detector import DEFAULT_DETECTOR, Detector, DetectorConfig
+    from dynaeval.runtime import file_sha256
+
+    source = source.get("detector", source)  # dynaeval detect nests it under "detector"
+    sha = source.get("model_sha256")
+    model = Path(str(source.get("model", "")))
+    if not (model.is_file() and file_sha256(model) == sha):
+        model = DEFAULT_DETECTOR  # the bundled one, from another checkout or install
+        if not (model.is_file() and file_sha256(model) == sha):
+            return None, (f"the detector that wrote the boxes file ({source.get('model')}) is "
+                          "not on this machine with the same SHA-256: presence ran the region "
+                          "test only")
+    saved = dict(source.get("settings") or {})
+    fields = {k: saved[k] for k in DetectorConfig.__dataclass_fields__ if k in saved}
+    for key in ("classes", "class_names"):
+        if isinstance(fields.get(key), list):
+            fields[key] = tuple(fields[key])
+    if isinstance(fields.get("aliases"), list):
+        fields["aliases"] = tuple(tuple(a) for a in fields["aliases"])
+    fields.update(model=str(model), device=device)
+    return Detector(DetectorConfig(**fields)), None
 
 
 def _expand_settings(rule: str) -> dict[str, Any]:

@@ -1,4 +1,4 @@
-"""``python -m reference_models.detector train|export|evaluate``; exit 2 on bad input."""
+"""``python -m reference_models.detector train|export|calibrate|evaluate``; exit 2 on bad input."""
 
 from __future__ import annotations
 
@@ -34,6 +34,12 @@ def _parser() -> argparse.ArgumentParser:
     e.add_argument("checkpoint")
     e.add_argument("--out", required=True)
     e.add_argument("--fp16", action="store_true")
+    c = sub.add_parser("calibrate", help="per-class score thresholds on calibration renders, "
+                                         "written into the ONNX metadata")
+    c.add_argument("model", help="ONNX file to calibrate")
+    c.add_argument("--out", required=True, help="calibrated copy (may be the same file)")
+    c.add_argument("--json", help="write the counts per threshold here")
+    c.add_argument("--cache", default=str(DEFAULT_CACHE), help="render cache folder")
     v = sub.add_parser("evaluate", help="AP / recall / precision on held-out seeds via dynaeval")
     v.add_argument("model", help="ONNX file")
     v.add_argument("--out", help="write the Markdown table here")
@@ -90,6 +96,22 @@ def _export(args) -> int:
     return 0
 
 
+def _calibrate(args) -> int:
+    from reference_models.detector.calibrate import CALIB_SETS, choose, sweep, write_thresholds
+
+    counts = sweep(args.model, args.cache, CALIB_SETS, progress=_log)
+    chosen = choose(counts)
+    command = "python -m reference_models.detector " + shlex.join(sys.argv[1:])
+    write_thresholds(args.model, args.out, {c: r["threshold"] for c, r in chosen.items()}, command)
+    if args.json:
+        Path(args.json).write_text(json.dumps({"counts": counts, "chosen": chosen,
+                                               "command": command}, indent=1) + "\n")
+    for c, r in chosen.items():
+        print(f"{c}: threshold {r['threshold']:.2f}  recall {r['recall']:.3f}  precision "
+              f"{r['precision']:.3f}  F1 {r['f1']:.3f}  ({r['gt']} ground-truth boxes)")
+    return 0
+
+
 def _evaluate(args) -> int:
     from dynaeval.runtime import file_sha256
     from reference_models.detector.evaluate import EVAL_SETS, TINY_SETS, evaluate, to_markdown
@@ -116,7 +138,8 @@ def main(argv: list[str] | None = None) -> int:
 
     args = _parser().parse_args(argv)
     try:
-        return {"train": _train, "export": _export, "evaluate": _evaluate}[args.command](args)
+        return {"train": _train, "export": _export, "calibrate": _calibrate,
+                "evaluate": _evaluate}[args.command](args)
     except InputError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2

@@ -114,15 +114,39 @@ def ignored(records: list[dict], height: int, width: int, input_size: int) -> np
     return np.asarray(out, dtype=bool)
 
 
+def per_class(view: dict, det, input_size: int):  # noqa: ANN201
+    """Yield ``(class, gt (G, 4), ignored (G,), det boxes (D, 4), det scores (D,))`` of one view."""
+    h, w = view["image"].shape[:2]
+    ign_all = ignored(view["boxes"], h, w, input_size)
+    for c in CLASSES:
+        sel = [k for k, r in enumerate(view["boxes"]) if r["class"] == c]
+        gt = np.array([view["boxes"][k]["box"] for k in sel], dtype=np.int64).reshape(-1, 4)
+        ign = ign_all[sel] if sel else np.zeros(0, dtype=bool)
+        dm = np.array([n == c for n in det.classes], dtype=bool)
+        yield c, gt, ign, det.boxes[dm], det.scores[dm].astype(np.float64)
+
+
+def default_thresholds(det) -> dict[str, float]:
+    """Per class, the minimum score a box needs in the runtime's defaults: ``score_threshold``
+    and the model's own ``score_thresholds`` metadata (``Detector.class_thresholds``)."""
+    out = {}
+    for c in CLASSES:
+        ids = [i for i, n in det.class_names.items() if n == c]
+        out[c] = max([det.config.score_threshold, *(det.class_thresholds.get(i, 0.0) for i in ids)])
+    return out
+
+
 def evaluate(model: str | Path, cache: str | Path, sets: tuple[EvalSet, ...] = EVAL_SETS,
              presets: tuple[str, ...] = PRESETS, progress=None) -> dict:
     """Run ``model`` through ``dynaeval.regions.detector`` on the held-out views; return a dict
     with one row per (set, preset, class): ``ap50``, ``recall``, ``precision`` (None when
-    undefined), ``gt``, ``ignored``, ``kept`` (boxes kept at the default threshold), and timings."""
+    undefined), ``gt``, ``ignored``, ``kept`` (boxes kept at the default thresholds: the runtime's
+    ``score_threshold`` and the model's per-class ``score_thresholds``), and timings."""
     from dynaeval.regions.detector import Detector, DetectorConfig
 
-    low = Detector(DetectorConfig(model=model, classes=CLASSES, score_threshold=0.01))
-    default_threshold = DetectorConfig().score_threshold
+    low = Detector(DetectorConfig(model=model, classes=CLASSES, score_threshold=0.01,
+                                  model_thresholds=False))
+    thresholds = default_thresholds(Detector(DetectorConfig(model=model, classes=CLASSES)))
     input_size = int(low._input_hw()[0] or 640)
     rows, det_seconds, n_images = [], 0.0, 0
     for es in sets:
@@ -139,16 +163,9 @@ def evaluate(model: str | Path, cache: str | Path, sets: tuple[EvalSet, ...] = E
                     det = low(v["image"])
                     det_seconds += time.perf_counter() - t
                     n_images += 1
-                    h, w = v["image"].shape[:2]
-                    ign_all = ignored(v["boxes"], h, w, input_size)
-                    for c in CLASSES:
-                        sel = [k for k, r in enumerate(v["boxes"]) if r["class"] == c]
-                        gt = np.array([v["boxes"][k]["box"] for k in sel], dtype=np.int64).reshape(-1, 4)
-                        ign = ign_all[sel] if sel else np.zeros(0, dtype=bool)
-                        dm = np.array([n == c for n in det.classes], dtype=bool)
-                        db, ds = det.boxes[dm], det.scores[dm].astype(np.float64)
+                    for c, (gt, ign, db, ds) in per_class(v, det, input_size):
                         tp, counted, found = match(db, ds, gt, ign)
-                        keep = ds >= default_threshold
+                        keep = ds > thresholds[c]
                         _, _, found_def = match(db[keep], ds[keep], gt, ign)
                         a = acc[c]
                         a["scores"].append(ds)
@@ -166,7 +183,7 @@ def evaluate(model: str | Path, cache: str | Path, sets: tuple[EvalSet, ...] = E
                 tp = np.concatenate(a["tp"]) if a["tp"] else np.zeros(0, dtype=bool)
                 counted = np.concatenate(a["counted"]) if a["counted"] else np.zeros(0, dtype=bool)
                 scores, tp = scores[counted], tp[counted]
-                kept = scores >= default_threshold
+                kept = scores > thresholds[c]
                 n_kept, n_tp = int(kept.sum()), int((tp & kept).sum())
                 rows.append({
                     "set": es.name, "preset": preset, "class": c, "gt": a["gt"], "ignored": a["ign"],
@@ -176,7 +193,7 @@ def evaluate(model: str | Path, cache: str | Path, sets: tuple[EvalSet, ...] = E
                     "kept": n_kept,
                 })
     return {"rows": rows, "images": n_images, "detect_seconds": det_seconds,
-            "score_threshold": default_threshold, "input_size": input_size,
+            "score_threshold": thresholds, "input_size": input_size,
             "min_visible": MIN_VISIBLE, "min_side": MIN_SIDE}
 
 
@@ -191,7 +208,8 @@ def to_markdown(result: dict, command: str, seconds: float, model_sha: str) -> s
         f"{result['images']} images, detection {1000 * result['detect_seconds'] / max(1, result['images']):.0f} ms/image "
         f"on this shared 2-core machine). Model SHA-256 `{model_sha[:16]}...`.",
         "",
-        f"Recall and precision at the runtime's default score threshold {result['score_threshold']}; "
+        f"Recall and precision at the runtime's default score thresholds "
+        f"({', '.join(f'{c} {t:.2f}' for c, t in result['score_threshold'].items())}); "
         f"IoU >= 0.5. Ignored ground truth: visible < {result['min_visible']} or shorter side < "
         f"{result['min_side']} px at the {result['input_size']}-px model input.",
         "",
