@@ -317,9 +317,14 @@ class Detector:
         """What made the boxes, for a boxes file's ``source`` and the results JSON."""
         import onnxruntime as ort
 
+        from dynaeval.regions.fetch import provenance
+
         settings = asdict(self.config)
         settings["model"] = str(self.path)
+        fetched = provenance(self.path)
         return {
+            **({"fetched": {k: fetched.get(k) for k in ("name", "source", "weights", "pretrained")}}
+               if fetched else {}),
             "kind": "detector",
             "model": str(self.path),
             "model_sha256": self.sha256,

@@ -88,7 +88,7 @@ def fetched_path(name: str, folder: Path | None = None) -> Path | None:
 def provenance(model: str | Path) -> dict[str, Any] | None:
     """The provenance JSON beside a fetched ``NAME.onnx`` (None for any other model file)."""
     meta = Path(model).with_suffix(".json")
-    if not meta.is_file() or not (Path(model).parent / meta.name).is_file():
+    if not meta.is_file():
         return None
     try:
         doc = json.loads(meta.read_text())
@@ -124,7 +124,8 @@ def list_detectors(folder: Path | None = None) -> list[dict[str, Any]]:
     folder = cache_dir() if folder is None else folder
     names = list(KNOWN)
     if folder.is_dir():
-        names += sorted(p.stem for p in folder.glob("*.onnx") if p.stem not in KNOWN)
+        names += sorted(p.stem for p in folder.glob("*.onnx")
+                        if p.stem not in KNOWN and not p.name.startswith("."))  # not a temp file
     rows = []
     for name in names:
         path = fetched_path(name, folder)
@@ -338,7 +339,7 @@ def _export_ultralytics(spec: KnownDetector, out: Path, folder: Path, pretrained
     if model_hook is not None:
         model_hook(model.model)
     settings = {"exporter": "ultralytics YOLO.export", "format": "onnx", "imgsz": 640,
-                "opset": OPSET, "nms": False, "dynamic": False, "simplify": False, "half": False,
+                "opset": OPSET, "nms": False, "dynamic": False, "simplify": False,
                 "model_hook": getattr(model_hook, "__name__", None)}
     cwd = Path.cwd()
     os.chdir(work)  # an export of the .yaml architecture writes into the working folder
@@ -349,6 +350,11 @@ def _export_ultralytics(spec: KnownDetector, out: Path, folder: Path, pretrained
         os.chdir(cwd)
     os.replace(work / exported, out)
     names = [str(model.names[i]) for i in sorted(model.names)]
+    if not pretrained:  # the .yaml's names are '0'..'79': give the COCO model's, as the .pt has
+        from dynaeval.regions.coco import COCO80_NAMES
+
+        names = list(COCO80_NAMES)
+        write_onnx_metadata(out, {"names": repr(dict(enumerate(names)))})
     return {
         "source": f"ultralytics.YOLO({spec.builder if pretrained else stem + '.yaml'!r})",
         "weights": _weights_record(spec.builder if pretrained else None,

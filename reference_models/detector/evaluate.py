@@ -163,7 +163,7 @@ def evaluate(model: str | Path, cache: str | Path, sets: tuple[EvalSet, ...] = E
                     det = low(v["image"])
                     det_seconds += time.perf_counter() - t
                     n_images += 1
-                    for c, (gt, ign, db, ds) in per_class(v, det, input_size):
+                    for c, gt, ign, db, ds in per_class(v, det, input_size):
                         tp, counted, found = match(db, ds, gt, ign)
                         keep = ds > thresholds[c]
                         _, _, found_def = match(db[keep], ds[keep], gt, ign)
