@@ -186,9 +186,6 @@ def test_retinanet_export_gives_the_torch_boxes(cache):
     assert doc["export"]["outputs"] == ["boxes", "scores", "labels"]
 
 
-@pytest.mark.xfail(strict=False, reason="needs issue 17 item 2 (NMS on the unclipped boxes, then "
-                   "clip, as Ultralytics: H4's branch, commit 157f245, where it passes); before it "
-                   "dynaeval kept 42 of Ultralytics' 52 boxes on astronaut. Drop this mark once merged")
 def test_yolo_export_gives_the_ultralytics_boxes(cache):
     """The torch model on the same letterboxed image, filtered by Ultralytics' own
     ``non_max_suppression`` (score threshold, per-class NMS at 0.45), against the exported
