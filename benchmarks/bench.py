@@ -880,8 +880,11 @@ def _crop_vs_map_section(gap: str, sample_gap: str) -> list[str]:
 def _write(text: str, out: str) -> None:
     print(text)
     if out != "-":
+        from benchmarks.sections import keep_sections
+
         Path(out).parent.mkdir(parents=True, exist_ok=True)
-        Path(out).write_text(text)
+        old = Path(out).read_text() if Path(out).exists() else ""
+        Path(out).write_text(keep_sections(old, text))  # other scripts' sections stay
         print(f"written to {out}", file=sys.stderr)
 
 

@@ -103,7 +103,12 @@ def to_gray_u8(image: np.ndarray) -> np.ndarray:
     ``[0, 1]`` are clipped here only (for the flow), never in the metrics themselves. A single
     channel is used as is; a 4th (alpha) channel is ignored.
     """
-    arr = as_image(image)
+    return gray_of_checked(as_image(image))
+
+
+def gray_of_checked(arr: np.ndarray) -> np.ndarray:
+    """:func:`to_gray_u8` of a frame already checked by ``as_image`` (float32, ``(H, W[, C])``):
+    the conversion without the check, for frames validated once upstream."""
     if arr.ndim == 3:
         if arr.shape[2] == 1:
             arr = arr[..., 0]
@@ -176,6 +181,11 @@ def optical_flow(a: np.ndarray, b: np.ndarray, config: FlowConfig | None = None)
     return _flow_from_gray(ga, gb, config)
 
 
+def gray_digest(gray: np.ndarray) -> bytes:
+    """20-byte blake2b digest of a gray uint8 frame's pixels (its part of a flow-cache key)."""
+    return hashlib.blake2b(np.ascontiguousarray(gray).data, digest_size=20).digest()
+
+
 class FlowCache:
     """Flows keyed on the *content* of both frames and the flow settings, computed once.
 
@@ -206,12 +216,16 @@ class FlowCache:
         self.misses = 0
 
     @staticmethod
-    def key(gray_a: np.ndarray, gray_b: np.ndarray, config: FlowConfig) -> str:
-        """Content key of a gray uint8 pair and a flow config (hex string)."""
+    def key(gray_a: np.ndarray, gray_b: np.ndarray, config: FlowConfig,
+            digests: tuple[bytes, bytes] | None = None) -> str:
+        """Content key of a gray uint8 pair and a flow config (hex string): a hash of the shape,
+        of each frame's :func:`gray_digest` (``digests``, when the caller has them already: a
+        frame is hashed once, not once per flow it is in) and of the config."""
+        da, db = digests if digests is not None else (gray_digest(gray_a), gray_digest(gray_b))
         h = hashlib.blake2b(digest_size=20)
         h.update(repr(gray_a.shape).encode())
-        h.update(gray_a.tobytes())
-        h.update(gray_b.tobytes())
+        h.update(da)
+        h.update(db)
         h.update(repr(astuple(config)).encode())
         return h.hexdigest()
 
@@ -220,11 +234,15 @@ class FlowCache:
 
         The returned array is read-only (it may be shared with later callers).
         """
-        config = config or FlowConfig()
-        ga, gb = to_gray_u8(a), to_gray_u8(b)
+        return self.flow_gray(to_gray_u8(a), to_gray_u8(b), config or FlowConfig())
+
+    def flow_gray(self, ga: np.ndarray, gb: np.ndarray, config: FlowConfig,
+                  digests: tuple[bytes, bytes] | None = None) -> np.ndarray:
+        """:meth:`flow` of two frames already converted by :func:`to_gray_u8` (``(H, W)`` uint8),
+        with their :func:`gray_digest` when known (read-only result)."""
         if ga.shape != gb.shape:
             raise InputError(f"flow needs two frames of one size, got {ga.shape} and {gb.shape}")
-        k = self.key(ga, gb, config)
+        k = self.key(ga, gb, config, digests)
         with self._lock:
             if k in self._items:
                 self._items.move_to_end(k)
@@ -277,6 +295,7 @@ def check_flow(flow: np.ndarray, name: str = "flow") -> np.ndarray:
 
 
 def _sample_grid(flow: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(xs, ys)``: ``p + flow(p)``, two ``(H, W)`` float32 arrays (x, then y), for ``cv2.remap``."""
     h, w = flow.shape[:2]
     xs = np.arange(w, dtype=np.float32)[None, :] + flow[..., 0]
     ys = np.arange(h, dtype=np.float32)[:, None] + flow[..., 1]
@@ -292,8 +311,6 @@ def warp(image: np.ndarray, flow: np.ndarray) -> np.ndarray:
     take the nearest border pixel (``BORDER_REPLICATE``); :func:`valid_warp_mask` marks them
     invalid, so they never enter a metric. Returns float32 with the shape of ``image``.
     """
-    import cv2
-
     img = as_image(image)
     flow = check_flow(flow)
     if img.shape[:2] != flow.shape[:2]:
@@ -302,7 +319,14 @@ def warp(image: np.ndarray, flow: np.ndarray) -> np.ndarray:
         )
     if img.ndim == 3 and img.shape[2] > 4:
         raise InputError(f"warp handles at most 4 channels, got {img.shape[2]}")
-    xs, ys = _sample_grid(flow)
+    return warp_on_grid(img, *_sample_grid(flow))
+
+
+def warp_on_grid(img: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """:func:`warp` of a checked float32 ``img`` on the sample grid ``(xs, ys)`` of its flow
+    (``(H, W)`` float32 each, from :func:`visibility`), unchecked: one grid serves several images."""
+    import cv2
+
     out = cv2.remap(img, xs, ys, interpolation=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
     return out.reshape(img.shape)
 
@@ -330,7 +354,11 @@ def in_frame_mask(flow: np.ndarray) -> np.ndarray:
     """``(H, W)`` bool: ``p + flow(p)`` lies inside ``[0, W-1] x [0, H-1]`` (no border sample)."""
     flow = check_flow(flow)
     h, w = flow.shape[:2]
-    xs, ys = _sample_grid(flow)
+    return _in_frame(*_sample_grid(flow))
+
+
+def _in_frame(xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    h, w = xs.shape
     return (xs >= 0) & (xs <= w - 1) & (ys >= 0) & (ys <= h - 1)
 
 
@@ -353,7 +381,39 @@ def valid_warp_mask(flow_ts: np.ndarray, flow_st: np.ndarray) -> np.ndarray:
         raise InputError(
             f"the two flows must have one shape, got {flow_ts.shape} and {flow_st.shape}"
         )
-    g = warp(flow_st, flow_ts)
-    lhs = np.sum((flow_ts + g) ** 2, axis=-1)
-    rhs = 0.01 * (np.sum(flow_ts**2, axis=-1) + np.sum(g**2, axis=-1)) + 0.5
-    return (lhs < rhs) & in_frame_mask(flow_ts)
+    return visibility(flow_ts, flow_st)[0]
+
+
+def visibility(flow_ts: np.ndarray, flow_st: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(valid, xs, ys)``: :func:`valid_warp_mask` of two checked flows and the sample grid of
+    ``flow_ts`` it was found with (:func:`warp_on_grid` reuses it to warp frame ``s`` onto ``t``).
+
+    The test is evaluated on the flows' ``dx`` and ``dy`` planes, band by band of rows (the
+    temporaries stay in the cache), with the same float32 operations in the same order as
+    ``np.sum(v ** 2, axis=-1)``: the same bits.
+    """
+    xs, ys = _sample_grid(flow_ts)
+    g = warp_on_grid(flow_st, xs, ys)
+    valid = _in_frame(xs, ys)
+    for r0 in range(0, valid.shape[0], BAND_ROWS):
+        b = slice(r0, r0 + BAND_ROWS)
+        f, gb = flow_ts[b], g[b]
+        s = f + gb
+        lhs = sq_sum(s[..., 0], s[..., 1])
+        rhs = sq_sum(f[..., 0], f[..., 1])
+        rhs += sq_sum(gb[..., 0], gb[..., 1])
+        rhs *= np.float32(0.01)
+        rhs += np.float32(0.5)
+        valid[b] &= lhs < rhs
+    return valid, xs, ys
+
+
+BAND_ROWS = 64
+"""Rows per band of the plane-wise flow arithmetic (:func:`visibility`)."""
+
+
+def sq_sum(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """``x^2 + y^2`` (a new array; ``x`` and ``y`` untouched)."""
+    out = np.square(x)
+    out += np.square(y)
+    return out

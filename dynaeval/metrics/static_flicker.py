@@ -23,23 +23,46 @@ class TemporalStd:
 
     ``pixels``: ``(H, W)`` bool, the pixels to follow. ``update(frame)`` with ``(H, W, C)`` or
     ``(H, W)`` float frames; ``std()`` gives ``(N, C)`` population std (ddof=0) of the N pixels.
+
+    The update runs over blocks of ``BLOCK`` pixels gathered by index (the boolean mask is
+    resolved once), so its float64 temporaries stay in the cache; every value is the one the
+    whole-array Welford step gives (the same elementwise operations).
     """
+
+    BLOCK = 1 << 13
+    """Pixels per block of an update."""
 
     def __init__(self, pixels: np.ndarray) -> None:
         self.pixels = np.asarray(pixels, dtype=bool)
+        self._index = np.flatnonzero(self.pixels)
         self.count = 0
         self._mean: np.ndarray | None = None
         self._m2: np.ndarray | None = None
 
     def update(self, frame: np.ndarray) -> None:
-        x = np.asarray(frame)[self.pixels].astype(np.float64)
+        arr = np.asarray(frame)
+        rows = arr.reshape(-1, *arr.shape[2:])
         if self._mean is None:
-            self._mean = np.zeros_like(x)
-            self._m2 = np.zeros_like(x)
+            self._mean = np.zeros((self._index.size, *arr.shape[2:]), np.float64)
+            self._m2 = np.zeros_like(self._mean)
         self.count += 1
-        delta = x - self._mean
-        self._mean += delta / self.count
-        self._m2 += delta * (x - self._mean)
+        n = np.float64(self.count)
+        block = min(self.BLOCK, self._index.size)
+        got = np.empty((block, *arr.shape[2:]), arr.dtype)
+        x, delta, step = (np.empty((block, *arr.shape[2:]), np.float64) for _ in range(3))
+        for lo in range(0, self._index.size, self.BLOCK):
+            hi = min(lo + self.BLOCK, self._index.size)
+            k = hi - lo
+            np.take(rows, self._index[lo:hi], axis=0, out=got[:k])
+            mean, m2 = self._mean[lo:hi], self._m2[lo:hi]
+            xb, db, sb = x[:k], delta[:k], step[:k]
+            xb[...] = got[:k]  # float64, exact
+            np.subtract(xb, mean, out=db)  # delta = x - mean
+            np.divide(db, n, out=sb)
+            mean += sb  # mean += delta / n
+            xb -= mean
+            xb *= db
+            m2 += xb  # m2 += delta * (x - mean)
 
     def std(self) -> np.ndarray:
         if self.count == 0 or self._m2 is None:

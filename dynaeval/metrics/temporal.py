@@ -42,6 +42,7 @@ import numpy as np
 from dynaeval.boxes import as_boxes, boxes_to_mask
 from dynaeval.errors import InputError
 from dynaeval.metrics.flow import FlowCache, FlowConfig
+from dynaeval.metrics.pair_kernels import prepare
 from dynaeval.metrics.registry import METRICS, SPECS, keys_of
 from dynaeval.metrics.static_flicker import SequenceFlicker, TemporalStd, check_static, flicker
 from dynaeval.metrics.temporal_pairs import (
@@ -149,7 +150,8 @@ def _time_steps(
             raise InputError(
                 f"region_masks has fewer items than the {i + 1} frames seen so far"
             ) from None
-        yield Frames(p, g, None if item is None else _as_region_mask(item, p.shape[:2], i))
+        region = None if item is None else _as_region_mask(item, p.shape[:2], i)
+        yield Frames(p, g, region, prepare(p, g))
 
 
 def _lpips_for_run(

@@ -24,7 +24,15 @@ import numpy as np
 
 from dynaeval.boxes import grow_box, mask_to_box
 from dynaeval.errors import EmptyRegionError, InputError, WeightsUnavailableError
-from dynaeval.metrics.flow import FlowCache, FlowConfig, check_flow, valid_warp_mask, warp
+from dynaeval.metrics.flow import FlowCache, FlowConfig, check_flow, warp
+from dynaeval.metrics.pair_kernels import (
+    FramePrep,
+    pair_flows,
+    prepare,
+    tof_terms,
+    visibility,
+    warp_errors,
+)
 from dynaeval.metrics.registry import result_key
 from dynaeval.validation import as_image
 
@@ -228,6 +236,8 @@ class Frames(NamedTuple):
     """``(H, W, 3)`` float32 in ``[0, 1]``, the prediction's shape."""
     region: np.ndarray | None
     """``(H, W)`` bool focus mask, or None (no regions given for this frame)."""
+    prep: FramePrep | None = None
+    """Gray images and hashes for the flows (``pair_kernels.prepare``); None: made when needed."""
 
 
 class FeatureMemo:
@@ -263,17 +273,20 @@ class FeatureMemo:
                 self._items.pop((index, side), None)
 
 
-def _warp_error_parts(
-    prev: Frames, cur: Frames, back: np.ndarray, valid: np.ndarray, region: np.ndarray | None
-) -> dict[str, float | None]:
-    """``{"pred": E(pred), "gt": E(gt), "signed": E(pred) - E(gt)}`` of the pair over ``valid``
-    (and ``region``); all None when no pixel is kept."""
-    try:
-        ep = warping_error(prev.pred, cur.pred, back, valid, region)
-        eg = warping_error(prev.gt, cur.gt, back, valid, region)
-    except EmptyRegionError:
-        return dict(_NO_PARTS)
-    return {"pred": ep, "gt": eg, "signed": ep - eg}
+def _warp_error_parts(prev: Frames, cur: Frames, xs: np.ndarray, ys: np.ndarray,
+                      keeps: list[np.ndarray | None]) -> list[dict[str, float | None]]:
+    """``{"pred": E(pred), "gt": E(gt), "signed": E(pred) - E(gt)}`` of the pair for each kept
+    pixel set of ``keeps`` (flat indices; None: not computed), each frame warped once on the
+    backward flow's grid ``(xs, ys)``; all None when no pixel is kept."""
+    wanted = [k for k in keeps if k is not None]
+    e_pred = iter(warp_errors(prev.pred, cur.pred, xs, ys, wanted))
+    e_gt = iter(warp_errors(prev.gt, cur.gt, xs, ys, wanted))
+    out = []
+    for k in keeps:
+        ep, eg = (None, None) if k is None else (next(e_pred), next(e_gt))
+        out.append(dict(_NO_PARTS) if ep is None or eg is None
+                   else {"pred": ep, "gt": eg, "signed": ep - eg})
+    return out
 
 
 _NO_PARTS: dict[str, float | None] = {"pred": None, "gt": None, "signed": None}
@@ -300,6 +313,10 @@ def _tlp_values(
     return {result_key("tlp"): whole, result_key("tlp", "focused"): focused}
 
 
+def _prep(frames: Frames) -> FramePrep:
+    return prepare(frames.pred, frames.gt) if frames.prep is None else frames.prep
+
+
 def pair_terms(
     prev: Frames,
     cur: Frames,
@@ -321,25 +338,15 @@ def pair_terms(
     signed}}, "lpips_error": str | None}``; ``per_pair["warp_error"]`` is ``|E(pred) - E(gt)|``.
     """
     region = None if cur.region is None or prev.region is None else (cur.region | prev.region)
-    fw = cache.flow(prev.gt, cur.gt, flow)  # gt t-1 -> t, on t-1's grid
-    bw = cache.flow(cur.gt, prev.gt, flow)  # gt t -> t-1, on t's grid: warps t-1 onto t
-    valid = valid_warp_mask(bw, fw)
-    whole, focused = WARP_ERROR_KEYS
-    parts = {
-        whole: _warp_error_parts(prev, cur, bw, valid, None),
-        focused: (
-            dict(_NO_PARTS) if region is None else _warp_error_parts(prev, cur, bw, valid, region)
-        ),
-    }
+    fw, bw, fp = pair_flows(_prep(prev), _prep(cur), cache, flow)
+    valid, xs, ys = visibility(bw, fw)  # the pixels of t visible in t-1, bw's grid
+    keep = np.flatnonzero(valid)
+    keeps = [keep, None if region is None else np.flatnonzero(valid & region)]
+    parts = dict(zip(WARP_ERROR_KEYS, _warp_error_parts(prev, cur, xs, ys, keeps), strict=True))
     values: dict[str, float | None] = {
         key: None if got["signed"] is None else abs(got["signed"]) for key, got in parts.items()
     }
-
-    fp = cache.flow(prev.pred, cur.pred, flow)
-    values[result_key("tof")] = tof(fp, fw)
-    values[result_key("tof", "focused")] = (
-        None if region is None or not region.any() else tof(fp, fw, region)
-    )
+    values[result_key("tof")], values[result_key("tof", "focused")] = tof_terms(fp, fw, region)
 
     lpips_error = None
     if lpips_fn is not None:

@@ -1,0 +1,37 @@
+"""Named sections of docs/benchmarks.md that different benchmark scripts own.
+
+A section is the text between ``<!-- begin NAME -->`` and ``<!-- end NAME -->``; the script that
+owns it replaces it (or appends it) and leaves the rest of the file alone, so
+``benchmarks/bench.py`` and ``benchmarks/temporal_speed.py`` regenerate their own parts only.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+_BLOCK = re.compile(r"<!-- begin (?P<name>[\w-]+) -->\n.*?<!-- end (?P=name) -->\n", re.S)
+
+
+def blocks(text: str) -> dict[str, str]:
+    """Every named section of ``text``: name -> the block with its two marker lines."""
+    return {m.group("name"): m.group(0) for m in _BLOCK.finditer(text)}
+
+
+def put_section(path: str | Path, name: str, body: str) -> None:
+    """Replace (or append) section ``name`` of the markdown file ``path`` with ``body``."""
+    path = Path(path)
+    text = path.read_text() if path.exists() else ""
+    block = f"<!-- begin {name} -->\n{body.rstrip()}\n<!-- end {name} -->\n"
+    old = blocks(text).get(name)
+    text = text.replace(old, block) if old else text.rstrip("\n") + "\n\n" + block
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text)
+
+
+def keep_sections(old_text: str, new_text: str) -> str:
+    """``new_text`` with the named sections of ``old_text`` it lacks appended (a script that
+    rewrites the whole file keeps the sections other scripts own)."""
+    have = blocks(new_text)
+    kept = [b for name, b in blocks(old_text).items() if name not in have]
+    return new_text if not kept else new_text.rstrip("\n") + "\n\n" + "\n".join(kept)

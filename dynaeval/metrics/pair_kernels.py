@@ -1,0 +1,116 @@
+"""The per-pair work of the temporal engine at its floor: :func:`pair_terms`' numbers, bit for bit
+those of the pure functions (``warping_error``, ``tof``, ``valid_warp_mask``; a test holds them
+together), with the work each of them repeats done once.
+
+* per frame, once (:func:`prepare`): the gray image the flows run on and its hash for the flow
+  cache's key (the frame itself was checked once by the engine);
+* per pair, once: the sample grid of the backward flow (visibility, warping the prediction and
+  warping the ground truth share it), the visibility mask and the flat indices of the kept
+  pixels (whole frame; focus region), each frame difference ``cur - warp(prev)``;
+* per term: a gather of the kept values by index into per-thread buffers (``np.take`` instead of
+  a boolean mask re-evaluated per call) and the float64 mean of their squares, taken on an array
+  of the very shape and order ``warping_error`` reduces, so numpy's pairwise sum gives the same
+  bits.
+
+Frames: ``(H, W, C)`` or ``(H, W)`` float32 in ``[0, 1]``, already checked (``as_image``).
+"""
+
+from __future__ import annotations
+
+import threading
+from typing import NamedTuple
+
+import numpy as np
+
+from dynaeval.metrics.flow import (
+    BAND_ROWS,
+    FlowCache,
+    FlowConfig,
+    gray_digest,
+    gray_of_checked,
+    sq_sum,
+    visibility,
+    warp_on_grid,
+)
+
+
+class FramePrep(NamedTuple):
+    """What the flows need of one time step, computed once: gray images and their hashes."""
+
+    gray_pred: np.ndarray
+    """``(H, W)`` uint8, ``to_gray_u8(pred)``."""
+    gray_gt: np.ndarray
+    """``(H, W)`` uint8, ``to_gray_u8(gt)``."""
+    digests: tuple[bytes, bytes]
+    """``gray_digest`` of the prediction's and of the ground truth's gray image."""
+
+
+def prepare(pred: np.ndarray, gt: np.ndarray) -> FramePrep:
+    """The :class:`FramePrep` of one time step (checked float32 frames)."""
+    gp, gg = gray_of_checked(pred), gray_of_checked(gt)
+    return FramePrep(gp, gg, (gray_digest(gp), gray_digest(gg)))
+
+
+def pair_flows(prev: FramePrep, cur: FramePrep, cache: FlowCache,
+               flow: FlowConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(fw, bw, fp)``: ground-truth flows ``t-1 -> t`` and ``t -> t-1``, prediction ``t-1 -> t``."""
+    fw = cache.flow_gray(prev.gray_gt, cur.gray_gt, flow, (prev.digests[1], cur.digests[1]))
+    bw = cache.flow_gray(cur.gray_gt, prev.gray_gt, flow, (cur.digests[1], prev.digests[1]))
+    fp = cache.flow_gray(prev.gray_pred, cur.gray_pred, flow, (prev.digests[0], cur.digests[0]))
+    return fw, bw, fp
+
+
+_BUFFERS = threading.local()
+
+
+def _buffers(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """This thread's float32 and float64 buffers of at least ``n`` values (kept between pairs:
+    fresh 25-50 MB arrays per term are page-faulted in again every time)."""
+    got = getattr(_BUFFERS, "pair", None)
+    if got is None or got[0].size < n:
+        got = _BUFFERS.pair = (np.empty(n, np.float32), np.empty(n, np.float64))
+    return got
+
+
+def kept_mse(diff: np.ndarray, keep: np.ndarray) -> float | None:
+    """Mean of ``diff ** 2`` (in float64) over the pixels ``keep`` and every channel; None when
+    ``keep`` is empty. ``diff``: ``(H, W, C)`` or ``(H, W)`` float32; ``keep``: flat pixel
+    indices (``np.flatnonzero`` of the mask), in increasing order.
+
+    Equals ``(diff[mask].astype(np.float64) ** 2).mean()`` bit for bit: the same values, in the
+    same order, reduced as an array of the same shape.
+    """
+    if keep.size == 0:
+        return None
+    c = 1 if diff.ndim == 2 else diff.shape[2]
+    b32, b64 = _buffers(keep.size * c)
+    rows = diff.reshape(-1, c) if diff.ndim == 3 else diff.reshape(-1)
+    shape = (keep.size, c) if diff.ndim == 3 else (keep.size,)
+    got = np.take(rows, keep, axis=0, out=b32[: keep.size * c].reshape(shape))
+    sq = np.square(got, out=b64[: keep.size * c].reshape(shape), dtype=np.float64)
+    return float(sq.mean())
+
+
+def warp_errors(prev: np.ndarray, cur: np.ndarray, xs: np.ndarray, ys: np.ndarray,
+                keeps: list[np.ndarray]) -> list[float | None]:
+    """``warping_error(prev, cur, bw, valid, region)`` for each kept set of ``keeps`` (flat
+    indices), the warp of ``prev`` done once on ``bw``'s sample grid ``(xs, ys)``."""
+    diff = warp_on_grid(prev, xs, ys)
+    np.subtract(cur, diff, out=diff)  # cur - warp(prev, bw), in the warp's fresh array
+    return [kept_mse(diff, k) for k in keeps]
+
+
+def tof_terms(fp: np.ndarray, fw: np.ndarray, region: np.ndarray | None) -> tuple[float, float | None]:
+    """``(tof(fp, fw), tof(fp, fw, region))`` bit for bit, the endpoint map computed once; the
+    focused value None when ``region`` is None or empty."""
+    # epe = np.sqrt(np.sum((fp.astype(np.float64) - fw) ** 2, axis=-1)), band by band of rows
+    epe = np.empty(fp.shape[:2], np.float64)
+    for r0 in range(0, epe.shape[0], BAND_ROWS):
+        b = slice(r0, r0 + BAND_ROWS)
+        d = np.subtract(fp[b], fw[b], dtype=np.float64)
+        np.sqrt(sq_sum(d[..., 0], d[..., 1]), out=epe[b])
+    whole = float(epe.mean())
+    if region is None:
+        return whole, None
+    idx = np.flatnonzero(region)
+    return whole, (float(np.take(epe.reshape(-1), idx).mean()) if idx.size else None)
