@@ -104,7 +104,13 @@ def score(
         pairing = select_shard(pairing, *config.shard)
     from dynaeval.scoring import prepare_run
 
-    run = prepare_run(config)
+    progress = run_progress(pairing.pairs, config)  # drawn now, before the metrics load
+    try:
+        run = prepare_run(config)
+    except BaseException:
+        progress.close(completed=False)
+        raise
+    progress.restart()  # loading the metrics is no unit of work
     run.warnings.extend(pairing.warnings)  # damaged video files
     run.warnings.extend({"reason": note} for note in layout.notes)
     if layout.name == "3dgs" and config.protocol != "3dgs":
@@ -115,7 +121,7 @@ def score(
         run.warnings.append({"reason": (
             f"{layout.name} render folders hold separate test views; temporal metrics treat them "
             "as a sequence (pass temporal=False / --no-temporal unless they are one)")})
-    rows, warnings, temporal, regions = _score_cameras(pairing.pairs, run, on_regions)
+    rows, warnings, temporal, regions = _score_cameras(pairing.pairs, run, on_regions, progress)
     run_name = None if layout.name == "folders" else (
         layout.root if layout.name == "kplanes" else Path(layout.details.get("model", pred_dir))
     ).resolve().name
@@ -133,39 +139,64 @@ def warning_text(warning: dict[str, Any]) -> str:
     return f"{metric}: {reason}" if metric and not reason.lower().startswith(metric) else reason
 
 
-def _score_cameras(pairs: list[FramePair], run: Any,
-                   on_regions: RegionsCallback | None) -> tuple[list, list, dict, dict]:
+def _by_camera(pairs: list[FramePair]) -> dict[str, list[FramePair]]:
+    by_camera: dict[str, list[FramePair]] = {}
+    for pair in pairs:
+        by_camera.setdefault(pair.camera, []).append(pair)
+    return by_camera
+
+
+def run_progress(pairs: list[FramePair], config: ScoreConfig) -> Any:
+    """The run's ``dynaeval.progress.Progress`` (silent unless ``config.progress``): regions and
+    scored frames per frame, temporal pairs per consecutive pair, video metrics per camera."""
+    from dynaeval.progress import Progress
+
+    cams = _by_camera(pairs)
+    n_pairs = sum(len(c) - 1 for c in cams.values()) if config.temporal else 0
+    return Progress({"regions": len(pairs), "frames": len(pairs), "pairs": n_pairs,
+                     "video": len(cams)}, enabled=config.progress)
+
+
+def _score_cameras(pairs: list[FramePair], run: Any, on_regions: RegionsCallback | None,
+                   progress: Any) -> tuple[list, list, dict, dict]:
     """Every camera's rows, warnings, temporal terms and regions summary, camera after camera."""
     from concurrent.futures import ThreadPoolExecutor
-
-    from tqdm.auto import tqdm
 
     from dynaeval.io.video import close_videos
     from dynaeval.scoring import score_camera
 
-    by_camera: dict[str, list[FramePair]] = {}
-    for pair in pairs:
-        by_camera.setdefault(pair.camera, []).append(pair)
-    bar = tqdm(total=len(pairs), desc="scoring", unit="frame",
-               disable=not run.config.progress, leave=False)
     rows: list[dict] = []
     warnings = list(run.warnings)
     temporal: dict[str, dict[str, dict]] = {}
     regions: dict[str, dict] = {}
     workers = run.config.workers
     run.pool = ThreadPoolExecutor(max_workers=workers) if workers > 1 else None
+    run.on_pair = lambda: progress.advance("pairs")
+
+    def regions_done(cam: str, cam_pairs: list[FramePair], found: list[FrameRegions]) -> None:
+        progress.advance("regions", len(cam_pairs))
+        if on_regions is not None:
+            on_regions(cam, cam_pairs, found)
+
+    completed = False
     try:
-        for cam, cam_pairs in by_camera.items():
-            scores = score_camera(cam, cam_pairs, run, on_regions=on_regions,
-                                  on_frame=lambda: bar.update(1))
+        for cam, cam_pairs in _by_camera(pairs).items():
+            progress.set_note(f"camera {cam}")
+            before = progress.done["pairs"]
+            scores = score_camera(cam, cam_pairs, run, on_regions=regions_done,
+                                  on_frame=lambda: progress.advance("frames"))
+            if run.config.temporal:  # pairs a camera could not score (no sequence) count as done
+                progress.advance("pairs", len(cam_pairs) - 1 - (progress.done["pairs"] - before))
+            progress.advance("video")
             rows.extend(scores.rows)
             warnings.extend(scores.warnings)
             if scores.temporal is not None:
                 temporal[cam] = scores.temporal
             if scores.regions is not None:
                 regions[cam] = scores.regions
+        completed = True
     finally:
-        bar.close()
+        progress.close(completed)
         if run.pool:
             run.pool.shutdown()
         close_videos()

@@ -57,6 +57,8 @@ class Run:
     """Seconds per phase and metric, summed over frames."""
     lock: threading.Lock = field(default_factory=threading.Lock)
     """Guards ``timing``."""
+    on_pair: Callable[[], None] | None = None
+    """Called as each temporal frame pair is done (progress)."""
 
     def add_time(self, times: dict[str, float]) -> None:
         with self.lock:
@@ -464,6 +466,7 @@ def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], run:
         config=tcfg,
         executor=run.pool,
         window=2 * config.workers,
+        on_pair=run.on_pair,
     )
     if small is not None:
         out.update({k: {"value": None, "reason": small, "per_pair": []} for k in SPECS["tlp"].keys()})

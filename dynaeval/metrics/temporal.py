@@ -173,8 +173,8 @@ class _PairFold:
     folded in frame order into per-pair lists, so the numbers are the sequential run's."""
 
     def __init__(self, executor: Executor | None, window: int, memo: FeatureMemo | None,
-                 lpips_reason: str | None) -> None:
-        self.executor, self.window, self.memo = executor, window, memo
+                 lpips_reason: str | None, on_pair: Callable[[], None] | None = None) -> None:
+        self.executor, self.window, self.memo, self.on_pair = executor, window, memo, on_pair
         self.lpips_reason = lpips_reason
         self.per_pair: dict[str, list] = {k: [] for k in keys_of("pair")}
         self.parts = {k: {"pred": [], "gt": [], "signed": []} for k in WARP_ERROR_KEYS}
@@ -206,6 +206,8 @@ class _PairFold:
                 self.parts[key][part].append(value)
         if terms["lpips_error"] is not None and self.lpips_reason is None:
             self.lpips_reason = terms["lpips_error"]
+        if self.on_pair is not None:
+            self.on_pair()
 
 
 class _CameraTerms:
@@ -263,6 +265,7 @@ def temporal_metrics(
     flow_cache: FlowCache | None = None,
     executor: Executor | None = None,
     window: int = 4,
+    on_pair: Callable[[], None] | None = None,
 ) -> dict[str, dict]:
     """All temporal metrics of one camera's sequence, streaming over consecutive pairs.
 
@@ -280,6 +283,7 @@ def temporal_metrics(
     (``default_lpips`` is). An ``lpips_fn`` with ``features`` / ``distance`` (``LpipsFeatures``,
     the torch default) gets each frame's whole-frame features computed once for tLP and kept
     while a pair in flight needs them (86 MB per frame and side at 1080p with AlexNet).
+    ``on_pair()``: called as each pair's terms are folded, in order (progress).
 
     Returns ``{key: {"value": float | None, "reason": str | None, "per_pair": [float | None]}}``
     for the keys ``keys_of("pair", "camera")``: ``warp_error, tof, tlp, flicker`` and their
@@ -297,7 +301,7 @@ def temporal_metrics(
     cache = flow_cache if flow_cache is not None else FlowCache(max_bytes=1 << 26)
     lpips_fn, lpips_reason = _lpips_for_run(config, lpips_fn)
     memo = FeatureMemo(lpips_fn) if hasattr(lpips_fn, "features") else None
-    pairs = _PairFold(executor, window, memo, lpips_reason)
+    pairs = _PairFold(executor, window, memo, lpips_reason, on_pair)
     camera = _CameraTerms(static_mask)
     prev: Frames | None = None
     n_frames = 0

@@ -15,7 +15,8 @@ import pytest
 
 PACKAGE = Path(__file__).resolve().parents[2] / "dynaeval"
 
-FLOOR = ("dynaeval.errors", "dynaeval.boxes", "dynaeval.runtime", "dynaeval.validation")
+FLOOR = ("dynaeval.errors", "dynaeval.boxes", "dynaeval.runtime", "dynaeval.validation",
+         "dynaeval.progress")
 """The ground floor: every layer may import it; it imports nothing of dynaeval above it."""
 
 LAYERS = {
