@@ -20,6 +20,7 @@ reused buffers, and reduces in float64 (optionally over ``threads`` threads; sam
 
 from __future__ import annotations
 
+import threading
 from typing import Any
 
 import numpy as np
@@ -83,6 +84,29 @@ class _Workspace:
         self.t1, self.t2 = np.empty(shape, np.float32), np.empty(shape, np.float32)
 
 
+SUB_ROWS = 8
+"""Rows per step of the elementwise work inside a band: its handful of temporaries then stay in
+the core's L2 cache between the steps (the same operations on fewer rows at a time: same bits)."""
+
+
+_WORKSPACES = threading.local()
+
+
+def _workspace(rows_in: int, width: int, channels: int) -> _Workspace:
+    """A workspace for bands of this size: this thread's, kept from one image to the next when it
+    is large (the frames of a run share one size: their ~10 MB of buffers are not paged in
+    again per image); small ones (crops) are cheap to make afresh."""
+    key = (rows_in, width, channels)
+    if width * channels < 2048:
+        return _Workspace(*key)
+    kept: dict = _WORKSPACES.__dict__.setdefault("kept", {})
+    if key not in kept:
+        if len(kept) >= 2:
+            kept.pop(next(iter(kept)))
+        kept[key] = _Workspace(*key)
+    return kept[key]
+
+
 def _band(xb: np.ndarray, yb: np.ndarray, inv: float, ws: _Workspace) -> np.ndarray:
     """Per-channel SSIM of the windows centred in one band of rows, all columns.
 
@@ -98,8 +122,8 @@ def _band(xb: np.ndarray, yb: np.ndarray, inv: float, ws: _Workspace) -> np.ndar
     Fused moments: 4 filtered images instead of 5, data centred at 0.5 (``x = p / L - 0.5``), and
     with ``d = x - y``: ``mu_x^2 + mu_y^2 = 2 mu_x mu_y + (mu_x - mu_y)^2`` and
     ``sigma_x^2 + sigma_y^2 = 2 sigma_xy + var(d)``, ``var(d) = w * d^2 - (w * d)^2``. Elementwise
-    steps are fused where OpenCV offers it (``addWeighted`` = a * alpha + b * beta + gamma) and
-    write into the workspace.
+    steps are fused where OpenCV offers it (``addWeighted`` = a * alpha + b * beta + gamma), write
+    into the workspace and run ``SUB_ROWS`` rows at a time.
     """
     import cv2
 
@@ -107,11 +131,13 @@ def _band(xb: np.ndarray, yb: np.ndarray, inv: float, ws: _Workspace) -> np.ndar
     rows = n - 2 * RADIUS
     c = ws.channels
     x, y, d, xy = ws.x[:n], ws.y[:n], ws.d[:n], ws.xy[:n]
-    cv2.addWeighted(xb, inv, xb, 0.0, -0.5, dst=x, dtype=cv2.CV_32F)
-    cv2.addWeighted(yb, inv, yb, 0.0, -0.5, dst=y, dtype=cv2.CV_32F)
-    np.subtract(x, y, out=d)
-    np.multiply(d, d, out=d)
-    np.multiply(x, y, out=xy)
+    for s0 in range(0, n, SUB_ROWS):
+        s = slice(s0, s0 + SUB_ROWS)
+        cv2.addWeighted(xb[s], inv, xb[s], 0.0, -0.5, dst=x[s], dtype=cv2.CV_32F)
+        cv2.addWeighted(yb[s], inv, yb[s], 0.0, -0.5, dst=y[s], dtype=cv2.CV_32F)
+        np.subtract(x[s], y[s], out=d[s])
+        np.multiply(d[s], d[s], out=d[s])
+        np.multiply(x[s], y[s], out=xy[s])
 
     def blur(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
         # separable, 11 taps; the reflected border only reaches rows/columns dropped later
@@ -125,13 +151,24 @@ def _band(xb: np.ndarray, yb: np.ndarray, inv: float, ws: _Workspace) -> np.ndar
         )
         return dst[RADIUS : RADIUS + rows]
 
-    a = blur(x, ws.a)  # mu_x - 0.5
-    b = blur(y, ws.b)  # mu_y - 0.5
-    exy = blur(xy, ws.exy)  # w * (x y)
-    ed2 = blur(d, ws.ed2)  # w * d^2
-    ab, e2 = ws.t1[:rows], ws.t2[:rows]
-    # Each difference is taken before a constant is added: C1, C2 are small against the
-    # centred moments, and rounding them in first would cost ~1e-5 in flat windows.
+    moments = (blur(x, ws.a), blur(y, ws.b), blur(xy, ws.exy), blur(d, ws.ed2))
+    out = ws.t1[:rows]
+    for s0 in range(0, rows, SUB_ROWS):
+        s = slice(s0, s0 + SUB_ROWS)
+        _ssim_rows(*(m[s] for m in moments), out[s], ws.t2[:rows][s])
+    return out
+
+
+def _ssim_rows(a: np.ndarray, b: np.ndarray, exy: np.ndarray, ed2: np.ndarray, ab: np.ndarray,
+               e2: np.ndarray) -> None:
+    """SSIM of some rows of windows into ``ab`` from their filtered moments ``a = mu_x - 0.5``,
+    ``b = mu_y - 0.5``, ``exy = w * (x y)``, ``ed2 = w * d^2`` (all overwritten; ``e2`` scratch).
+
+    Each difference is taken before a constant is added: C1, C2 are small against the centred
+    moments, and rounding them in first would cost ~1e-5 in flat windows.
+    """
+    import cv2
+
     np.multiply(a, b, out=ab)
     np.subtract(exy, ab, out=exy)  # sigma_xy
     cv2.addWeighted(exy, 2.0, exy, 0.0, K2 * K2, dst=exy)  # num2 = 2 sigma_xy + C2
@@ -147,7 +184,6 @@ def _band(xb: np.ndarray, yb: np.ndarray, inv: float, ws: _Workspace) -> np.ndar
     np.multiply(ab, exy, out=ab)
     np.multiply(e2, ed2, out=e2)
     np.divide(ab, e2, out=ab)
-    return ab
 
 
 def _bands(h: int) -> list[tuple[int, int]]:
@@ -169,7 +205,7 @@ def _run_bands(p: np.ndarray, g: np.ndarray, data_range: float, threads: int, pe
     bands = _bands(h)
 
     def run(chunk: list[tuple[int, int]]) -> list:
-        ws = _Workspace(min(BAND_ROWS, h - 2 * RADIUS) + 2 * RADIUS, w, c)
+        ws = _workspace(min(BAND_ROWS, h - 2 * RADIUS) + 2 * RADIUS, w, c)
         out = []
         for r0, r1 in chunk:
             q = _band(pp[r0 : r1 + 2 * RADIUS], gg[r0 : r1 + 2 * RADIUS], inv, ws)
