@@ -154,11 +154,13 @@ def subsample_indices(n: int, max_frames: int) -> np.ndarray:
     return np.unique(np.round(np.linspace(0, n - 1, max_frames)).astype(np.int64))
 
 
-def temporal_median(frames: Sequence, max_frames: int = 64) -> np.ndarray:
+def temporal_median(frames: Sequence, max_frames: int = 64,
+                    executor: Executor | None = None) -> np.ndarray:
     """Per-pixel median ``(H, W, C)`` float32 over at most ``max_frames`` evenly spaced frames.
 
     Exact (``np.median`` over all frames, mean of the two middle values for even counts) when
-    ``len(frames) <= max_frames``.
+    ``len(frames) <= max_frames``. ``executor``: threads that read the frames and take the
+    median band by band of rows (each pixel's median is its own: the same values).
     """
     seq = _as_sequence(frames)
     n = len(seq)
@@ -168,9 +170,24 @@ def temporal_median(frames: Sequence, max_frames: int = 64) -> np.ndarray:
     first = _frame(seq[int(idx[0])], int(idx[0]), None)
     stack = np.empty((len(idx), *first.shape), dtype=np.float32)
     stack[0] = first
-    for k, i in enumerate(idx[1:], start=1):
-        stack[k] = _frame(seq[int(i)], int(i), first.shape)
-    return np.median(stack, axis=0, overwrite_input=True).astype(np.float32, copy=False)
+
+    def put(k: int) -> None:
+        stack[k] = _frame(seq[int(idx[k])], int(idx[k]), first.shape)
+
+    if executor is None:
+        for k in range(1, len(idx)):
+            put(k)
+        return np.median(stack, axis=0, overwrite_input=True).astype(np.float32, copy=False)
+    list(executor.map(put, range(1, len(idx))))
+    out = np.empty(first.shape, np.float32)
+    step = max(1, -(-first.shape[0] // 16))
+
+    def band(r0: int) -> None:
+        part = stack[:, r0 : r0 + step]
+        out[r0 : r0 + step] = np.median(part, axis=0, overwrite_input=True)
+
+    list(executor.map(band, range(0, first.shape[0], step)))
+    return out
 
 
 def isg_weight(frame: np.ndarray, median: np.ndarray, gamma: float = 2e-2) -> np.ndarray:
@@ -332,7 +349,7 @@ def iter_motion_masks(
     thr = np.float32(cfg.effective_threshold)
     if executor is not None and cfg.kind == "isg":
         seq = _as_sequence(frames)
-        median = temporal_median(seq, cfg.median_frames)
+        median = temporal_median(seq, cfg.median_frames, executor)
 
         def one(t: int) -> np.ndarray:
             w = isg_weight(_frame(seq[t], t, median.shape), median, cfg.gamma)

@@ -122,6 +122,20 @@ def test_median_is_exact_when_sequence_fits_the_cap():
     np.testing.assert_array_equal(temporal_median(frames, max_frames=T), np.median(frames, axis=0))
 
 
+@pytest.mark.parametrize("count", [1, 2, T])
+def test_median_on_threads_equals_the_sequential_one(count):
+    """With an executor the frames are read and the median is taken band by band on threads:
+    the very same values (each pixel's median is its own), also for odd frame counts."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    frames, _ = scene(noise=0.05)
+    with ThreadPoolExecutor(3) as pool:
+        got = temporal_median(frames[:count], executor=pool)
+    assert got.dtype == np.float32
+    np.testing.assert_array_equal(got, temporal_median(frames[:count]))
+    np.testing.assert_array_equal(got, np.median(frames[:count], axis=0))
+
+
 def test_median_subsample_is_even_and_bounded():
     idx = subsample_indices(1000, 64)
     assert len(idx) == 64 and idx[0] == 0 and idx[-1] == 999
