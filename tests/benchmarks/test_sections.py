@@ -1,0 +1,32 @@
+"""Benchmark scripts own named sections of docs/benchmarks.md and leave the others alone."""
+
+from __future__ import annotations
+
+from benchmarks.sections import blocks, keep_sections, put_section
+from benchmarks.temporal_speed import interleaved
+
+
+def test_put_section_replaces_its_own_block_and_keeps_the_rest(tmp_path):
+    doc = tmp_path / "b.md"
+    doc.write_text("# Benchmarks\n\nmain table\n")
+    put_section(doc, "pairs", "## Pairs\n\n4.3 flows\n")
+    put_section(doc, "ssim-floor", "## SSIM\n\n1.6x\n")
+    put_section(doc, "pairs", "## Pairs\n\n4.2 flows\n")
+    text = doc.read_text()
+    assert text.startswith("# Benchmarks\n\nmain table\n")
+    assert "4.2 flows" in text and "4.3 flows" not in text and "1.6x" in text
+    assert list(blocks(text)) == ["pairs", "ssim-floor"]
+
+
+def test_a_whole_file_rewrite_keeps_the_sections_it_does_not_own():
+    old = "# old\n\n<!-- begin pairs -->\nP\n<!-- end pairs -->\n"
+    new = keep_sections(old, "# new table\n")
+    assert new.startswith("# new table\n") and blocks(new)["pairs"].count("P\n") == 1
+    assert keep_sections(old, old) == old
+
+
+def test_interleaved_runs_every_path_each_round_and_keeps_the_best():
+    calls: list[str] = []
+    best = interleaved({"a": lambda: calls.append("a"), "b": lambda: calls.append("b")}, 2)
+    assert calls == ["a", "b"] * 3  # warm-up round, then 2 alternating rounds
+    assert set(best) == {"a", "b"} and all(v["wall"] >= 0 for v in best.values())
