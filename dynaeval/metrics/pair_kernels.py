@@ -29,7 +29,6 @@ from dynaeval.metrics.flow import (
     gray_digest,
     gray_of_checked,
     sq_sum,
-    visibility,
     warp_on_grid,
 )
 

@@ -25,8 +25,8 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.errors import EmptyRegionError, InputError, UndefinedMetricError
 from dynaeval.boxes import grow_box
+from dynaeval.errors import EmptyRegionError, InputError, UndefinedMetricError
 from dynaeval.metrics._common import clipped_boxes, region_mask, whole_or_region
 from dynaeval.validation import check_data_range, check_pair
 

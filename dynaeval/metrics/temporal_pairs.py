@@ -24,15 +24,8 @@ import numpy as np
 
 from dynaeval.boxes import grow_box, mask_to_box
 from dynaeval.errors import EmptyRegionError, InputError, WeightsUnavailableError
-from dynaeval.metrics.flow import FlowCache, FlowConfig, check_flow, warp
-from dynaeval.metrics.pair_kernels import (
-    FramePrep,
-    pair_flows,
-    prepare,
-    tof_terms,
-    visibility,
-    warp_errors,
-)
+from dynaeval.metrics.flow import FlowCache, FlowConfig, check_flow, visibility, warp
+from dynaeval.metrics.pair_kernels import FramePrep, pair_flows, prepare, tof_terms, warp_errors
 from dynaeval.metrics.registry import result_key
 from dynaeval.validation import as_image
 
