@@ -39,13 +39,13 @@ def _defaults() -> Any:
 
 
 def _add_metric_flags(p: argparse.ArgumentParser) -> None:
-    """``--metrics NAME ...`` (exactly these), ``--no-NAME`` for every per-frame metric that runs
-    by default, ``--NAME`` for the others (from the registry)."""
-    from dynaeval.metrics.registry import frame_specs
+    """``--metrics NAME ...`` (exactly these), ``--no-NAME`` for every chosen metric (per-frame
+    or video) that runs by default, ``--NAME`` for the others (from the registry)."""
+    from dynaeval.metrics.registry import selectable_specs as frame_specs
 
     names = [s.name for s in frame_specs()]
     p.add_argument("--metrics", nargs="+", choices=names, metavar="NAME",
-                   help=f"compute exactly these per-frame metrics ({', '.join(names)}), instead of "
+                   help=f"compute exactly these metrics ({', '.join(names)}), instead of "
                         "the defaults adjusted by --no-NAME / --NAME (which it cannot be combined "
                         "with)")
     options = [f"{s.name}.{o}" for s in frame_specs() for o, _, _ in s.options]
@@ -57,6 +57,12 @@ def _add_metric_flags(p: argparse.ArgumentParser) -> None:
         flag, dest = _metric_flag(spec)
         what = f"skip {spec.title}" if spec.default else f"also compute {spec.title}: {spec.description}"
         p.add_argument(flag, action="store_true", dest=dest, help=what + extra)
+    p.add_argument("--flip-every", type=int, metavar="K",
+                   help="FLIP on every K-th frame only (frame index %% K == 0; K-Planes uses 10; "
+                        "= --metric-option flip.every=K)")
+    p.add_argument("--fps", type=float, default=_defaults().fps, metavar="FPS",
+                   help="frame rate of cameras given as image files, for JOD (default: "
+                        f"{_defaults().fps:g}; a video file's own rate is used)")
 
 
 def _metric_flag(spec: Any) -> tuple[str, str]:
@@ -170,9 +176,9 @@ def _metrics_from_args(args: argparse.Namespace) -> tuple[str, ...]:
     Raises:
         InputError: ``--metrics`` given together with a ``--no-NAME`` / ``--NAME`` flag.
     """
-    from dynaeval.metrics.registry import frame_specs
+    from dynaeval.metrics.registry import selectable_specs
 
-    specs = frame_specs()
+    specs = selectable_specs()
     toggled = [s for s in specs if getattr(args, _metric_flag(s)[1], False)]
     chosen = getattr(args, "metrics", None)
     if chosen:
@@ -205,7 +211,9 @@ def config_from_args(args: argparse.Namespace) -> Any:
     opt = lambda name: getattr(args, name, getattr(d, name))  # noqa: E731
     return replace(
         d, method=getattr(args, "method", None), scene=getattr(args, "scene", None),
-        metrics=metrics, metric_options=_metric_options(getattr(args, "metric_option", [])),
+        metrics=metrics, metric_options=_metric_options(getattr(args, "metric_option", []),
+                                                        getattr(args, "flip_every", None), metrics),
+        fps=opt("fps"),
         lpips_net=opt("lpips_net"), lpips_backend=opt("lpips_backend"),
         quantize=opt("quantize"), background=opt("background"),
         allow_missing=opt("allow_missing"), workers=opt("workers"), cache_mb=opt("cache_mb"),
@@ -223,10 +231,19 @@ def config_from_args(args: argparse.Namespace) -> Any:
     )
 
 
-def _metric_options(specs: list[str]) -> dict[str, dict[str, str]]:
+def _metric_options(specs: list[str], flip_every: int | None = None,
+                    metrics: tuple[str, ...] = ()) -> dict[str, dict[str, Any]]:
     """``["flip.pixels_per_degree=40"]`` -> ``{"flip": {"pixels_per_degree": "40"}}`` (the
-    config converts and checks the values)."""
-    out: dict[str, dict[str, str]] = {}
+    config converts and checks the values); ``--flip-every K`` is ``flip.every=K``.
+
+    Raises:
+        InputError: a malformed option, or ``--flip-every`` without FLIP.
+    """
+    out: dict[str, dict[str, Any]] = {}
+    if flip_every is not None:
+        if "flip" not in metrics:
+            raise InputError("--flip-every applies to FLIP, which is not computed: add --flip")
+        out["flip"] = {"every": flip_every}
     for spec in specs:
         key, sep, value = spec.partition("=")
         metric, dot, name = key.partition(".")

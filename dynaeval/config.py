@@ -12,7 +12,7 @@ from typing import Any
 
 from dynaeval.errors import InputError
 from dynaeval.metrics.perceptual import LPIPS_BACKENDS, LPIPS_NETS
-from dynaeval.metrics.registry import default_frame_metrics, frame_specs
+from dynaeval.metrics.registry import default_frame_metrics, selectable_specs
 from dynaeval.regions.focus import FOCUS_SOURCES, FocusConfig
 
 QUANTIZE_MODES = ("none", "round", "truncate")
@@ -31,13 +31,17 @@ class ScoreConfig:
     scene: str | None = None
     """Name of the scene (leaderboard column); default: GT's folder name, or the render folder's."""
     metrics: tuple[str, ...] = field(default_factory=default_frame_metrics)
-    """Per-frame metrics to compute (registry names, ``dynaeval.metrics.registry``), each over
-    the whole frame, the focus boxes and the motion mask. Default: those the registry runs by
-    default (``psnr``, ``ssim``, ``lpips``); e.g. ``("psnr", "ssim")`` skips LPIPS (no torch)."""
+    """Metrics to compute (registry names, ``dynaeval.metrics.registry``): per-frame ones, each
+    over the whole frame, the focus boxes and the motion mask, and video ones (``jod``, per
+    camera). Default: those the registry runs by default (``psnr``, ``ssim``, ``lpips``); e.g.
+    ``("psnr", "ssim")`` skips LPIPS (no torch), ``("psnr", "jod")`` adds JOD."""
     metric_options: dict[str, dict[str, Any]] = field(default_factory=dict)
     """Options of single metrics, ``{metric: {option: value}}``, as each declares them in the
     registry (``MetricSpec.options``), e.g. ``{"flip": {"pixels_per_degree": 40.0}}``; recorded in
     that metric's settings."""
+    fps: float = 30.0
+    """Frame rate (frames per second) of cameras given as image files, for the video metrics
+    (``jod``); a video file's own rate is used instead."""
     lpips_net: str | None = None
     """LPIPS backbone: ``alex`` (as most NeRF papers report) or ``vgg``; None (default): the
     protocol's (``alex``; ``vgg`` for ``3dgs``), ``resolved_lpips_net()``."""
@@ -91,6 +95,9 @@ class ScoreConfig:
     def __post_init__(self) -> None:
         self.metrics = _check_metrics(self.metrics)
         self.metric_options = _check_metric_options(self.metric_options)
+        from dynaeval.metrics.jod import check_fps
+
+        self.fps = check_fps(self.fps)
         _check_choice("quantize", self.quantize, QUANTIZE_MODES)
         _check_choice("background", self.background, BACKGROUNDS)
         _check_choice("lpips_backend", self.lpips_backend, LPIPS_BACKENDS)
@@ -149,7 +156,7 @@ def _check_metrics(names: object) -> tuple[str, ...]:
         raise InputError(f"metrics must be a sequence of metric names, got {names!r}")
     names = tuple(dict.fromkeys(names))  # type: ignore[arg-type]
     try:
-        frame_specs(names)
+        selectable_specs(names)
     except KeyError as err:
         raise InputError(str(err).strip("\"'")) from None
     return names
@@ -180,6 +187,6 @@ def _check_metric_options(options: object) -> dict[str, dict[str, Any]]:
             kind = declared[name][0]
             try:
                 out[metric][name] = kind(value)
-            except (TypeError, ValueError):
+            except (TypeError, ValueError, InputError):
                 raise InputError(f"{metric}.{name} must be a {kind.__name__}, got {value!r}") from None
     return out

@@ -24,7 +24,7 @@ from dynaeval.errors import EmptyRegionError, InputError, UndefinedMetricError
 from dynaeval.io import FramePair
 from dynaeval.io.cache import FrameCache
 from dynaeval.metrics.flow import check_flow_size
-from dynaeval.metrics.registry import METRICS, REGION_RULES, FrameFn, keys_of
+from dynaeval.metrics.registry import METRICS, REGION_RULES, FrameFn, temporal_keys
 from dynaeval.regions.focus import FrameRegions
 from dynaeval.report.results import INFINITE_MARK
 
@@ -59,6 +59,11 @@ class Run:
     """Guards ``timing``."""
     on_pair: Callable[[], None] | None = None
     """Called as each temporal frame pair is done (progress)."""
+    every: dict[str, int] = field(default_factory=dict)
+    """Result key -> K: that per-frame metric is scored on frames whose index % K == 0 only."""
+    camera_fns: dict[str, tuple[str, Any]] = field(default_factory=dict)
+    """Video metrics (``jod``): result key -> (region variant, ``fn(pred_frames, gt_frames,
+    fps, region)``), one value per camera."""
 
     def add_time(self, times: dict[str, float]) -> None:
         with self.lock:
@@ -90,7 +95,7 @@ def prepare_run(config: ScoreConfig) -> Run:
     device = resolve_device(config.device)
     ctx = FrameContext(data_range=config.data_range, protocol=protocol, device=device,
                        lpips_net=config.lpips_net, lpips_backend=config.lpips_backend,
-                       options=config.metric_options)
+                       options=config.metric_options, fps=config.fps)
     regions = ("whole",
                *(("focused",) if config.focus.source != "none" else ()),
                *(("masked",) if config.focus.masked else ()))
@@ -108,7 +113,8 @@ def prepare_run(config: ScoreConfig) -> Run:
     sources = open_sources(config.focus)
     settings["focus"] = sources.settings
     warnings.extend(sources.warnings)
-    run = Run(config, built.fns, settings, warnings, sources)
+    run = Run(config, built.fns, settings, warnings, sources, every=built.every,
+              camera_fns=built.camera_fns)
     run.presence = _presence_step(config, sources, settings)
     if config.temporal:
         from dynaeval.metrics.flow import FlowConfig
@@ -204,6 +210,8 @@ def _metric_values(pair: FramePair, pred: np.ndarray, gt: np.ndarray, regions: F
     """``(key, value or None, reason)`` of every per-frame metric of one frame."""
     values: list[Value] = []
     for name, (region, fn) in run.fns.items():
+        if pair.index % run.every.get(name, 1):
+            continue  # not one of the frames it scores (``every``): no value, not null
         if region == "focused" and regions.boxes is None:
             values.append((name, None, regions.boxes_reason))
             continue
@@ -341,6 +349,12 @@ def score_camera(camera: str, pairs: list[FramePair], run: Run, *,
         t0 = time.perf_counter()
         temporal, differ = _temporal_or_reason(camera, pairs, regions, run, cache, differ)
         run.add_time({"temporal": time.perf_counter() - t0})
+    if run.camera_fns:
+        t0 = time.perf_counter()
+        temporal = {**(temporal or {}), **video_metrics_of(camera, pairs, regions, run, cache,
+                                                           differ)}
+        run.add_time({name: (time.perf_counter() - t0) / len(run.camera_fns)
+                      for name in run.camera_fns})
     if differ is not None:
         warnings.insert(0, _not_video_warning(camera, pairs, differ))
     motion = regions[0].camera_motion if regions else None
@@ -395,6 +409,57 @@ REGIONLESS_REASONS = ("no pair of consecutive frames has a region", "no frame ha
 """How ``temporal_metrics`` says a focused term is null because frames had no region."""
 
 
+class _Clip:
+    """One side of a camera's frames as a sequence read on demand (through the camera's cache)."""
+
+    def __init__(self, pairs: list[FramePair], read: Callable[[FramePair], np.ndarray]) -> None:
+        self.pairs, self.read = pairs, read
+
+    def __len__(self) -> int:
+        return len(self.pairs)
+
+    def __getitem__(self, i: int) -> np.ndarray:
+        return self.read(self.pairs[i])
+
+
+def camera_fps(pairs: list[FramePair], config: ScoreConfig) -> float:
+    """The frame rate a camera is played at: its ground-truth video file's, else ``config.fps``."""
+    from dynaeval.io.video import video_fps
+
+    ref = pairs[0].gt
+    found = video_fps(ref.path) if ref.index is not None else None
+    return found if found else config.fps
+
+
+def video_metrics_of(camera: str, pairs: list[FramePair], regions: list[FrameRegions], run: Run,
+                     cache: FrameCache, differ: Any) -> dict[str, dict]:
+    """The video metrics (``jod``, ``focused_jod``) of one camera, ``{key: {"value", "reason",
+    "fps"}}``: null with the reason for frames that differ in shape or are not consecutive, and
+    for a focused window with no box in any frame."""
+    indices = [p.index for p in pairs]
+    reason = (differ.reason() if differ is not None else
+              "frames are not consecutive (some were skipped): a video metric needs the sequence"
+              if indices != list(range(indices[0], indices[0] + len(indices))) else None)
+    fps = camera_fps(pairs, run.config)
+    if reason is not None:
+        return {k: {"value": None, "reason": reason, "fps": fps} for k in run.camera_fns}
+    pred = _Clip(pairs, lambda p: load_pair(p, run.config, cache)[0])
+    gt = _Clip(pairs, lambda p: load_gt(p, run.config, cache))
+    out: dict[str, dict] = {}
+    for key, (region, fn) in run.camera_fns.items():
+        kw = {"boxes": [r.boxes for r in regions]} if region == "focused" else {}
+        try:
+            out[key] = {"value": float(fn(pred, gt, fps, kw)), "reason": None, "fps": fps}
+        except (EmptyRegionError, UndefinedMetricError) as err:
+            out[key] = {"value": None, "reason": str(err), "fps": fps}
+        except InputError as err:
+            if err.path is not None:
+                raise
+            raise InputError(f"camera {camera!r}: {key}: {err}",
+                             path=str(pairs[0].pred.path.parent)) from err
+    return out
+
+
 def _temporal_or_reason(camera: str, pairs: list[FramePair], regions: list[FrameRegions],
                         run: Run, cache: FrameCache, differ: Any) -> tuple[dict[str, dict], Any]:
     """The camera's temporal terms, or every term null with the reason: frames that differ in
@@ -403,7 +468,7 @@ def _temporal_or_reason(camera: str, pairs: list[FramePair], regions: list[Frame
     from dynaeval.regions.focus import FramesDiffer
 
     def nulls(reason: str) -> dict[str, dict]:
-        return {n: {"value": None, "reason": reason} for n in keys_of("pair", "camera")}
+        return {n: {"value": None, "reason": reason} for n in temporal_keys()}
 
     if differ is not None:
         return nulls(differ.reason()), differ
@@ -447,7 +512,7 @@ def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], run:
     indices = [p.index for p in pairs]
     if indices != list(range(indices[0], indices[0] + len(indices))):
         reason = "frames are not consecutive (some were skipped): temporal terms need a sequence"
-        return {n: {"value": None, "reason": reason} for n in keys_of("pair", "camera")}
+        return {n: {"value": None, "reason": reason} for n in temporal_keys()}
     static = None
     masks = [r.mask for r in regions if r.mask is not None]
     if config.focus.masked and masks:

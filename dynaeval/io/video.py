@@ -82,6 +82,19 @@ def scan_video(path: str | Path) -> VideoScan:
     return VideoScan(n, stated if stated > 0 else None, dropped)
 
 
+def video_fps(path: str | Path) -> float | None:
+    """The frame rate a video file states (frames per second), or None when it states none."""
+    import cv2
+
+    _check_readable(path)
+    cap = cv2.VideoCapture(str(path))
+    try:
+        fps = cap.get(cv2.CAP_PROP_FPS) if cap.isOpened() else 0.0
+    finally:
+        cap.release()
+    return float(fps) if fps and fps > 0 and fps < 1000 else None
+
+
 def count_frames(path: str | Path) -> int:
     """Number of decodable frames in a video file (decodes the stream: the container's frame
     count is often wrong).

@@ -230,6 +230,10 @@ def flip_settings(ctx: Any, enabled: bool, unavailable: str | None) -> dict[str,
                                else "set by the user (pixels_per_degree)"),
         "regions": "mean of the whole frame's FLIP map over the union of the boxes (focused) "
                    "or the mask's pixels (masked)",
+        "every": ctx.option("flip", "every", 1),
+        "frames": ("every frame" if ctx.option("flip", "every", 1) == 1 else
+                   f"frames whose index is a multiple of {ctx.option('flip', 'every', 1)} "
+                   "(the others have no value; summaries are means over the scored frames)"),
     }
     if unavailable is not None:
         out["unavailable"] = unavailable

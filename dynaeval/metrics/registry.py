@@ -19,7 +19,10 @@ Kinds:
   ``build(ctx) -> fn(pred, gt, region)`` where ``region`` is ``{}`` (whole frame),
   ``{"boxes": (N, 4)}`` (focused) or ``{"mask": (H, W) bool}`` (masked).
 * ``pair``: a temporal term of two consecutive frames (its value sits in the later frame's row).
-* ``camera``: one value per camera sequence (``flicker``); summaries are means over cameras.
+* ``camera``: one value per camera sequence (``flicker``, ``jod``); summaries are means over
+  cameras. Those with a ``build`` (``jod``) are video metrics chosen like frame metrics
+  (``--jod``): ``build(ctx) -> fn(pred_frames, gt_frames, fps, region)`` with ``region`` ``{}``
+  or ``{"boxes": [per-frame boxes or None]}``; the others come from the temporal engine.
 * ``object``: per ground-truth object class, per frame (``presence_*``, ``tight_psnr_*``).
 """
 
@@ -69,6 +72,8 @@ class FrameContext:
     """LPIPS runtime: ``torch`` or ``onnxruntime``."""
     pretrained_backbone: bool = True
     """False only in tests: networks with random backbones (see ``load_lpips``)."""
+    fps: float = 30.0
+    """Frame rate of cameras given as image files (``ScoreConfig.fps``; video metrics)."""
     options: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
     """Per-metric options of the run, ``{metric: {option: value}}`` (``ScoreConfig.metric_options``;
     each metric declares its own in ``MetricSpec.options``)."""
@@ -144,9 +149,10 @@ class MetricSpec:
     extra: str | None = None
     """The ``pip install 'dynaeval[EXTRA]'`` it needs, or None."""
     build: str | None = None
-    """Frame metrics: ``"module:function"``, ``function(ctx: FrameContext) -> FrameFn``. It may
-    raise ``WeightsUnavailableError`` or ``ImportError``: the metric is then reported
-    unavailable with the message, and the run goes on."""
+    """Frame metrics (and video metrics of kind ``camera``): ``"module:function"``,
+    ``function(ctx: FrameContext) -> FrameFn`` (a video metric's ``fn(pred_frames, gt_frames,
+    fps, region)``). It may raise ``WeightsUnavailableError`` or ``ImportError``: the metric is
+    then reported unavailable with the message, and the run goes on."""
     settings: str | None = None
     """``"module:function"``, ``function(ctx, enabled: bool, unavailable: str | None) -> dict |
     None``: what the metric records in the results' ``settings[name]`` (None: nothing)."""
@@ -155,10 +161,13 @@ class MetricSpec:
     leaderboard does not compare them."""
     doc: str = ""
     """Heading of its section in docs/metrics.md."""
-    options: tuple[tuple[str, type, str], ...] = ()
-    """Frame metrics: the options a run may set (``ScoreConfig.metric_options``, CLI
-    ``--metric-option NAME.OPTION=VALUE``), as ``(option, type, meaning)``; its ``build`` reads
-    them with ``ctx.option(name, option, default)`` and its ``settings`` record them."""
+    options: tuple[tuple[str, Callable[[Any], Any], str], ...] = ()
+    """Frame and video metrics: the options a run may set (``ScoreConfig.metric_options``, CLI
+    ``--metric-option NAME.OPTION=VALUE``), as ``(option, type, meaning)`` (``type`` converts
+    the value and raises ``ValueError``/``TypeError`` for a bad one); its ``build`` reads them
+    with ``ctx.option(name, option, default)`` and its ``settings`` record them. A frame
+    metric's option ``every`` (a positive integer K) scores only frames whose index is a
+    multiple of K: the others have no value (not null), summaries count the scored ones."""
     region_rules: tuple[tuple[str, str], ...] = ()
     """Frame metrics: how its focused / masked variants reduce, ``(("focused", rule), ...)``;
     empty: the rules of PSNR, SSIM and LPIPS (``REGION_RULES``)."""
@@ -193,6 +202,18 @@ class MetricSpec:
     def title(self) -> str:
         return self.label or self.name.upper()
 
+
+def positive_int(value: Any) -> int:
+    """An option value as an integer >= 1 (``"10"`` -> 10); ValueError otherwise."""
+    if isinstance(value, bool) or (isinstance(value, float) and not value.is_integer()):
+        raise ValueError(value)
+    out = int(value)
+    if out < 1:
+        raise ValueError(value)
+    return out
+
+
+positive_int.__name__ = "positive integer"
 
 _UNBOUNDED = (0.0, math.inf)
 _FRAME_REGIONS = ("whole", "focused", "masked")
@@ -231,7 +252,10 @@ SPECS: dict[str, MetricSpec] = {
             ignored_settings=("enabled", "unavailable"), doc="FLIP",
             options=(("pixels_per_degree", float,
                       "the observer's pixels per degree of visual angle (default 67.02: 0.7 m "
-                      "from a 0.7 m wide 3840-px monitor)"),),
+                      "from a 0.7 m wide 3840-px monitor)"),
+                     ("every", positive_int,
+                      "score every K-th frame only (frame index % K == 0; K-Planes uses 10; "
+                      "CLI --flip-every K; default 1)")),
             region_rules=(
                 ("focused", "mean of the whole frame's FLIP map over the union of the boxes"),
                 ("masked", "mean of the whole frame's FLIP map over the mask's pixels"),
@@ -286,6 +310,22 @@ SPECS: dict[str, MetricSpec] = {
             "temporal flicker of static pixels compared with the ground truth",
             regions=("whole", "focused"), doc="Temporal",
         ),
+        MetricSpec(
+            "jod", "camera", True, (-math.inf, 10.0), "JOD",
+            "JOD of the camera's video (ColorVideoVDP unless jod.model = fvvdp; display model "
+            "standard_fhd unless jod.display is set), 10 = identical",
+            regions=("whole", "focused"), precision=3, default=False, extra="video",
+            build="dynaeval.metrics.jod:build_jod",
+            settings="dynaeval.metrics.jod:jod_settings",
+            ignored_settings=("enabled", "unavailable"), doc="JOD",
+            options=(("model", str, "cvvdp (ColorVideoVDP, default) or fvvdp (FovVideoVDP, "
+                                    "as K-Planes' evaluation)"),
+                     ("display", str, "the package's display model (default standard_fhd)"),
+                     ("min_window", int, "smallest side of the focused window, px (default 64)")),
+            region_rules=(("focused", "a fixed window per camera: the bounding box of the "
+                                      "union of its focus boxes over the clip, grown to "
+                                      "jod.min_window px, inside the frame"),),
+        ),
     )
 }
 """Every metric, by base name, in report order."""
@@ -309,7 +349,7 @@ def _infos() -> dict[str, MetricInfo]:
     for spec, variant in _ordered(list(SPECS.values())):
         key = spec.key(variant)
         where = f"class {variant}" if spec.classes else f"over the {_WHERE[variant]}"
-        if spec.kind == "frame" and spec.rule(variant):
+        if spec.build is not None and spec.rule(variant):
             where += f" ({spec.rule(variant)})"
         out[key] = MetricInfo(key, spec.higher_is_better, spec.range, spec.unit,
                               f"{spec.description}; {where}", spec.name, variant, spec.kind,
@@ -357,19 +397,44 @@ def frame_specs(names: tuple[str, ...] | list[str] | None = None) -> list[Metric
     Raises:
         KeyError: a name that is not a per-frame metric.
     """
-    frame = [s for s in SPECS.values() if s.kind == "frame"]
+    return _named([s for s in SPECS.values() if s.kind == "frame"], names, "per-frame metric")
+
+
+def _named(specs: list[MetricSpec], names: tuple[str, ...] | list[str] | None,
+           what: str) -> list[MetricSpec]:
+    """``specs``, or those of them ``names`` lists (registry order); KeyError for another name."""
     if names is None:
-        return frame
-    known = {s.name for s in frame}
+        return specs
+    known = {s.name for s in specs}
     unknown = [n for n in names if n not in known]
     if unknown:
-        raise KeyError(f"unknown per-frame metric(s) {unknown}; registered: {sorted(known)}")
-    return [s for s in frame if s.name in names]
+        raise KeyError(f"unknown {what}(s) {unknown}; registered: {sorted(known)}")
+    return [s for s in specs if s.name in names]
+
+
+def selectable_specs(names: tuple[str, ...] | list[str] | None = None) -> list[MetricSpec]:
+    """The metrics a run chooses (``ScoreConfig.metrics``, ``--NAME`` / ``--no-NAME``): those
+    with a ``build`` (per-frame metrics and video metrics such as ``jod``), all or those named,
+    in registry order.
+
+    Raises:
+        KeyError: a name that is not such a metric.
+    """
+    return _named([s for s in SPECS.values() if s.build is not None], names, "metric")
+
+
+def temporal_keys(region: str | None = None) -> list[str]:
+    """Result keys the temporal engine (``dynaeval.metrics.temporal``) computes: the ``pair``
+    and ``camera`` metrics without a ``build`` (``warp_error, tof, tlp, flicker`` and their
+    focused variants), in report order."""
+    specs = [s for s in SPECS.values() if s.kind in ("pair", "camera") and s.build is None]
+    return [s.key(v) for s, v in _ordered(specs) if region is None or v == region]
 
 
 def default_frame_metrics() -> tuple[str, ...]:
-    """Names of the per-frame metrics that run unless switched off."""
-    return tuple(s.name for s in SPECS.values() if s.kind == "frame" and s.default)
+    """Names of the chosen metrics that run unless switched off (``psnr``, ``ssim``,
+    ``lpips``)."""
+    return tuple(s.name for s in selectable_specs() if s.default)
 
 
 @dataclass
@@ -382,12 +447,18 @@ class BuiltMetrics:
     """Metric name -> its settings section."""
     unavailable: dict[str, str] = field(default_factory=dict)
     """Metric name -> why it could not run (weights or packages absent)."""
+    every: dict[str, int] = field(default_factory=dict)
+    """Result key -> K for a frame metric scored on every K-th frame only (option ``every``)."""
+    camera_fns: dict[str, tuple[str, Callable[..., float]]] = field(default_factory=dict)
+    """Video metrics (kind ``camera`` with a build): result key -> (region variant,
+    ``fn(pred_frames, gt_frames, fps, region)``)."""
 
 
 def build_frame_metrics(
     ctx: FrameContext, names: tuple[str, ...] | list[str], regions: tuple[str, ...] = ("whole",)
 ) -> BuiltMetrics:
-    """Build the functions of the per-frame metrics ``names`` for the region variants ``regions``.
+    """Build the functions of the chosen metrics ``names`` (per-frame, and video metrics into
+    ``camera_fns``) for the region variants ``regions``.
 
     A metric whose ``build`` raises ``WeightsUnavailableError`` or ``ImportError`` is left out
     with the reason in ``unavailable`` (and its settings say so). Every per-frame metric's
@@ -397,8 +468,8 @@ def build_frame_metrics(
 
     out = BuiltMetrics()
     built: dict[str, FrameFn] = {}
-    wanted = {s.name for s in frame_specs(list(names))}
-    for s in frame_specs():
+    wanted = {s.name for s in selectable_specs(list(names))}
+    for s in selectable_specs():
         unavailable = None
         if s.name in wanted:
             try:
@@ -414,6 +485,10 @@ def build_frame_metrics(
                 out.settings[s.name] = section
     for region in regions:
         for name, fn in built.items():
-            if region in SPECS[name].regions:
-                out.fns[SPECS[name].key(region)] = (region, fn)
+            s = SPECS[name]
+            if region in s.regions:
+                (out.fns if s.kind == "frame" else out.camera_fns)[s.key(region)] = (region, fn)
+                every = ctx.option(name, "every", 1) if s.kind == "frame" else 1
+                if every != 1:
+                    out.every[s.key(region)] = every
     return out

@@ -43,7 +43,7 @@ from dynaeval.boxes import as_boxes, boxes_to_mask
 from dynaeval.errors import InputError
 from dynaeval.metrics.flow import FlowCache, FlowConfig
 from dynaeval.metrics.pair_kernels import prepare
-from dynaeval.metrics.registry import METRICS, SPECS, keys_of
+from dynaeval.metrics.registry import METRICS, SPECS, keys_of, temporal_keys
 from dynaeval.metrics.static_flicker import SequenceFlicker, TemporalStd, check_static, flicker
 from dynaeval.metrics.temporal_pairs import (
     WARP_ERROR_KEYS,
@@ -71,9 +71,9 @@ __all__ = [
     "warping_error",
 ]
 
-TEMPORAL_METRICS = tuple(s.name for s in SPECS.values() if s.kind in ("pair", "camera"))
+TEMPORAL_METRICS = tuple(SPECS[k].name for k in temporal_keys(region="whole"))
 """Base names of the temporal metrics, from the registry: ``warp_error, tof, tlp, flicker``
-(each also reported ``focused_``; result keys: ``keys_of("pair", "camera")``). Lower is better."""
+(each also reported ``focused_``; result keys: ``temporal_keys()``). Lower is better."""
 
 
 @dataclass(frozen=True)
@@ -286,7 +286,7 @@ def temporal_metrics(
     ``on_pair()``: called as each pair's terms are folded, in order (progress).
 
     Returns ``{key: {"value": float | None, "reason": str | None, "per_pair": [float | None]}}``
-    for the keys ``keys_of("pair", "camera")``: ``warp_error, tof, tlp, flicker`` and their
+    for the keys ``temporal_keys()``: ``warp_error, tof, tlp, flicker`` and their
     ``focused_`` variants. ``value`` is the mean of the defined per-pair values (pair i = frames
     ``(i, i+1)``); None exactly when ``reason`` says why (fewer than 2 frames, no static pixels,
     empty regions, LPIPS missing). ``warp_error`` (per pair ``|E(pred) - E(gt)|``, ``E`` =
@@ -364,7 +364,7 @@ def _results(
 ) -> dict[str, dict]:
     """Every temporal result key -> its entry, in the registry's report order."""
     out: dict[str, dict] = {}
-    for key in keys_of("pair", "camera"):
+    for key in temporal_keys():
         info = METRICS[key]
         if info.kind == "camera":
             out[key] = camera.entry(info.variant == "focused", n_frames, has_regions)
