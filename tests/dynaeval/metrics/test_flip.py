@@ -535,3 +535,76 @@ def test_bad_metric_options_are_usage_errors(option, message, capsys):
     assert main(["score", str(root / "pred"), str(root / "gt"), "--metric-option", option,
                  "-q"]) == 2
     assert message in capsys.readouterr().err
+
+
+# --------------------------------------------------------------------------------------------
+# Known answers of the region reductions, and every K-th frame
+
+
+@needs_package
+def test_masked_and_focused_divide_by_the_region_a_known_answer():
+    """gt flat grey, pred a flat patch of another grey: inside the patch, farther than the
+    filters' reach from its edge, every map value is the flat pair's FLIP value c (flip of two
+    flat images); far outside the patch it is 0. A region made of n1 pixels inside and n0
+    outside scores exactly c * n1 / (n1 + n0), never c * n1 / (H * W)."""
+    h, w, r = 160, 200, F.context_radius()
+    gt = np.full((h, w, 3), 0.4, np.float32)
+    pred = gt.copy()
+    pred[20:120, 20:100] = 0.6  # the patch
+    c = F.flip(np.full((48, 48, 3), 0.6, np.float32), np.full((48, 48, 3), 0.4, np.float32))
+    assert 0.0 < c < 1.0
+    mask = np.zeros((h, w), bool)
+    mask[20 + r : 120 - r, 20 + r : 60] = True  # inside the patch, away from its edge
+    mask[130:150, 140:190] = True  # outside, farther than r from the patch
+    n1, n0 = (40 - r) * (100 - 2 * r), 20 * 50
+    assert F.flip(pred, gt, mask=mask) == pytest.approx(c * n1 / (n1 + n0), rel=1e-6)
+    boxes = [[20 + r, 20 + r, 60, 120 - r], [140, 130, 190, 150]]  # the same pixels as boxes
+    assert F.flip(pred, gt, boxes=boxes) == pytest.approx(c * n1 / (n1 + n0), rel=1e-6)
+    assert F.flip(pred, gt, mask=mask) != pytest.approx(c * n1 / (h * w), rel=1e-2)
+
+
+@needs_package
+def test_every_kth_frame_scores_only_those_and_summaries_count_them(sample_results, tmp_path):
+    from dynaeval.cli import main, sample_dir
+
+    import dynaeval
+    from dynaeval.regions.focus import FocusConfig
+
+    root = sample_dir()
+    res = dynaeval.score(root / "pred", root / "gt", metrics=("psnr", "flip"), temporal=False,
+                         progress=False, metric_options={"flip": {"every": 3}},
+                         focus=FocusConfig(source="boxes", boxes_file=str(root / "boxes.json")))
+    full = sample_results["frames"]
+    for row, ref in zip(res["frames"], full, strict=True):
+        if row["index"] % 3 == 0:  # frames 0, 3, 6: the values of the every-frame run
+            assert all(row[k] == ref[k] for k in KEYS)
+        else:  # no value (not a null, not a zero), and no warning about it
+            assert not any(k in row for k in KEYS)
+        assert row["psnr"] == ref["psnr"]
+    for k in KEYS:
+        scored = [r[k] for r in full if r["index"] % 3 == 0]
+        assert res["summary"][k] == pytest.approx(math.fsum(scored) / 6, abs=1e-12)
+        assert res["counts"][k] == 6 and res["counts"]["psnr"] == 16  # frames 0, 3, 6 of 2 cameras
+    assert res["settings"]["flip"]["every"] == 3 and "multiple of 3" in res["settings"]["flip"]["frames"]
+    assert not [w for w in res["warnings"] if w.get("metric") in KEYS]
+    out = tmp_path / "r.json"
+    assert main(["score", str(root / "pred"), str(root / "gt"), "--flip", "--flip-every", "3",
+                 "--no-lpips", "--no-temporal", "--focus", f"boxes:{root / 'boxes.json'}", "-q",
+                 "-o", str(out)]) == 0
+    cli = json.loads(out.read_text())
+    assert {k: cli["summary"][k] for k in (*KEYS, "psnr")} == {
+        k: res["summary"][k] for k in (*KEYS, "psnr")}
+    assert cli["settings"]["flip"] == res["settings"]["flip"]
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["--flip-every", "10"], "--flip-every applies to FLIP, which is not computed: add --flip"),
+    (["--flip", "--flip-every", "0"], "flip.every must be a positive integer, got 0"),
+    (["--flip", "--metric-option", "flip.every=2.5"], "flip.every must be a positive integer"),
+])
+def test_bad_every_is_a_usage_error(args, message, capsys):
+    from dynaeval.cli import main, sample_dir
+
+    root = sample_dir()
+    assert main(["score", str(root / "pred"), str(root / "gt"), "-q", *args]) == 2
+    assert message in capsys.readouterr().err
