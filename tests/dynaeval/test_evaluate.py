@@ -162,7 +162,7 @@ def test_channel_mismatch(tmp_path, scene):
     ("device", "tpu", "device must be cpu, cuda, cuda:N or auto"),
     ("flow", "raft", "flow method must be one of"),
     ("protocol", "nerf", "protocol must be one of dynaeval, nerfbaselines, nerfstudio"),
-    ("metrics", ("psnr", "fid"), r"unknown per-frame metric\(s\) \['fid'\]"),
+    ("metrics", ("psnr", "fid"), r"unknown metric\(s\) \['fid'\]"),
     ("metrics", "psnr", "metrics must be a sequence of metric names"),
     ("shard", (3, 2), "needs 1 <= I <= N"),
     ("focus", "motion", "focus must be a FocusConfig"),
@@ -305,10 +305,10 @@ def test_every_key_of_a_full_run_is_registered_and_documented(random_lpips):
     from pathlib import Path
 
     from dynaeval.cli import sample_dir
-    from dynaeval.metrics.registry import METRICS, SPECS, frame_specs
+    from dynaeval.metrics.registry import METRICS, SPECS, selectable_specs
 
     root = sample_dir()
-    every = tuple(s.name for s in frame_specs())  # those off by default too
+    every = tuple(s.name for s in selectable_specs())  # those off by default too (flip, jod)
     res = dynaeval.score(root / "pred", root / "gt", progress=False, metrics=every,
                          focus=FocusConfig(source="boxes", boxes_file=str(root / "boxes.json")))
     keys = set(res["metrics"]) | set(res["summary"]) - {"n_frames"}

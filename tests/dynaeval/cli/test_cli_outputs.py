@@ -125,13 +125,15 @@ def _config(*argv):
 
 
 def test_metrics_sets_the_metrics_exactly():
-    from dynaeval.metrics.registry import frame_specs
+    from dynaeval.metrics.registry import selectable_specs
 
     assert _config("--metrics", "ssim", "psnr").metrics == ("psnr", "ssim")  # registry order
     assert _config("--metrics", "psnr").metrics == ("psnr",)
-    every = tuple(s.name for s in frame_specs())
+    every = tuple(s.name for s in selectable_specs())
+    assert "jod" in every and "flip" in every
     assert _config("--metrics", *every).metrics == every  # opt-in metrics too
-    assert _config().metrics == tuple(s.name for s in frame_specs() if s.default)
+    assert _config().metrics == tuple(s.name for s in selectable_specs() if s.default)
+    assert _config("--jod").metrics == (*_config().metrics, "jod")
 
 
 @pytest.mark.parametrize("flag", ["--no-lpips", "--no-ssim"])
