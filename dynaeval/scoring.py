@@ -28,7 +28,6 @@ from dynaeval.metrics.registry import METRICS, REGION_RULES, FrameFn, temporal_k
 from dynaeval.regions.focus import FrameRegions
 from dynaeval.report.results import INFINITE_MARK
 
-
 PresenceStep = Callable[[FramePair, np.ndarray, np.ndarray, FrameRegions],
                         tuple[dict[str, float | None], dict[str, str], list[dict]]]
 

@@ -84,9 +84,11 @@ def _module(model: str, hint: bool = True) -> Any:
         return importlib.import_module(name)
     except ImportError as err:
         how = f": {_HINT}" if hint else ""
-        raise ImportError(
-            f"JOD ({MODEL_NAMES[model]}) needs the {dist} package, which is not installed{how}"
-        ) from err
+        missing = getattr(err, "name", None)
+        what = ("is not installed" if missing in (None, name) else
+                f"cannot be imported (its dependency {missing} is missing)")
+        raise ImportError(f"JOD ({MODEL_NAMES[model]}) needs the {dist} package, which {what}{how}"
+                          ) from err
 
 
 def load_model(model: str = DEFAULT_MODEL, display: str = DEFAULT_DISPLAY,

@@ -200,7 +200,7 @@ def findings(rows: list[tuple[str, float, dict]]) -> list[str]:
         sub = [(a, r) for label, a, r in rows if label.startswith(prefix)]
         if len(sub) < 2:
             continue
-        mono = all(x["jod"] > y["jod"] for (_, x), (_, y) in zip(sub, sub[1:]))
+        mono = all(x["jod"] > y["jod"] for (_, x), (_, y) in zip(sub, sub[1:], strict=False))
         values = ", ".join(f"{r['jod']:.3f}" for _, r in sub)
         out.append(f"- {prefix}: JOD {'falls strictly' if mono else 'does not fall strictly'} "
                    f"with strength ({values}).")

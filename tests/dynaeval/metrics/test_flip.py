@@ -565,9 +565,8 @@ def test_masked_and_focused_divide_by_the_region_a_known_answer():
 
 @needs_package
 def test_every_kth_frame_scores_only_those_and_summaries_count_them(sample_results, tmp_path):
-    from dynaeval.cli import main, sample_dir
-
     import dynaeval
+    from dynaeval.cli import main, sample_dir
     from dynaeval.regions.focus import FocusConfig
 
     root = sample_dir()

@@ -45,7 +45,7 @@ def _check(rows):
     ident = by["none (identical)", 0.0]
     assert ident["jod"] == pytest.approx(10.0, abs=1e-6) and ident["flip"] == 0.0
     assert ident["focused_jod"] == pytest.approx(10.0, abs=1e-6)
-    for label, a, r in rows[1:]:
+    for label, _, r in rows[1:]:
         assert r["jod"] < 10.0 and r["focused_jod"] < 10.0, label
     sigma = next(a for label, a, _ in rows if label.startswith("(d) static"))
     s, v = by["(d) static noise, sigma", sigma], by["(d) varying noise, sigma", sigma]
