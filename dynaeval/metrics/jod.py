@@ -120,15 +120,10 @@ def _display_names(mod: Any, model: str) -> set[str]:
     return set(json.loads(path.read_text()))
 
 
-def _frame(frames: Sequence[Any], i: int, name: str,
-           window: tuple[int, int, int, int] | None) -> np.ndarray:
-    """Frame ``i`` as (H, W, 3) float32 sRGB in [0, 1], cut to ``window``."""
+def _frame(frames: Sequence[Any], i: int, name: str) -> np.ndarray:
+    """Frame ``i`` of ``frames`` as (H, W, 3) float32 sRGB in [0, 1] (checked)."""
     arr = as_image(frames[i], f"{name} frame {i}", to_unit=True, check_range=True)
-    arr = grey_to_rgb(arr, f"{name} frame {i}", "JOD").astype(np.float32, copy=False)
-    if window is not None:
-        x0, y0, x1, y1 = window
-        arr = arr[y0:y1, x0:x1]
-    return np.ascontiguousarray(arr)
+    return grey_to_rgb(arr, f"{name} frame {i}", "JOD").astype(np.float32, copy=False)
 
 
 def _sources(metric: Any, model: str, read: Callable[[str, int], np.ndarray],
@@ -188,7 +183,8 @@ def jod(
 
     Args:
         pred, gt: sequences of F frames (lists, or (F, H, W[, C]) arrays; any object with
-            ``len`` and ``[i]``, read once per use, in order): (H, W, 3) sRGB or grayscale,
+            ``len`` and ``[i]``; frames are read when the package asks for them, in order):
+            (H, W, 3) sRGB or grayscale,
             float in [0, 1] (checked) or uint8 / uint16; every frame of both the same size.
         fps: frames per second the clip is played at (> 0).
         model: ``cvvdp`` (ColorVideoVDP) or ``fvvdp`` (FovVideoVDP).
@@ -212,18 +208,18 @@ def jod(
     if n == 0 or len(gt) != n:
         raise InputError(f"pred and gt must hold the same number (>= 1) of frames, got {n} and "
                          f"{len(gt)}")
-    first = _frame(gt, 0, "gt", None)
+    first = _frame(gt, 0, "gt")
     win = None if window is None else _check_window(window, *first.shape[:2])
     shape = first.shape if win is None else (win[3] - win[1], win[2] - win[0], 3)
     frames = {"test": pred, "reference": gt}
 
     def read(kind: str, i: int) -> np.ndarray:
-        arr = _frame(frames[kind], i, "pred" if kind == "test" else "gt", None)
+        arr = _frame(frames[kind], i, "pred" if kind == "test" else "gt")
         if arr.shape != first.shape:
             raise InputError(f"{'pred' if kind == 'test' else 'gt'} frame {i} is "
                              f"{arr.shape[1]}x{arr.shape[0]} px, gt frame 0 is "
                              f"{first.shape[1]}x{first.shape[0]}: a video has one frame size")
-        return arr if win is None else np.ascontiguousarray(arr[win[1]:win[3], win[0]:win[2]])
+        return arr if win is None else arr[win[1]:win[3], win[0]:win[2]]
 
     metric = metric if metric is not None else load_model(model, display, device)
     kind = "cvvdp" if type(metric).__module__.startswith("pycvvdp") else "fvvdp"
