@@ -41,18 +41,18 @@ def _defaults() -> Any:
 def _add_metric_flags(p: argparse.ArgumentParser) -> None:
     """``--metrics NAME ...`` (exactly these), ``--no-NAME`` for every chosen metric (per-frame
     or video) that runs by default, ``--NAME`` for the others (from the registry)."""
-    from dynaeval.metrics.registry import selectable_specs as frame_specs
+    from dynaeval.metrics.registry import selectable_specs
 
-    names = [s.name for s in frame_specs()]
+    names = [s.name for s in selectable_specs()]
     p.add_argument("--metrics", nargs="+", choices=names, metavar="NAME",
                    help=f"compute exactly these metrics ({', '.join(names)}), instead of "
                         "the defaults adjusted by --no-NAME / --NAME (which it cannot be combined "
                         "with)")
-    options = [f"{s.name}.{o}" for s in frame_specs() for o, _, _ in s.options]
+    options = [f"{s.name}.{o}" for s in selectable_specs() for o, _, _ in s.options]
     p.add_argument("--metric-option", action="append", default=[], metavar="NAME.OPTION=VALUE",
                    dest="metric_option",
                    help=f"an option of one metric (repeatable): {', '.join(options) or 'none'}")
-    for spec in frame_specs():
+    for spec in selectable_specs():
         extra = f" (needs pip install 'dynaeval[{spec.extra}]')" if spec.extra else ""
         flag, dest = _metric_flag(spec)
         what = f"skip {spec.title}" if spec.default else f"also compute {spec.title}: {spec.description}"
