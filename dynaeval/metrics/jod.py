@@ -57,7 +57,8 @@ DEFAULT_FPS = 30.0
 MIN_WINDOW = 64
 """Smallest side of the focused window, px (a box of a few pixels is grown to this)."""
 
-_HINT = "pip install 'dynaeval[video]'"
+HINTS = {"cvvdp": "pip install 'dynaeval[video]'", "fvvdp": "pip install 'dynaeval[fvvdp]'"}
+"""What to install per model (pyfvvdp is non-commercial, so it has an extra of its own)."""
 
 
 def check_model(model: object) -> str:
@@ -83,7 +84,7 @@ def _module(model: str, hint: bool = True) -> Any:
     try:
         return importlib.import_module(name)
     except ImportError as err:
-        how = f": {_HINT}" if hint else ""
+        how = f": {HINTS[model]}" if hint else ""
         missing = getattr(err, "name", None)
         what = ("is not installed" if missing in (None, name) else
                 f"cannot be imported (its dependency {missing} is missing)")

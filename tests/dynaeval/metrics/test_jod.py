@@ -30,7 +30,7 @@ for _model, (_, _module) in J.MODELS.items():
     except ImportError:
         HAVE[_model] = False
 needs_cvvdp = pytest.mark.skipif(not HAVE["cvvdp"], reason="cvvdp not installed (dynaeval[video])")
-needs_fvvdp = pytest.mark.skipif(not HAVE["fvvdp"], reason="pyfvvdp not installed (dynaeval[video])")
+needs_fvvdp = pytest.mark.skipif(not HAVE["fvvdp"], reason="pyfvvdp not installed (dynaeval[fvvdp])")
 models = pytest.mark.parametrize("model", [
     pytest.param("cvvdp", marks=needs_cvvdp), pytest.param("fvvdp", marks=needs_fvvdp)])
 
