@@ -139,6 +139,12 @@ def _add_score_options(p: argparse.ArgumentParser) -> None:
                         "(default), margin, or none; boxes are then clipped and merged")
     p.add_argument("--no-masked", action="store_true",
                    help="skip motion masks and the masked_* metrics")
+    p.add_argument("--masks", metavar="DIR",
+                   help="given masks, one grey PNG per ground-truth frame at the same relative "
+                        "path (or a DyCheck dataset folder: its covisible/<factor>x/<split>/): "
+                        "masked_* are computed over them instead of the motion masks, and the "
+                        "protocol uses them as its source does (default: a NeRFBaselines "
+                        "render folder's mask/, DyCheck's covisible/ beside rgb/<factor>x/)")
     p.add_argument("--no-presence", action="store_true",
                    help="skip the per-object presence check (presence_person, presence_ball, "
                         "tight_psnr_*)")
@@ -226,7 +232,7 @@ def config_from_args(args: argparse.Namespace) -> Any:
                                 device=opt("device")),
         temporal=not getattr(args, "no_temporal", False),
         presence=not getattr(args, "no_presence", False),
-        flow=opt("flow"), protocol=opt("protocol"),
+        flow=opt("flow"), protocol=opt("protocol"), masks=opt("masks"),
         iteration=getattr(args, "iteration", None), split=getattr(args, "split", None),
     )
 

@@ -8,6 +8,7 @@ number is written into the results' ``settings``.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from os import PathLike
 from typing import Any
 
 from dynaeval.errors import InputError
@@ -83,14 +84,22 @@ class ScoreConfig:
     shards' results combine with ``dynaeval merge`` into exactly the unsharded numbers."""
     protocol: str = "dynaeval"
     """Whose whole-frame PSNR/SSIM and 8-bit step to reproduce: ``dynaeval``, ``nerfbaselines``,
-    ``nerfstudio`` (nerfacto and siblings), ``nerfstudio-splatfacto``, ``3dgs`` or ``kplanes``
-    (``dynaeval.metrics.protocols``; ``quantize`` then defaults to the protocol's; ``kplanes``
-    also computes ``msssim`` and ``dssim``)."""
+    ``nerfstudio`` (nerfacto and siblings), ``nerfstudio-splatfacto``, ``3dgs``, ``kplanes`` or
+    ``dycheck`` (``dynaeval.metrics.protocols``; ``quantize`` then defaults to the protocol's;
+    ``kplanes`` also computes ``msssim`` and ``dssim``, ``dycheck`` its mPSNR/mSSIM/mLPIPS over
+    covisibility masks)."""
     iteration: int | None = None
     """3DGS-family render folders (``MODEL/<split>/ours_<N>``): the ``<N>`` to score; default
     the latest rendered (the others are listed in the warnings)."""
     split: str | None = None
     """3DGS-family render folders: the split to score from ``MODEL`` (default ``test``)."""
+    masks: str | None = None
+    """Folder of given masks, one grey PNG per ground-truth frame at the same relative path, or
+    a DyCheck dataset folder (its ``covisible/<factor>x/<split>/``; ``dynaeval.io.masks``).
+    ``masked_*`` are then computed over them (weights > 0.5) instead of the motion masks; the
+    protocol uses their weights as its source does (``nerfbaselines``: whole-frame metrics of
+    the mask-multiplied images; ``dycheck``: ``mpsnr``/``mssim``/``mlpips``). None: a
+    NeRFBaselines render folder's ``mask/`` or DyCheck's ``covisible/`` when found, else none."""
 
     def __post_init__(self) -> None:
         self.metrics = _check_metrics(self.metrics)
@@ -123,6 +132,8 @@ class ScoreConfig:
         from dynaeval.metrics.protocols import check_background, check_lpips_net, get_protocol
 
         FlowConfig(method=self.flow)  # raises InputError for an unknown method
+        if self.masks is not None and not isinstance(self.masks, (str, PathLike)):
+            raise InputError(f"masks must be a folder path or None, got {self.masks!r}")
         protocol = get_protocol(self.protocol)
         check_lpips_net(protocol, self.resolved_lpips_net())
         check_background(protocol, self.background)

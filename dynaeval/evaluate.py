@@ -106,12 +106,14 @@ def score(
 
     progress = run_progress(pairing.pairs, config)  # drawn now, before the metrics load
     try:
-        run = prepare_run(config)
+        masks, mask_warnings = _given_masks(config, layout, pairing.pairs)
+        run = prepare_run(config, masks)
     except BaseException:
         progress.close(completed=False)
         raise
     progress.restart()  # loading the metrics is no unit of work
     run.warnings.extend(pairing.warnings)  # damaged video files
+    run.warnings.extend(mask_warnings)
     run.warnings.extend({"reason": note} for note in layout.notes)
     if layout.name == "3dgs" and config.protocol != "3dgs":
         run.warnings.append({"reason": (
@@ -130,6 +132,40 @@ def score(
         if "camera" not in w:
             pywarnings.warn(warning_text(w), DynaevalWarning, stacklevel=2)
     return results
+
+
+def _given_masks(config: ScoreConfig, layout: Any, pairs: list[FramePair]) -> tuple[Any, list[dict]]:
+    """The run's given masks (``dynaeval.io.masks.find_masks``), checked for every frame before
+    the work, and warnings about mask folders left unused or a protocol missing its masks.
+
+    Raises:
+        InputError: a missing mask, a mask of another size, masks for video frames.
+    """
+    from dynaeval.errors import InputError
+    from dynaeval.io.masks import check_masks, find_masks, unused_mask_folders
+    from dynaeval.metrics.protocols import get_protocol
+
+    protocol = get_protocol(config.protocol)
+    gt_files = [p.gt.path for p in pairs if p.gt.index is None]
+    masks = find_masks(config.masks, layout.gt, gt_files, layout.root, protocol.decode)
+    if masks is not None:
+        if len(gt_files) != len(pairs):
+            raise InputError("given masks need ground truth as image files, not video frames",
+                             path=masks.folder)
+        check_masks(masks, [(g, None) for g in gt_files])
+    warnings = []
+    roots = [layout.pred, layout.gt, *([layout.root] if layout.root is not None else [])]
+    for folder in unused_mask_folders(masks, roots):
+        warnings.append({"reason": (
+            f"mask folder {folder} is not used (NeRFBaselines or DyCheck would apply it): pass "
+            "--masks with it to score masked_* over it, and the protocol's masked numbers")})
+    if masks is not None and not config.focus.masked and protocol.masks == "region":
+        warnings.append({"reason": f"masks {masks.folder} are not used: --no-masked skips masked_*"})
+    if masks is None and protocol.masks == "covisible":
+        warnings.append({"reason": (
+            f"protocol {protocol.name}: no covisibility masks found, so mpsnr, mssim and mlpips "
+            "are not computed; pass --masks DATASET/covisible/<factor>x/<split>")})
+    return masks, warnings
 
 
 def warning_text(warning: dict[str, Any]) -> str:

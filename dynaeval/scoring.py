@@ -24,7 +24,7 @@ from dynaeval.errors import EmptyRegionError, InputError, UndefinedMetricError
 from dynaeval.io import FramePair
 from dynaeval.io.cache import FrameCache
 from dynaeval.metrics.flow import check_flow_size
-from dynaeval.metrics.registry import METRICS, REGION_RULES, FrameFn, temporal_keys
+from dynaeval.metrics.registry import COVISIBLE_RULE, METRICS, REGION_RULES, FrameFn, temporal_keys
 from dynaeval.regions.focus import FrameRegions
 from dynaeval.report.results import INFINITE_MARK
 
@@ -63,6 +63,10 @@ class Run:
     camera_fns: dict[str, tuple[str, Any]] = field(default_factory=dict)
     """Video metrics (``jod``): result key -> (region variant, ``fn(pred_frames, gt_frames,
     fps, region)``), one value per camera."""
+    masks: Any = None
+    """``dynaeval.io.masks.MaskSet`` of given masks (``masked_*`` over them), or None."""
+    protocol: Any = None
+    """The run's ``dynaeval.metrics.protocols.Protocol``."""
 
     def add_time(self, times: dict[str, float]) -> None:
         with self.lock:
@@ -77,8 +81,12 @@ class Run:
         return [*self.fns, *(PRESENCE_METRICS if self.presence else ())]
 
 
-def prepare_run(config: ScoreConfig) -> Run:
+def prepare_run(config: ScoreConfig, masks: Any = None) -> Run:
     """Build the metrics, open the region sources and describe the run (before any frame is read).
+
+    ``masks``: the given masks (``dynaeval.io.masks.MaskSet``) or None: ``masked_*`` are then
+    computed over them instead of the motion masks, and a protocol that uses masks
+    (``Protocol.masks``) gets their weights.
 
     Raises:
         InputError: an unusable detector or boxes file.
@@ -97,7 +105,8 @@ def prepare_run(config: ScoreConfig) -> Run:
                        options=config.metric_options, fps=config.fps)
     regions = ("whole",
                *(("focused",) if config.focus.source != "none" else ()),
-               *(("masked",) if config.focus.masked else ()))
+               *(("masked",) if config.focus.masked else ()),
+               *(("covisible",) if masks is not None and protocol.masks == "covisible" else ()))
     built = build_frame_metrics(ctx, run_metrics(protocol, config.metrics), regions)
     warnings = [{"metric": name, "reason": f"{SPECS[name].title} not computed: {why}"}
                 for name, why in built.unavailable.items()]
@@ -105,15 +114,17 @@ def prepare_run(config: ScoreConfig) -> Run:
         "data_range": config.data_range, "quantize": config.quantize,
         "background": config.background, "allow_missing": config.allow_missing,
         **built.settings,
-        "regions": dict(REGION_RULES),
+        "regions": {**REGION_RULES, **({"covisible": COVISIBLE_RULE} if "covisible" in regions else {})},
         "summary": "mean of per-frame values (frames weighted equally, not pooled error)",
         "protocol": protocol.describe(),
     }
+    if masks is not None:  # else masked_* are over the motion masks (settings.focus.motion)
+        settings["masks"] = masks.describe()
     sources = open_sources(config.focus)
     settings["focus"] = sources.settings
     warnings.extend(sources.warnings)
     run = Run(config, built.fns, settings, warnings, sources, every=built.every,
-              camera_fns=built.camera_fns)
+              camera_fns=built.camera_fns, masks=masks, protocol=protocol)
     run.presence = _presence_step(config, sources, settings)
     if config.temporal:
         from dynaeval.metrics.flow import FlowConfig
@@ -167,8 +178,15 @@ def load_gt(pair: FramePair, config: ScoreConfig, cache: FrameCache) -> np.ndarr
     """The ground truth of ``pair`` as the metrics see it (quantised when asked)."""
     from dynaeval.metrics import quantize
 
-    gt = cache.read(pair.gt, config.background)
+    gt = cache.read(pair.gt, config.background, _decode(config))
     return gt if config.quantize == "none" else quantize(gt, config.quantize)
+
+
+def _decode(config: ScoreConfig) -> str:
+    """The protocol's 16-bit PNG rule (``dynaeval.io.images.DECODES``)."""
+    from dynaeval.metrics.protocols import get_protocol
+
+    return get_protocol(config.protocol).decode
 
 
 def load_pair(pair: FramePair, config: ScoreConfig,
@@ -177,8 +195,8 @@ def load_pair(pair: FramePair, config: ScoreConfig,
     sizes or channel counts differ."""
     from dynaeval.metrics import quantize
 
-    pred = cache.read(pair.pred, config.background)
-    gt = cache.read(pair.gt, config.background)
+    pred = cache.read(pair.pred, config.background, _decode(config))
+    gt = cache.read(pair.gt, config.background, _decode(config))
     if pred.shape[:2] != gt.shape[:2]:
         raise InputError(
             f"prediction is {pred.shape[1]}x{pred.shape[0]} px but its ground truth {pair.gt} is "
@@ -217,8 +235,10 @@ def _metric_values(pair: FramePair, pred: np.ndarray, gt: np.ndarray, regions: F
         if region == "masked" and regions.mask is None:
             values.append((name, None, regions.mask_reason))
             continue
-        kw = ({"boxes": regions.boxes} if region == "focused" else
-              {"mask": regions.mask} if region == "masked" else {})
+        kw = _region_of(region, regions, run)
+        if kw is None:
+            values.append((name, None, "no covisibility mask for this frame"))
+            continue
         t0 = time.perf_counter()
         try:
             values.append((name, float(fn(pred, gt, kw)), None))
@@ -228,6 +248,21 @@ def _metric_values(pair: FramePair, pred: np.ndarray, gt: np.ndarray, regions: F
             raise InputError(f"{name}: {err}", path=str(pair.pred)) from err
         elapsed[name] = time.perf_counter() - t0
     return values
+
+
+def _region_of(region: str, regions: FrameRegions, run: Run) -> dict[str, Any] | None:
+    """The ``region`` argument of a metric function: ``{}`` (whole frame; the given mask's
+    ``weights`` when the protocol multiplies by it), ``{"boxes": ...}``, ``{"mask": ...}``, or
+    ``{"weights": ...}`` for DyCheck's ``covisible`` variant (None without a mask)."""
+    if region == "focused":
+        return {"boxes": regions.boxes}
+    if region == "masked":
+        return {"mask": regions.mask}
+    if region == "covisible":
+        return None if regions.weights is None else {"weights": regions.weights}
+    if regions.weights is not None and run.protocol is not None and run.protocol.masks == "multiply":
+        return {"weights": regions.weights}
+    return {}
 
 
 def score_frame(pair: FramePair, regions: FrameRegions, run: Run,
@@ -251,6 +286,12 @@ def _score_frame(pair: FramePair, regions: FrameRegions, run: Run,
     pred, gt = load_pair(pair, run.config, cache)
     elapsed = {"read": time.perf_counter() - t0}
     regions = fit_to(regions, gt.shape[:2], run.config.focus)
+    if run.masks is not None:
+        from dynaeval.io.masks import read_mask
+        from dynaeval.regions.given import with_given_mask
+
+        path = run.masks.path_of(pair.gt.path)
+        regions = with_given_mask(regions, read_mask(path, run.masks.decode), str(path))
     row: dict[str, Any] = {"camera": pair.camera, "frame": pair.frame, "index": pair.index,
                            "pred": str(pair.pred), "gt": str(pair.gt)}
     values = _metric_values(pair, pred, gt, regions, run, elapsed)

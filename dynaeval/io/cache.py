@@ -27,19 +27,20 @@ class FrameCache:
         self._frames: dict[tuple[FrameRef, str | float], np.ndarray] = {}
         self._lock = threading.Lock()
 
-    def read(self, ref: FrameRef, background: str | float = "white") -> np.ndarray:
-        """``ref.read(background)``, from the cache when it was read before.
+    def read(self, ref: FrameRef, background: str | float = "white",
+             decode: str = "dynaeval") -> np.ndarray:
+        """``ref.read(background, decode)``, from the cache when it was read before.
 
         Returns a read-only (H, W, C) float32 array: callers must not modify it in place.
         """
-        key = (ref, background)  # the whole reference: a K-Planes stack's parts share path and index
+        key = (ref, background, decode)  # the whole reference: a K-Planes stack's parts share path and index
         with self._lock:
             frame = self._frames.get(key)
             if frame is not None:
                 self.hits += 1
                 return frame
             self.misses += 1
-        frame = ref.read(background)
+        frame = ref.read(background, decode)
         frame.flags.writeable = False
         with self._lock:
             if key not in self._frames and self.bytes + frame.nbytes <= self.max_bytes:

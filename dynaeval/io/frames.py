@@ -51,10 +51,11 @@ class FrameRef:
     index: int | None = None
     """0-based frame number inside a video file; None for an image file."""
 
-    def read(self, background: str | float = "white") -> np.ndarray:
-        """The frame as (H, W, C) float32, C in {1, 3}, in [0, 1] (float files as stored)."""
+    def read(self, background: str | float = "white", decode: str = "dynaeval") -> np.ndarray:
+        """The frame as (H, W, C) float32, C in {1, 3}, in [0, 1] (float files as stored);
+        ``decode``: the 16-bit PNG rule of ``dynaeval.io.images.read_image``."""
         if self.index is None:
-            return read_image(self.path, background=background)
+            return read_image(self.path, background=background, decode=decode)
         from dynaeval.io.images import to_float
 
         return to_float(read_video_frame(self.path, self.index), path=self.path)

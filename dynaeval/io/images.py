@@ -4,6 +4,13 @@ Supported: PNG (8 and 16 bit), JPEG, TIFF (8/16 bit, float), WebP, BMP via OpenC
 via the ``OpenEXR`` package. Grayscale stays one channel ``(H, W, 1)``; RGB is returned in RGB order
 (OpenCV's BGR is converted); RGBA is composited over a background colour (see ``composite_alpha``).
 
+``decode`` chooses how a 16-bit PNG becomes [0, 1]: ``"dynaeval"`` (default) divides by 65535;
+``"pil"`` keeps the high byte, ``(v >> 8) / 255``, as Pillow (and so NeRFBaselines'
+``io.read_image``, ``np.array(PIL.Image.open(f))``) decodes 16-bit RGB and RGBA PNGs (Pillow has
+no 16-bit colour mode). Pillow opens a 16-bit grey PNG as mode ``I;16`` and NeRFBaselines then
+saturates it (``clip(v * 255, 0, 255)``): under ``"pil"`` such a file is an ``InputError``. Other
+formats decode the same under both rules.
+
 The format is taken from the file's content (its first bytes), not its name: a PNG named ``.jpg``
 is read as the PNG it is. The extension only decides which files are images.
 
@@ -33,7 +40,11 @@ BACKGROUNDS = {"white": 1.0, "black": 0.0}
 FLOAT_TOLERANCE = 1e-3
 """Float pixels this far outside [0, 1] are clipped (rounding); further out is an InputError."""
 
+DECODES = ("dynaeval", "pil")
+"""How 16-bit PNGs are mapped to [0, 1] (module docstring)."""
+
 _EXR_MAGIC = b"\x76\x2f\x31\x01"
+_PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 _JPEG_MAGIC = b"\xff\xd8\xff"
 
 
@@ -121,13 +132,37 @@ def check_float_range(image: np.ndarray, path: str | Path | None = None) -> np.n
     return np.clip(image, 0.0, 1.0)
 
 
-def read_image(path: str | Path, *, background: str | float = "white") -> np.ndarray:
+def pil_png_bytes(image: np.ndarray, path: str | Path | None = None) -> np.ndarray:
+    """A decoded 16-bit PNG as Pillow returns it: its high byte, ``v >> 8``, as uint8.
+
+    Args:
+        image: (H, W, 3) or (H, W, 4) uint16 as stored (8-bit images are returned unchanged).
+
+    Raises:
+        InputError: a 16-bit grey (or grey + alpha) PNG, which Pillow reads as ``I;16`` and
+            NeRFBaselines saturates to 255.
+    """
+    if image.dtype != np.uint16:
+        return image
+    if image.ndim == 2 or image.shape[2] in (1, 2):
+        raise InputError(
+            "16-bit grey PNG: Pillow reads it as mode I;16 and NeRFBaselines saturates every "
+            "non-zero value to 255, a number dynaeval does not reproduce; save it as RGB or use "
+            "--protocol dynaeval",
+            path=path,
+        )
+    return (image >> 8).astype(np.uint8)
+
+
+def read_image(path: str | Path, *, background: str | float = "white",
+               decode: str = "dynaeval") -> np.ndarray:
     """Read one image file as float32 in [0, 1] (float files: as stored).
 
     Args:
         path: image file with an image extension; the format is taken from its content.
         background: colour that RGBA images are composited over (``composite_alpha``); images
             without alpha are unaffected.
+        decode: ``"dynaeval"`` or ``"pil"``: how a 16-bit PNG maps to [0, 1] (module docstring).
 
     Returns:
         (H, W, 3) or (H, W, 1) float32 array in [0, 1], RGB order. Grey+alpha gives (H, W, 1).
@@ -138,6 +173,8 @@ def read_image(path: str | Path, *, background: str | float = "white") -> np.nda
     """
     import cv2
 
+    if decode not in DECODES:
+        raise InputError(f"decode must be one of {', '.join(DECODES)}, got {decode!r}")
     path = Path(path)
     if not path.is_file():
         raise InputError("file not found", path=path)
@@ -156,6 +193,8 @@ def read_image(path: str | Path, *, background: str | float = "white") -> np.nda
         image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED) if data else None
         if image is None:
             raise InputError("cannot decode image (corrupt, truncated or not an image)", path=path)
+        if decode == "pil" and data.startswith(_PNG_MAGIC):
+            image = pil_png_bytes(image, path)
         if image.ndim == 3 and image.shape[2] == 3:
             image = image[..., ::-1]
         elif image.ndim == 3 and image.shape[2] == 4:

@@ -64,10 +64,13 @@ def clipped_boxes(boxes: object, height: int, width: int) -> np.ndarray:
 
 def whole_or_region(whole: Any, regional: Any, data_range: float) -> Any:
     """``fn(pred, gt, region)`` for the registry: ``whole(pred, gt, data_range=...)`` (a
-    protocol's whole-frame variant) when ``region`` is ``{}``, else ``regional(pred, gt,
+    protocol's whole-frame variant) when ``region`` is ``{}`` or ``{"weights": ...}`` (a given
+    mask the protocol itself uses: ``Protocol.masks``), else ``regional(pred, gt,
     data_range=..., **region)`` (dynaeval's, over ``boxes`` or ``mask``)."""
 
     def fn(pred: np.ndarray, gt: np.ndarray, region: dict[str, Any]) -> float:
+        if "weights" in region:
+            return whole(pred, gt, data_range=data_range, weights=region["weights"])
         if region:
             return regional(pred, gt, data_range=data_range, **region)
         return whole(pred, gt, data_range=data_range)

@@ -458,11 +458,17 @@ def build_lpips(ctx: Any) -> Any:
 
     whole = whole_lpips(ctx)  # a protocol that feeds the network its own way (3dgs), or None
 
+    kw = {"net": net, "device": device, "backend": backend, "pretrained_backbone": pretrained}
+    protocol = ctx.whole()
+
     def fn(pred: np.ndarray, gt: np.ndarray, region: dict[str, Any]) -> float:
         if whole is not None and not region:
             return whole(pred, gt)
-        return lpips(pred, gt, net=net, device=device, backend=backend,
-                     pretrained_backbone=pretrained, **region)
+        if "weights" in region or (not region and protocol.lpips_reduce != "network"):
+            return protocol.whole_lpips(lambda p, g: lpips(p, g, **kw),
+                                        lambda p, g: lpips_map(p, g, **kw),
+                                        pred, gt, weights=region.get("weights"))
+        return lpips(pred, gt, **kw, **region)
 
     return fn
 

@@ -30,6 +30,15 @@ comes from; in short:
 * ``3dgs`` (gaussian-splatting, 4DGaussians, Deformable-3DGS ``metrics.py``): PSNR
   ``20 log10(1 / sqrt(MSE))`` in float32, SSIM with zero padding (every pixel's window, float32),
   LPIPS VGG fed the [0, 1] images unscaled — ``dynaeval.metrics.protocol_3dgs``.
+* ``dycheck``: 8-bit truncation, float32 squared error, DyCheck's SSIM (valid windows, variances
+  clamped at 0), LPIPS AlexNet as the mean of its spatial map; with covisibility masks also
+  ``mpsnr``/``mssim``/``mlpips`` as DyCheck defines them (``dynaeval.metrics.protocol_dycheck``).
+
+Given masks (``ScoreConfig.masks``, a NeRFBaselines ``mask/`` folder, DyCheck's
+``covisible/``) are used by every protocol as dynaeval's ``masked_*`` region; ``Protocol.masks``
+says what the protocol itself does with them: ``region`` (nothing more), ``multiply``
+(NeRFBaselines: the whole-frame metrics score ``pred * m`` against ``gt * m`` over the whole
+frame) or ``covisible`` (DyCheck: its ``m*`` metrics).
 
 The ``focused_*``/``masked_*``/temporal metrics are dynaeval's own under every protocol (the other
 tools have none); the protocol's 8-bit step applies to them too, since it changes the images.
@@ -49,7 +58,7 @@ from dynaeval.metrics.protocol_kplanes import KPLANES_CHOICES, KPLANES_REFERENCE
 from dynaeval.validation import check_data_range, check_pair
 
 PROTOCOL_NAMES = ("dynaeval", "nerfbaselines", "nerfstudio", "kplanes", "nerfstudio-splatfacto",
-                  "3dgs")
+                  "3dgs", "dycheck")
 
 
 def _as_hwc(p: np.ndarray) -> np.ndarray:
@@ -209,6 +218,17 @@ class Protocol:
     family: str = ""
     """The models whose evaluation code this protocol follows (empty: a tool, not a model)."""
 
+    decode: str = "dynaeval"
+    """16-bit PNG decoding (``dynaeval.io.images.DECODES``): ``dynaeval`` (v / 65535) or
+    ``pil`` (the high byte, as Pillow and so NeRFBaselines read them)."""
+    masks: str = "region"
+    """What the protocol does with given masks beyond dynaeval's ``masked_*``: ``region``,
+    ``multiply`` (whole-frame metrics of the mask-multiplied images) or ``covisible`` (the
+    ``m*`` metrics of DyCheck)."""
+    lpips_reduce: str = "network"
+    """Whole-frame LPIPS: ``network`` (the package's own spatial average per layer) or
+    ``spatial-mean`` (mean of the ``spatial=True`` map, upsampled per layer: DyCheck)."""
+
     def describe(self) -> dict[str, Any]:
         """Settings for the results JSON: every choice the protocol implies. The fields after
         ``reference`` are written when they differ from their defaults, so the results of the
@@ -223,10 +243,22 @@ class Protocol:
         if self.choices:
             out["choices"] = dict(self.choices)
         for key, default in (("ssim_data_range", "fixed"), ("lpips_input", "signed"),
-                             ("family", "")):
+                             ("family", ""), ("decode", "dynaeval"), ("masks", "region"),
+                             ("lpips_reduce", "network")):
             if getattr(self, key) != default:
                 out[key] = getattr(self, key)
         return out
+
+    def _weighted(self, pred: object, gt: object, weights: object) -> tuple[object, object]:
+        """``pred * m, gt * m`` for ``masks="multiply"``; the images otherwise. InputError when
+        the protocol has no use for weights."""
+        if weights is None or self.masks == "covisible":
+            return pred, gt
+        if self.masks != "multiply":
+            raise InputError(f"protocol {self.name} does not score the whole frame with a mask")
+        from dynaeval.metrics.protocol_nerfbaselines import multiply_mask
+
+        return multiply_mask(pred, gt, weights)
 
     def _check_range(self, data_range: float) -> None:
         if self.clip and data_range != 1.0:
@@ -235,9 +267,16 @@ class Protocol:
                 f"{data_range}; scale the images to [0, 1] or use --protocol dynaeval"
             )
 
-    def whole_psnr(self, pred: object, gt: object, *, data_range: float = 1.0) -> float:
-        """Whole-frame PSNR in dB under this protocol."""
+    def whole_psnr(self, pred: object, gt: object, *, data_range: float = 1.0,
+                   weights: object = None) -> float:
+        """Whole-frame PSNR in dB under this protocol; ``weights``: (H, W) mask in [0, 1], used
+        as ``Protocol.masks`` says."""
         self._check_range(data_range)
+        pred, gt = self._weighted(pred, gt, weights)
+        if self.psnr == "dycheck":
+            from dynaeval.metrics.protocol_dycheck import dycheck_psnr
+
+            return dycheck_psnr(pred, gt, weights=weights, data_range=data_range)
         if self.psnr == "float32":
             return psnr_float32(pred, gt, data_range=data_range, clip=self.clip)
         if self.psnr == "3dgs":
@@ -248,9 +287,15 @@ class Protocol:
 
         return psnr(pred, gt, data_range=data_range)
 
-    def whole_ssim(self, pred: object, gt: object, *, data_range: float = 1.0) -> float:
-        """Whole-frame SSIM under this protocol."""
+    def whole_ssim(self, pred: object, gt: object, *, data_range: float = 1.0,
+                   weights: object = None) -> float:
+        """Whole-frame SSIM under this protocol; ``weights`` as in ``whole_psnr``."""
         self._check_range(data_range)
+        pred, gt = self._weighted(pred, gt, weights)
+        if self.ssim == "dycheck":
+            from dynaeval.metrics.protocol_dycheck import dycheck_ssim
+
+            return dycheck_ssim(pred, gt, weights=weights, data_range=data_range)
         if self.ssim == "skimage-gaussian":
             from dynaeval.metrics.structural import ssim
 
@@ -277,6 +322,24 @@ class Protocol:
         return ssim_variant(pred, gt, data_range=data_range, border="reflect", clamp="zero",
                             clip=self.clip, precision="float32")
 
+    def whole_lpips(self, score: Any, score_map: Any, pred: object, gt: object, *,
+                    weights: object = None) -> float:
+        """Whole-frame LPIPS under this protocol.
+
+        Args:
+            score: ``(pred, gt) -> float``, the package's LPIPS; score_map: ``(pred, gt) ->
+                (H, W)`` its spatial map.
+            weights: as in ``whole_psnr``.
+        """
+        if self.clip:
+            pred, gt = np.clip(np.asarray(pred), 0, 1), np.clip(np.asarray(gt), 0, 1)
+        pred, gt = self._weighted(pred, gt, weights)
+        if self.lpips_reduce == "spatial-mean":
+            from dynaeval.metrics.protocol_dycheck import dycheck_lpips
+
+            return dycheck_lpips(score_map, pred, gt, weights=weights)
+        return score(pred, gt)
+
 
 PROTOCOLS: dict[str, Protocol] = {
     "dynaeval": Protocol("dynaeval", "none", "float64", "skimage-gaussian", False, "alex",
@@ -284,6 +347,7 @@ PROTOCOLS: dict[str, Protocol] = {
     "nerfbaselines": Protocol(
         "nerfbaselines", "truncate", "float32", "dm_pix", True, "alex",
         "NeRFBaselines evaluation.py (DefaultEvaluationProtocol, compute_metrics) and metrics.py",
+        decode="pil", masks="multiply",
     ),
     "nerfstudio": Protocol(
         "nerfstudio", "none", "float32", "torchmetrics", False, "alex",
@@ -308,6 +372,12 @@ PROTOCOLS: dict[str, Protocol] = {
     ),
     "kplanes": Protocol("kplanes", "none", "float32", "mipnerf", True, "alex", KPLANES_REFERENCE,
                         metrics=("msssim", "dssim"), background="white", choices=KPLANES_CHOICES),
+    "dycheck": Protocol(
+        "dycheck", "truncate", "dycheck", "dycheck", True, "alex",
+        "DyCheck dycheck/core/tasks/novel_view.py (to_quantized_float32, mpsnr/mssim/mlpips), "
+        "dycheck/core/metrics/image.py, dycheck/nn/functional/common.py (masked_mean)",
+        masks="covisible", lpips_reduce="spatial-mean",
+    ),
 }
 
 

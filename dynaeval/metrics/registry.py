@@ -36,8 +36,11 @@ from typing import Any
 
 import numpy as np
 
-REGIONS: dict[str, str] = {"whole": "", "focused": "focused_", "masked": "masked_"}
-"""Region variant -> prefix of its result key."""
+REGIONS: dict[str, str] = {"whole": "", "focused": "focused_", "masked": "masked_",
+                           "covisible": "m"}
+"""Region variant -> prefix of its result key. ``covisible`` is DyCheck's reduction over its
+covisibility mask (``mpsnr``, ``mssim``, ``mlpips``), computed under ``--protocol dycheck``
+only (``dynaeval.metrics.protocol_dycheck``)."""
 
 REGION_RULES: dict[str, str] = {
     "focused": "SSIM/LPIPS: box-area-weighted mean over crops of the merged boxes; "
@@ -45,6 +48,11 @@ REGION_RULES: dict[str, str] = {
     "masked": "PSNR: over the mask's pixels; SSIM/LPIPS: mean of the full-frame map over them",
 }
 """How the region variants reduce a per-frame metric (written into the results' settings)."""
+
+COVISIBLE_RULE = ("DyCheck's: PSNR of masked_mean(squared error); SSIM of partial convolutions, "
+                  "mean over the whole map; LPIPS: masked mean of the spatial map of the masked "
+                  "images")
+"""How the ``covisible`` variant reduces (in the settings of a run that computes it)."""
 
 KINDS = ("frame", "pair", "camera", "object")
 
@@ -174,6 +182,8 @@ class MetricSpec:
 
     def rule(self, region: str) -> str | None:
         """How the ``region`` variant is reduced (None for the whole frame)."""
+        if region == "covisible":
+            return COVISIBLE_RULE
         return dict(self.region_rules or REGION_RULES.items()).get(region)
 
     def key(self, variant: str = "whole") -> str:
@@ -217,6 +227,7 @@ positive_int.__name__ = "positive integer"
 
 _UNBOUNDED = (0.0, math.inf)
 _FRAME_REGIONS = ("whole", "focused", "masked")
+_DYCHECK_REGIONS = (*_FRAME_REGIONS, "covisible")
 
 SPECS: dict[str, MetricSpec] = {
     s.name: s
@@ -224,20 +235,20 @@ SPECS: dict[str, MetricSpec] = {
         MetricSpec(
             "psnr", "frame", True, _UNBOUNDED, "dB",
             "peak signal-to-noise ratio, 10 log10(L^2 / MSE), float64 MSE",
-            regions=_FRAME_REGIONS, precision=3,
+            regions=_DYCHECK_REGIONS, precision=3,
             build="dynaeval.metrics.pixel:build_psnr", doc="PSNR",
         ),
         MetricSpec(
             "ssim", "frame", True, (-1.0, 1.0), "",
             "SSIM (Wang et al. 2004), Gaussian window 11, sigma 1.5, valid windows",
-            regions=_FRAME_REGIONS,
+            regions=_DYCHECK_REGIONS,
             build="dynaeval.metrics.structural:build_ssim",
             settings="dynaeval.metrics.structural:ssim_settings", doc="SSIM",
         ),
         MetricSpec(
             "lpips", "frame", False, _UNBOUNDED, "",
             "LPIPS v0.1 of the lpips package (AlexNet backbone unless lpips_net = vgg)",
-            regions=_FRAME_REGIONS, extra="lpips",
+            regions=_DYCHECK_REGIONS, extra="lpips",
             build="dynaeval.metrics.perceptual:build_lpips",
             settings="dynaeval.metrics.perceptual:lpips_settings",
             ignored_settings=("enabled", "device", "backend", "unavailable"), doc="LPIPS",
@@ -333,7 +344,8 @@ SPECS: dict[str, MetricSpec] = {
 _WHERE = {
     "whole": "whole frame",
     "focused": "boxes around players and ball",
-    "masked": "moving pixels of the motion mask",
+    "masked": "moving pixels of the motion mask (or the given masks)",
+    "covisible": "covisibility mask (DyCheck)",
 }
 
 

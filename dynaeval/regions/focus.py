@@ -131,6 +131,9 @@ class FrameRegions:
     size: tuple[int, int] | None = None
     """(H, W) that ``raw_boxes`` were clipped and ``boxes`` expanded to (the frame's size when
     it was read; frame 0's for a boxes file, see ``fit_to``)."""
+    weights: np.ndarray | None = None
+    """(H, W) float32 weights in [0, 1] of a given mask (``dynaeval.regions.given``), for the
+    protocols that use them (``Protocol.masks``); None without given masks."""
     not_video: FramesDiffer | None = None
     """Set on every frame of a camera whose frames differ in shape (the first difference; its
     ``reason()`` is the text): no motion mask, no temporal term; None for a video."""

@@ -12,6 +12,7 @@ from scipy.signal import convolve2d
 import dynaeval
 from dynaeval.errors import InputError
 from dynaeval.metrics import psnr, ssim
+from dynaeval.regions.focus import FocusConfig
 from dynaeval.metrics.protocols import (
     get_protocol,
     psnr_float32,
@@ -112,16 +113,20 @@ def scene16(tmp_path, rng):
 
 def test_score_with_nerfbaselines_protocol_truncates_to_8_bit(scene16):
     root, pairs = scene16
-    kw = dict(metrics=("psnr", "ssim"), temporal=False, progress=False)
+    kw = dict(metrics=("psnr", "ssim"), temporal=False, progress=False, focus=FocusConfig("none"))
     res = dynaeval.score(root / "pred", root / "gt", protocol="nerfbaselines", **kw)
+    from PIL import Image
+
     expected = []
-    for p, g in pairs:  # independent: NeRFBaselines' float -> uint8 cast, then float32 MSE
-        p8 = (np.clip(p * 255.0, 0, 255).astype(np.uint8).astype(np.float32) / 255.0)
-        g8 = (np.clip(g * 255.0, 0, 255).astype(np.uint8).astype(np.float32) / 255.0)
+    for i in range(len(pairs)):  # independent: NeRFBaselines reads with Pillow (16-bit RGB ->
+        # its high byte), image_to_srgb keeps the uint8, then /255 and a float32 MSE
+        p8, g8 = (np.array(Image.open(root / d / "c" / f"{i}.png")).astype(np.float32) / 255.0
+                  for d in ("pred", "gt"))
         expected.append(-10 * np.log10(np.mean((p8 - g8) ** 2, dtype=np.float32)))
     assert res["summary"]["psnr"] == pytest.approx(float(np.mean(expected)), abs=1e-4)
     assert res["settings"]["protocol"]["name"] == "nerfbaselines"
     assert res["settings"]["quantize"] == "truncate"
+    assert res["settings"]["protocol"]["decode"] == "pil"
     plain = dynaeval.score(root / "pred", root / "gt", **kw)
     assert abs(plain["summary"]["psnr"] - res["summary"]["psnr"]) > 1e-3  # the step matters
     assert plain["settings"]["protocol"]["name"] == "dynaeval"
