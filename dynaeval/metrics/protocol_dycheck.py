@@ -94,8 +94,8 @@ def dycheck_psnr(pred: object, gt: object, *, weights: object = None,
         PSNR in dB; ``math.inf`` when the masked error is 0 (DyCheck's jax gives inf too).
     """
     p, g = _check(pred, gt, data_range)
-    d = p - g
-    mse = masked_mean((d * d).astype(np.float64), _weights(weights, p.shape) if weights is not None else None)
+    d = p.astype(np.float64) - g
+    mse = masked_mean(d * d, None if weights is None else _weights(weights, p.shape))
     return math.inf if mse == 0.0 else -10.0 * math.log10(mse)
 
 
