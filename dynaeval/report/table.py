@@ -6,7 +6,8 @@ from typing import Any
 
 from dynaeval.metrics.registry import METRICS, REGIONS
 
-REGION_LABELS = {"whole": "whole", "focused": "focused", "masked": "masked"}
+REGION_LABELS = {"whole": "whole", "focused": "focused", "masked": "masked",
+                 "covisible": "dycheck m*"}
 """Column heading of each region variant."""
 
 

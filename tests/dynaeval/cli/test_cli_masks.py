@@ -1,0 +1,108 @@
+"""The command line with given masks: DyCheck's and NeRFBaselines' layouts read as they are
+(exit 0), bad masks refused before scoring with the file and the problem (exit 2)."""
+
+from __future__ import annotations
+
+import json
+
+import cv2
+import numpy as np
+import pytest
+
+from dynaeval.cli import main
+from tests.dynaeval.mask_layouts import dycheck_dataset, nerfbaselines_folder
+
+pytest.importorskip("skimage")
+FAST = ("--no-lpips", "--focus", "none", "--no-temporal", "-q")
+
+
+def run(capsys, *args):
+    code = main([str(a) for a in args])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def _mpsnr(pred_file, gt_file, mask_file):
+    """Independent: DyCheck's to_quantized_float32 of the float render, cv2.imread of the 8-bit
+    ground truth and mask, masked_mean of the squared error, float64."""
+    p = cv2.imread(str(pred_file), cv2.IMREAD_UNCHANGED)[..., ::-1].astype(np.float64) / 65535
+    p = (p * 255).clip(0, 255).astype(np.uint8) / 255.0
+    g = cv2.imread(str(gt_file))[..., ::-1] / 255.0
+    m = np.broadcast_to(cv2.imread(str(mask_file))[..., :1] / 255.0, g.shape)
+    return -10 * np.log10(((p - g) ** 2 * m).sum() / max(m.sum(), 1e-6))
+
+
+def test_dycheck_layout_scores_with_covisible_masks(tmp_path, capsys):
+    pred, gt = dycheck_dataset(tmp_path)
+    out = tmp_path / "r.json"
+    code, table, err = run(capsys, "score", pred, gt, "--protocol", "dycheck", "-o", out, *FAST)
+    assert code == 0, err
+    doc = json.loads(out.read_text())
+    cov = gt.parent.parent / "covisible" / "2x" / "val"
+    for row in doc["frames"]:
+        name = f"{row['frame']}.png"
+        assert row["mpsnr"] == pytest.approx(_mpsnr(pred / name, gt / name, cov / name), abs=1e-6)
+        assert row["masked_psnr"] == pytest.approx(row["mpsnr"], abs=1e-6)  # binary mask: equal
+        assert row["mssim"] > row["masked_ssim"]  # DyCheck counts unmasked windows as 1
+    s = doc["settings"]
+    assert s["protocol"]["name"] == "dycheck" and s["masks"]["origin"] == "dycheck"
+    assert "covisible" in s["regions"] and s["quantize"] == "truncate"
+    assert doc["metrics"]["mssim"]["higher_is_better"] is True
+    assert "mpsnr" in doc["summary"]
+
+
+def test_dycheck_protocol_without_masks_warns(tmp_path, capsys):
+    pred, gt = dycheck_dataset(tmp_path)
+    plain = tmp_path / "plain_gt"
+    plain.mkdir()
+    for f in gt.iterdir():
+        (plain / f.name).write_bytes(f.read_bytes())
+    out = tmp_path / "r.json"
+    code, _, err = run(capsys, "score", pred, plain, "--protocol", "dycheck", "-o", out, *FAST)
+    assert code == 0, err
+    doc = json.loads(out.read_text())
+    assert "mpsnr" not in doc["summary"]
+    assert any("no covisibility masks found" in w["reason"] for w in doc["warnings"])
+
+
+@pytest.mark.parametrize("problem", ["size", "missing"])
+def test_bad_mask_exit_2_naming_the_file(tmp_path, capsys, problem):
+    pred, gt = dycheck_dataset(tmp_path)
+    bad = gt.parent.parent / "covisible" / "2x" / "val" / "0_00001.png"
+    if problem == "size":
+        cv2.imwrite(str(bad), np.zeros((50, 60), np.uint8))
+    masks = bad.parent
+    if problem == "missing":
+        bad.unlink()
+    out = tmp_path / "r.json"
+    code, _, err = run(capsys, "score", pred, gt, "--masks", masks, "-o", out, *FAST)
+    assert code == 2 and not out.exists()
+    assert "0_00001.png" in err
+    assert ("mask is 60x50 px but its frame" in err if problem == "size" else "no mask for ground-truth frame" in err)
+    assert "Traceback" not in err
+
+
+def test_nerfbaselines_render_folder_with_mask(tmp_path, capsys):
+    run_dir = nerfbaselines_folder(tmp_path / "run")
+    out_nb, out_de = tmp_path / "nb.json", tmp_path / "de.json"
+    code, _, err = run(capsys, "score", run_dir, "--protocol", "nerfbaselines", "-o", out_nb, *FAST)
+    assert code == 0, err
+    code, _, err = run(capsys, "score", run_dir, "-o", out_de, *FAST)
+    assert code == 0, err
+    nb, de = json.loads(out_nb.read_text()), json.loads(out_de.read_text())
+    assert nb["summary"]["psnr"] > de["summary"]["psnr"] + 1.0  # zeros outside the mask count
+    assert abs(nb["summary"]["masked_psnr"] - de["summary"]["masked_psnr"]) < 0.05  # 8-bit step
+
+
+def test_masks_flag_with_a_plain_folder_and_unused_warning(tmp_path, capsys):
+    run_dir = nerfbaselines_folder(tmp_path / "run")
+    out = tmp_path / "r.json"
+    code, _, err = run(capsys, "score", run_dir / "color", run_dir / "gt-color", "-o", out, *FAST)
+    assert code == 0 and "mask" in err and "is not used" in err  # printed on the console too
+    out2 = tmp_path / "r2.json"
+    code, _, err = run(capsys, "score", run_dir / "color", run_dir / "gt-color", "--masks",
+                       run_dir / "mask", "-o", out2, *FAST)
+    assert code == 0, err
+    doc = json.loads(out2.read_text())
+    assert doc["settings"]["masks"]["origin"] == "given" and doc["summary"]["masked_psnr"] is not None
+    assert not any("is not used" in w["reason"] for w in doc["warnings"])
