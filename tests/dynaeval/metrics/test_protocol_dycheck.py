@@ -206,3 +206,32 @@ def test_equals_dycheck_jax_itself(tmp_path):
         assert dycheck_ssim(p, g) == pytest.approx(r["ssim"], abs=5e-5)
         assert dycheck_ssim(p, g, weights=m) == pytest.approx(r["mssim"], abs=5e-5)
     assert sys.executable != JAX_PY
+
+
+def test_score_dycheck_layout_lpips_and_psnr(tmp_path, random_lpips):
+    """``score`` on a DyCheck dataset (covisible masks found beside ``rgb/2x``): ``mlpips`` and
+    ``lpips`` as DyCheck computes them, from the files (random-weight backbone)."""
+    import cv2
+
+    import dynaeval
+    from dynaeval.metrics.perceptual import lpips_map
+    from dynaeval.regions.focus import FocusConfig
+    from tests.dynaeval.mask_layouts import dycheck_dataset
+
+    pred_dir, gt_dir = dycheck_dataset(tmp_path)
+    res = dynaeval.score(pred_dir, gt_dir, protocol="dycheck", metrics=("psnr", "lpips"),
+                         temporal=False, progress=False, focus=FocusConfig("none"))
+    cov = gt_dir.parent.parent / "covisible" / "2x" / "val"
+    smap = lambda p, g: lpips_map(p, g, pretrained_backbone=False)  # noqa: E731
+    for row in res["frames"]:
+        name = f"{row['frame']}.png"
+        p = _to_quantized(cv2.imread(str(pred_dir / name), cv2.IMREAD_UNCHANGED)[..., ::-1] / 65535)
+        g = cv2.imread(str(gt_dir / name))[..., ::-1].astype(np.float32) / 255
+        m = cv2.imread(str(cov / name))[..., :1].astype(np.float32) / 255
+        assert row["mpsnr"] == pytest.approx(_ref_psnr(g, p, m), abs=1e-6)
+        assert row["psnr"] == pytest.approx(_ref_psnr(g, p), abs=1e-6)
+        assert row["lpips"] == pytest.approx(float(smap(p, g).mean()), abs=1e-6)
+        with_masks = _ref_masked_mean(smap(p * m, g * m)[..., None].astype(np.float64), m)
+        assert row["mlpips"] == pytest.approx(with_masks, abs=1e-6)
+        assert row["masked_lpips"] != pytest.approx(row["mlpips"], abs=1e-4)
+    assert res["settings"]["protocol"]["lpips_reduce"] == "spatial-mean"
