@@ -15,8 +15,8 @@ import sys
 import tempfile
 from pathlib import Path
 
-import numpy as np
 import nerfbaselines.metrics as nb_metrics
+import numpy as np
 
 nb_metrics.lpips = lambda a, b: np.zeros(a.shape[:-3], np.float32)
 from nerfbaselines.evaluation import evaluate  # noqa: E402
@@ -29,7 +29,7 @@ def main() -> None:
         doc = json.loads((Path(tmp) / "results.json").read_text())
     raw = {k: np.frombuffer(base64.b64decode(v), np.float32).tolist()
            for k, v in doc["metrics_raw"].items()}
-    per_image = [dict(zip(raw, vals)) for vals in zip(*raw.values())]
+    per_image = [dict(zip(raw, vals, strict=True)) for vals in zip(*raw.values(), strict=True)]
     out.write_text(json.dumps({"metrics": doc["metrics"], "per_image": per_image}, indent=1))
 
 

@@ -12,13 +12,13 @@ from scipy.signal import convolve2d
 import dynaeval
 from dynaeval.errors import InputError
 from dynaeval.metrics import psnr, ssim
-from dynaeval.regions.focus import FocusConfig
 from dynaeval.metrics.protocols import (
     get_protocol,
     psnr_float32,
     resolve_quantize,
     ssim_variant,
 )
+from dynaeval.regions.focus import FocusConfig
 
 
 def _pair(rng, h=40, w=48):
