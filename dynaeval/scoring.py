@@ -286,12 +286,10 @@ def _score_frame(pair: FramePair, regions: FrameRegions, run: Run,
     pred, gt = load_pair(pair, run.config, cache)
     elapsed = {"read": time.perf_counter() - t0}
     regions = fit_to(regions, gt.shape[:2], run.config.focus)
-    if run.masks is not None:
-        from dynaeval.io.masks import read_mask
-        from dynaeval.regions.given import with_given_mask
+    if run.masks is not None and run.protocol.masks != "region":
+        from dynaeval.regions.given import with_weights
 
-        path = run.masks.path_of(pair.gt.path)
-        regions = with_given_mask(regions, read_mask(path, run.masks.decode), str(path))
+        regions = with_weights(regions, pair.gt.path, run.masks)
     row: dict[str, Any] = {"camera": pair.camera, "frame": pair.frame, "index": pair.index,
                            "pred": str(pair.pred), "gt": str(pair.gt)}
     values = _metric_values(pair, pred, gt, regions, run, elapsed)
@@ -342,6 +340,10 @@ def camera_regions_of(camera: str, pairs: list[FramePair], run: Run,
             lambda i: load_gt(pairs[i], run.config, cache),
             first_gt.shape[:2], run.sources, run.pool, paths=[p.gt for p in pairs],
         )
+        if run.masks is not None:
+            from dynaeval.regions.given import given_masks
+
+            regions = given_masks(regions, [p.gt.path for p in pairs], run.masks)
     except InputError as err:
         if err.path is not None:
             raise

@@ -79,7 +79,9 @@ def image_size(path: Path) -> tuple[int, int]:
     if head.startswith(_PNG_MAGIC) and len(head) >= 24:
         w, h = struct.unpack(">II", head[16:24])
         return int(h), int(w)
-    return read_mask(path).shape
+    from dynaeval.io.images import read_image
+
+    return read_image(path).shape[:2]
 
 
 def read_mask(path: str | Path, decode: str = "dynaeval") -> np.ndarray:
@@ -119,7 +121,7 @@ def read_mask(path: str | Path, decode: str = "dynaeval") -> np.ndarray:
 
 
 def check_masks(masks: MaskSet, gt_paths: list[tuple[Path, tuple[int, int] | None]]) -> None:
-    """Every ground-truth frame has a mask of its size (before any frame is scored).
+    """Every ground-truth frame has a readable mask of its size (before any frame is scored).
 
     Args:
         gt_paths: (ground-truth file, its (H, W) or None to read it) per frame.
@@ -127,17 +129,14 @@ def check_masks(masks: MaskSet, gt_paths: list[tuple[Path, tuple[int, int] | Non
     Raises:
         InputError: naming the first missing mask or the first of another size.
     """
-    from dynaeval.io.images import read_image
-
     for gt, size in gt_paths:
         path = masks.path_of(gt)
         if path is None:
             raise InputError(f"no mask for ground-truth frame {gt} (expected "
                              f"{masks.folder / Path(gt).relative_to(masks.gt_root).with_suffix('.png')})",
                              path=masks.folder)
-        h, w = image_size(path)
-        if size is None:
-            size = image_size(gt) if Path(gt).suffix.lower() == ".png" else read_image(gt).shape[:2]
+        h, w = read_mask(path, masks.decode).shape  # its format too, before the work
+        size = image_size(gt) if size is None else size
         if (h, w) != tuple(size):
             raise InputError(f"mask is {w}x{h} px but its frame {gt} is {size[1]}x{size[0]} px",
                              path=path)

@@ -120,7 +120,8 @@ class FrameRegions:
     boxes_reason: str | None = None
     """Why ``boxes`` is None."""
     mask: np.ndarray | None = None
-    """(H, W) bool motion mask; None when there is none."""
+    """(H, W) bool motion mask, or the given mask (``dynaeval.regions.given``); None when there
+    is none."""
     mask_reason: str | None = None
     """Why ``mask`` is None."""
     raw_boxes: np.ndarray | None = None

@@ -1,24 +1,38 @@
-"""Given masks as a frame's region: the weights for a protocol, the thresholded mask for
-dynaeval's ``masked_*`` (``dynaeval.io.masks`` finds and reads them)."""
+"""Given masks as the frames' masked region (``dynaeval.io.masks`` finds and reads them).
+
+They replace the motion masks wherever a mask is used: the ``masked_*`` metrics (pixels with
+weight > ``THRESHOLD``), the static region of the temporal terms (pixels in no frame's mask) and
+the report's mask outline. Boxes of ``--focus motion`` still come from the motion masks.
+"""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import replace
+from pathlib import Path
 
-import numpy as np
-
-from dynaeval.io.masks import THRESHOLD
+from dynaeval.io.masks import THRESHOLD, MaskSet, read_mask
 from dynaeval.regions.focus import FrameRegions
 
 
-def with_given_mask(r: FrameRegions, weights: np.ndarray, source: str) -> FrameRegions:
-    """``r`` whose ``masked_*`` region is the given mask (weights > ``THRESHOLD``) instead of
-    the motion mask, and whose ``weights`` are the mask's values for the protocol.
+def given_masks(regions: Sequence[FrameRegions], gt_paths: Sequence[Path],
+                masks: MaskSet) -> list[FrameRegions]:
+    """``regions`` with each frame's mask replaced by its given mask (weights > ``THRESHOLD``),
+    or None with the reason when the given mask holds no such pixel.
 
     Args:
-        weights: (H, W) float32 in [0, 1], the frame's mask as read.
-        source: the mask file, named when the mask holds no pixel.
+        gt_paths: the ground-truth file of each frame (its mask is found from it).
     """
-    m = weights > THRESHOLD
-    reason = None if m.any() else f"the given mask {source} holds no pixel above {THRESHOLD}"
-    return replace(r, mask=m if m.any() else None, mask_reason=reason, weights=weights)
+    out = []
+    for r, gt in zip(regions, gt_paths, strict=True):
+        path = masks.path_of(gt)
+        m = read_mask(path, masks.decode) > THRESHOLD
+        reason = None if m.any() else f"the given mask {path} holds no pixel above {THRESHOLD}"
+        out.append(replace(r, mask=m if m.any() else None, mask_reason=reason))
+    return out
+
+
+def with_weights(r: FrameRegions, gt_path: Path, masks: MaskSet) -> FrameRegions:
+    """``r`` with the given mask's weights ((H, W) float32 in [0, 1]) for a protocol that uses
+    them (``Protocol.masks`` ``multiply`` or ``covisible``)."""
+    return replace(r, weights=read_mask(masks.path_of(gt_path), masks.decode))

@@ -106,3 +106,33 @@ def test_masks_flag_with_a_plain_folder_and_unused_warning(tmp_path, capsys):
     doc = json.loads(out2.read_text())
     assert doc["settings"]["masks"]["origin"] == "given" and doc["summary"]["masked_psnr"] is not None
     assert not any("is not used" in w["reason"] for w in doc["warnings"])
+
+
+def test_nerfbaselines_refuses_a_16_bit_mask_before_scoring(tmp_path, capsys):
+    run_dir = nerfbaselines_folder(tmp_path / "run")
+    bad = run_dir / "mask" / "00002.png"
+    m = cv2.imread(str(bad), cv2.IMREAD_UNCHANGED)
+    cv2.imwrite(str(bad), m.astype(np.uint16) * 257)
+    out = tmp_path / "r.json"
+    code, _, err = run(capsys, "score", run_dir, "--protocol", "nerfbaselines", "-o", out, *FAST)
+    assert code == 2 and not out.exists()
+    assert "00002.png" in err and "16-bit mask" in err
+    code, _, err = run(capsys, "score", run_dir, "-o", out, *FAST)  # dynaeval reads it: v / 65535
+    assert code == 0, err
+
+
+def test_given_masks_are_the_regions_a_report_sees(tmp_path):
+    """The regions passed to ``on_regions`` (what the HTML report outlines, and the temporal
+    static region) hold the given masks, not the motion masks."""
+    import dynaeval
+    from dynaeval.regions.focus import FocusConfig
+
+    pred, gt = dycheck_dataset(tmp_path)
+    seen = {}
+    dynaeval.score(pred, gt, metrics=("psnr",), temporal=False, progress=False,
+                   focus=FocusConfig("none"),
+                   on_regions=lambda cam, pairs, regs: seen.update(
+                       {p.frame: r.mask for p, r in zip(pairs, regs, strict=True)}))
+    cov = gt.parent.parent / "covisible" / "2x" / "val"
+    for frame, mask in seen.items():
+        assert np.array_equal(mask, cv2.imread(str(cov / f"{frame}.png"), 0) > 127)
