@@ -97,7 +97,10 @@ def score(
 
         pairing = pair_stack(layout.pred)
     else:
-        pairing = pair_frames(layout.pred, layout.gt, allow_missing=config.allow_missing)
+        from dynaeval.io.dycheck import pair_dycheck
+
+        pairing = (pair_dycheck(layout.pred, layout.gt, allow_missing=config.allow_missing)
+                   or pair_frames(layout.pred, layout.gt, allow_missing=config.allow_missing))
     if config.shard is not None:
         from dynaeval.io.frames import select_shard
 

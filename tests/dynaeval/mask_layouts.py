@@ -50,17 +50,28 @@ def nerfbaselines_folder(root: Path) -> Path:
 
 
 def dycheck_dataset(root: Path) -> tuple[Path, Path]:
-    """A DyCheck iPhone-style dataset ``root/data`` (``rgb/2x/0_0000i.png``,
-    ``covisible/2x/val/0_0000i.png``) and predictions ``root/pred`` (16-bit PNG renders).
-    Returns (predictions folder, ground-truth folder)."""
+    """A DyCheck iPhone-style dataset ``root/data``: ``rgb/2x/`` with training frames
+    ``0_0000i.png`` and validation frames ``1_0000i.png``, ``splits/{train,val}.json``,
+    ``covisible/2x/val/1_0000i.png``; and predictions of the val frames ``root/pred`` (16-bit
+    PNG renders). Returns (predictions folder, ground-truth folder)."""
+    import json
+
     data = root / "data"
     gt_dir, cov, pred = data / "rgb" / "2x", data / "covisible" / "2x" / "val", root / "pred"
-    for d in (gt_dir, cov, pred):
+    for d in (gt_dir, cov, pred, data / "splits"):
         d.mkdir(parents=True)
+    splits: dict[str, list[str]] = {"train": [], "val": []}
     for i, name in enumerate(PHOTOS):
         p, g = photo_pair(name, 10 + i)
-        frame = f"0_{i:05d}.png"
-        cv2.imwrite(str(gt_dir / frame), g[..., ::-1])
-        cv2.imwrite(str(cov / frame), blob_mask(*g.shape[:2]).astype(np.uint8) * 255)
-        write16(pred / frame, p)
+        train, frame = f"0_{i:05d}", f"1_{i:05d}"
+        cv2.imwrite(str(gt_dir / f"{train}.png"), g[::-1, :, ::-1])  # another view
+        cv2.imwrite(str(gt_dir / f"{frame}.png"), g[..., ::-1])
+        cv2.imwrite(str(cov / f"{frame}.png"), blob_mask(*g.shape[:2]).astype(np.uint8) * 255)
+        write16(pred / f"{frame}.png", p)
+        splits["train"].append(train)
+        splits["val"].append(frame)
+    for split, names in splits.items():
+        (data / "splits" / f"{split}.json").write_text(json.dumps(
+            {"frame_names": names, "time_ids": list(range(len(names))),
+             "camera_ids": [int(n[0]) for n in names]}))
     return pred, gt_dir

@@ -51,11 +51,28 @@ def test_dycheck_layout_scores_with_covisible_masks(tmp_path, capsys):
     assert "mpsnr" in doc["summary"]
 
 
+def test_dycheck_split_is_paired_and_a_missing_val_frame_is_an_error(tmp_path, capsys):
+    pred, gt = dycheck_dataset(tmp_path)
+    out = tmp_path / "r.json"
+    code, _, err = run(capsys, "score", pred, gt, "-o", out, *FAST)  # train frames: not skipped
+    assert code == 0, err
+    doc = json.loads(out.read_text())
+    assert doc["summary"]["n_frames"] == 3 and not doc["inputs"]["skipped_frames"]
+    (pred / "1_00001.png").unlink()
+    out.unlink()
+    code, _, err = run(capsys, "score", pred, gt, "-o", out, *FAST)
+    assert code == 2 and "DyCheck split 'val'" in err and "1_00001" in err
+    code, _, err = run(capsys, "score", pred, gt, "--allow-missing", "-o", out, *FAST)
+    assert code == 0, err
+    skipped = json.loads(out.read_text())["inputs"]["skipped_frames"]
+    assert skipped == [{"camera": ".", "frame": "1_00001"}]
+
+
 def test_dycheck_protocol_without_masks_warns(tmp_path, capsys):
     pred, gt = dycheck_dataset(tmp_path)
     plain = tmp_path / "plain_gt"
     plain.mkdir()
-    for f in gt.iterdir():
+    for f in gt.glob("1_*.png"):
         (plain / f.name).write_bytes(f.read_bytes())
     out = tmp_path / "r.json"
     code, _, err = run(capsys, "score", pred, plain, "--protocol", "dycheck", "-o", out, *FAST)
@@ -68,7 +85,7 @@ def test_dycheck_protocol_without_masks_warns(tmp_path, capsys):
 @pytest.mark.parametrize("problem", ["size", "missing"])
 def test_bad_mask_exit_2_naming_the_file(tmp_path, capsys, problem):
     pred, gt = dycheck_dataset(tmp_path)
-    bad = gt.parent.parent / "covisible" / "2x" / "val" / "0_00001.png"
+    bad = gt.parent.parent / "covisible" / "2x" / "val" / "1_00001.png"
     if problem == "size":
         cv2.imwrite(str(bad), np.zeros((50, 60), np.uint8))
     masks = bad.parent
@@ -77,7 +94,7 @@ def test_bad_mask_exit_2_naming_the_file(tmp_path, capsys, problem):
     out = tmp_path / "r.json"
     code, _, err = run(capsys, "score", pred, gt, "--masks", masks, "-o", out, *FAST)
     assert code == 2 and not out.exists()
-    assert "0_00001.png" in err
+    assert "1_00001.png" in err
     assert ("mask is 60x50 px but its frame" in err if problem == "size" else "no mask for ground-truth frame" in err)
     assert "Traceback" not in err
 

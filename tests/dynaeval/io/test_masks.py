@@ -71,7 +71,7 @@ def test_found_in_nerfbaselines_and_dycheck_layouts(tmp_path):
     assert found.origin == "nerfbaselines" and found.folder == nb / "mask"
     assert found.path_of(gts[1]) == nb / "mask" / gts[1].name
     pred, gt = dycheck_dataset(tmp_path / "dy")
-    gts = sorted(gt.iterdir())
+    gts = sorted(gt.glob("1_*.png"))  # the val frames
     found = find_masks(None, gt, gts, None)
     assert found.origin == "dycheck" and found.folder == gt.parent.parent / "covisible" / "2x" / "val"
     by_root = find_masks(gt.parent.parent, gt, gts, None)  # --masks DATASET
@@ -86,7 +86,7 @@ def test_dycheck_dataset_without_unique_split_is_an_error(tmp_path):
     other.mkdir()
     for f in (gt.parent.parent / "covisible" / "2x" / "val").iterdir():
         (other / f.name).write_bytes(f.read_bytes())
-    gts = sorted(gt.iterdir())
+    gts = sorted(gt.glob("1_*.png"))  # the val frames
     assert find_masks(None, gt, gts, None) is None  # two splits fit: not guessed
     with pytest.raises(InputError, match="no single covisible/<factor>x/<split>/"):
         find_masks(gt.parent.parent, gt, gts, None)
