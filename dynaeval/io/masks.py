@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import re
 import struct
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -51,6 +51,9 @@ class MaskSet:
     (``covisible/<factor>x/<split>``)."""
     decode: str = "dynaeval"
     """``dynaeval`` or ``pil`` (NeRFBaselines: 8-bit grey masks only, see ``read_mask``)."""
+    sha256: str | None = None
+    """Hash of the scored frames' mask files (relative names and bytes, ``check_masks``), so
+    runs on the same masks compare equal wherever the folder is."""
 
     def path_of(self, gt_path: Path) -> Path | None:
         """The mask file of a ground-truth frame, or None when there is none."""
@@ -69,7 +72,7 @@ class MaskSet:
         return {"source": "given", "origin": self.origin, "folder": str(self.folder),
                 "file": "<folder>/<ground-truth path relative to its folder>.png",
                 "weights": "grey value / its maximum", "masked_threshold": THRESHOLD,
-                "decode": self.decode}
+                "decode": self.decode, "sha256": self.sha256}
 
 
 def image_size(path: Path) -> tuple[int, int]:
@@ -120,15 +123,21 @@ def read_mask(path: str | Path, decode: str = "dynaeval") -> np.ndarray:
     return (m.astype(np.float32) / np.float32(np.iinfo(m.dtype).max)).astype(np.float32)
 
 
-def check_masks(masks: MaskSet, gt_paths: list[tuple[Path, tuple[int, int] | None]]) -> None:
+def check_masks(masks: MaskSet, gt_paths: list[tuple[Path, tuple[int, int] | None]]) -> MaskSet:
     """Every ground-truth frame has a readable mask of its size (before any frame is scored).
 
     Args:
         gt_paths: (ground-truth file, its (H, W) or None to read it) per frame.
 
+    Returns:
+        ``masks`` with ``sha256`` set: the hash of the masks' relative names and contents.
+
     Raises:
         InputError: naming the first missing mask or the first of another size.
     """
+    import hashlib
+
+    digest = hashlib.sha256()
     for gt, size in gt_paths:
         path = masks.path_of(gt)
         if path is None:
@@ -140,6 +149,9 @@ def check_masks(masks: MaskSet, gt_paths: list[tuple[Path, tuple[int, int] | Non
         if (h, w) != tuple(size):
             raise InputError(f"mask is {w}x{h} px but its frame {gt} is {size[1]}x{size[0]} px",
                              path=path)
+        digest.update(path.relative_to(masks.folder).as_posix().encode() + b"\0")
+        digest.update(path.read_bytes())
+    return replace(masks, sha256=digest.hexdigest())
 
 
 def _dycheck_split(root: Path, factor: str, gt_root: Path, gt_files: list[Path]) -> Path | None:

@@ -46,6 +46,7 @@ RUN_IGNORED_SETTINGS = (
     "focus.detector.settings.device",
     "focus.detector.onnxruntime",
     "focus.detector.outputs_note",
+    "masks.folder",
 )
 """Run settings that never change a number (paths, devices, the text saying which detector
 output was taken as what: ``focus.detector.outputs`` is compared): not compared."""

@@ -116,3 +116,15 @@ def test_unused_mask_folders(tmp_path):
     assert unused_mask_folders(None, [nb / "color", nb / "gt-color"]) == [(nb / "mask").resolve()]
     _, gt = dycheck_dataset(tmp_path / "dy")
     assert unused_mask_folders(None, [gt]) == [(gt.parent.parent / "covisible").resolve()]
+
+
+def test_mask_hash_follows_content_not_folder(tmp_path):
+    a = nerfbaselines_folder(tmp_path / "a")
+    b = nerfbaselines_folder(tmp_path / "b")
+    ha, hb = (check_masks(MaskSet(r / "mask", r / "gt-color", "given"),
+                          [(g, None) for g in sorted((r / "gt-color").iterdir())]).sha256 for r in (a, b))
+    assert ha == hb and len(ha) == 64
+    cv2.imwrite(str(b / "mask" / "00000.png"), np.zeros((301, 257), np.uint8))
+    hb2 = check_masks(MaskSet(b / "mask", b / "gt-color", "given"),
+                      [(g, None) for g in sorted((b / "gt-color").iterdir())]).sha256
+    assert hb2 != ha
