@@ -235,7 +235,7 @@ def _metric_values(pair: FramePair, pred: np.ndarray, gt: np.ndarray, regions: F
         if region == "masked" and regions.mask is None:
             values.append((name, None, regions.mask_reason))
             continue
-        kw = _region_of(region, regions, run)
+        kw = _region_of(region, regions, run, name)
         if kw is None:
             values.append((name, None, "no covisibility mask for this frame"))
             continue
@@ -250,9 +250,10 @@ def _metric_values(pair: FramePair, pred: np.ndarray, gt: np.ndarray, regions: F
     return values
 
 
-def _region_of(region: str, regions: FrameRegions, run: Run) -> dict[str, Any] | None:
-    """The ``region`` argument of a metric function: ``{}`` (whole frame; the given mask's
-    ``weights`` when the protocol multiplies by it), ``{"boxes": ...}``, ``{"mask": ...}``, or
+def _region_of(region: str, regions: FrameRegions, run: Run, key: str) -> dict[str, Any] | None:
+    """The ``region`` argument of the metric function of result ``key``: ``{}`` (whole frame;
+    the given mask's ``weights`` when the protocol multiplies by it and the metric is one of the
+    protocol's, i.e. has its ``covisible`` variant), ``{"boxes": ...}``, ``{"mask": ...}``, or
     ``{"weights": ...}`` for DyCheck's ``covisible`` variant (None without a mask)."""
     if region == "focused":
         return {"boxes": regions.boxes}
@@ -260,7 +261,10 @@ def _region_of(region: str, regions: FrameRegions, run: Run) -> dict[str, Any] |
         return {"mask": regions.mask}
     if region == "covisible":
         return None if regions.weights is None else {"weights": regions.weights}
-    if regions.weights is not None and run.protocol is not None and run.protocol.masks == "multiply":
+    from dynaeval.metrics.registry import spec
+
+    if (regions.weights is not None and run.protocol is not None
+            and run.protocol.masks == "multiply" and "covisible" in spec(key).regions):
         return {"weights": regions.weights}
     return {}
 

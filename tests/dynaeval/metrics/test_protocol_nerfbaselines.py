@@ -97,3 +97,15 @@ def test_equals_nerfbaselines_itself(nb_folder, tmp_path):
     for row, r in zip(res["frames"], ref, strict=True):
         assert row["psnr"] == pytest.approx(r["psnr"], abs=1e-4)
         assert row["ssim"] == pytest.approx(r["ssim"], abs=1e-6)
+
+
+def test_metrics_nerfbaselines_lacks_are_not_masked(nb_folder):
+    """FLIP is not a NeRFBaselines metric: its whole-frame value ignores the mask (only the
+    metrics with the protocol's masked variants get the mask's weights)."""
+    pytest.importorskip("flip_evaluator")
+    from dynaeval.metrics.flip import flip
+
+    res = dynaeval.score(nb_folder, protocol="nerfbaselines", **{**KW, "metrics": ("psnr", "flip")})
+    for i, row in enumerate(res["frames"]):
+        _, _, pred, gt, _ = _nb_inputs(nb_folder, i)
+        assert row["flip"] == pytest.approx(flip(pred, gt), abs=1e-6)
