@@ -61,12 +61,13 @@ class StackedFrameRef(FrameRef):
     rows: int = 0
     """Height of one part in pixels (the frame's first ``3 * rows`` rows are the stack)."""
 
-    def read(self, background: str | float = "white") -> np.ndarray:
-        """The part as (rows, W, C) float32 in [0, 1]."""
+    def read(self, background: str | float = "white", decode: str = "dynaeval") -> np.ndarray:
+        """The part as (rows, W, C) float32 in [0, 1]; ``decode``: the 16-bit PNG rule of
+        ``dynaeval.io.images.read_image``."""
         from dynaeval.io.images import to_float
 
         if self.index is None:
-            full = read_image(self.path, background=background)
+            full = read_image(self.path, background=background, decode=decode)
         else:
             full = read_video_frame(self.path, self.index)
         part = full[self.part * self.rows:(self.part + 1) * self.rows]
