@@ -170,6 +170,10 @@ def _add_score_options(p: argparse.ArgumentParser) -> None:
                    help="also write an HTML report (DIR/index.html + DIR/img/): summary, per-frame "
                         "curves, worst frames with the scored regions drawn")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--prepared", metavar="PREP",
+                   help="a ground truth prepared with 'dynaeval prepare GT -o PREP': its regions "
+                        "and flows are read, not computed (refused if GT or a setting changed); "
+                        "never changes a number")
     p.add_argument("--shard", metavar="I/N",
                    help="score only the I-th of N slices of the cameras (1 <= I <= N); "
                         "'dynaeval merge' combines the N results into the unsharded numbers")
@@ -234,6 +238,7 @@ def config_from_args(args: argparse.Namespace) -> Any:
         presence=not getattr(args, "no_presence", False),
         flow=opt("flow"), protocol=opt("protocol"), masks=opt("masks"),
         iteration=getattr(args, "iteration", None), split=getattr(args, "split", None),
+        prepared=getattr(args, "prepared", None),
     )
 
 
@@ -305,6 +310,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     _add_detector_command(sub)
 
+    _add_prepare_command(sub)
     lb = sub.add_parser("leaderboard", help="combine results files into one table",
                         description="Combine results files (methods x scenes) into one table: "
                                     "means per scene and overall (mean of scene means) with "
@@ -333,6 +339,47 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--workers", type=int, default=_defaults().workers, metavar="N")
     d.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     return parser
+
+
+def _add_prepare_command(sub: Any) -> None:
+    from dynaeval.config import BACKGROUNDS, QUANTIZE_MODES
+    from dynaeval.metrics.flow import FLOW_METHODS
+    from dynaeval.metrics.protocols import PROTOCOL_NAMES
+
+    d = _defaults()
+    r = sub.add_parser("prepare", help="compute what depends on the ground truth alone, once",
+                       description="Write GT's regions (boxes, motion masks) and ground-truth "
+                                   "optical flows to PREP, for 'dynaeval score PRED GT --prepared "
+                                   "PREP' (same numbers, faster): docs/performance.md. Pass the "
+                                   "options the scoring runs will use.")
+    r.add_argument("gt", help="folder of ground-truth frames (as given to 'dynaeval score')")
+    r.add_argument("-o", "--output", required=True, metavar="PREP", help="folder to write")
+    r.add_argument("--overwrite", action="store_true", help="replace an existing PREP folder")
+    for flag, kw in (
+        ("--focus", {"default": d.focus.source, "metavar": "detector|motion|boxes:FILE|none"}),
+        ("--detector", {"metavar": "MODEL.onnx|NAME"}),
+        ("--expand", {"choices": ["paper", "margin", "none"], "default": d.focus.expand}),
+        ("--no-masked", {"action": "store_true"}), ("--no-temporal", {"action": "store_true"}),
+        ("--flow", {"choices": FLOW_METHODS, "default": d.flow}),
+        ("--background", {"choices": BACKGROUNDS, "default": d.background}),
+        ("--quantize", {"choices": QUANTIZE_MODES, "default": d.quantize}),
+        ("--protocol", {"choices": PROTOCOL_NAMES, "default": d.protocol}),
+        ("--workers", {"type": int, "default": d.workers, "metavar": "N"}),
+        ("--cache-mb", {"type": int, "default": d.cache_mb, "metavar": "MB"}),
+    ):
+        r.add_argument(flag, help="as for 'dynaeval score'", **kw)
+    _add_classes_flag(r)
+    r.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+
+
+def _run_prepare(args: argparse.Namespace) -> int:
+    from dynaeval.prepare import prepare
+
+    manifest = prepare(args.gt, args.output, config_from_args(args), overwrite=args.overwrite)
+    n_flows = sum(len(c["flows"] or ()) * 2 for c in manifest["cameras"].values())
+    print(f"{len(manifest['files'])} ground-truth files, {len(manifest['cameras'])} cameras, "
+          f"{n_flows} flows prepared in {args.output} (id {manifest['id']})")
+    return EXIT_OK
 
 
 def _add_detector_command(sub: Any) -> None:
@@ -535,6 +582,8 @@ def main(argv: list[str] | None = None) -> int:
             return _run_detect(args)
         if args.command == "leaderboard":
             return _run_leaderboard(args)
+        if args.command == "prepare":
+            return _run_prepare(args)
         if args.command == "detector":
             return _run_detector(args)
         if args.command == "demo":

@@ -100,6 +100,11 @@ class ScoreConfig:
     protocol uses their weights as its source does (``nerfbaselines``: whole-frame metrics of
     the mask-multiplied images; ``dycheck``: ``mpsnr``/``mssim``/``mlpips``). None: a
     NeRFBaselines render folder's ``mask/`` or DyCheck's ``covisible/`` when found, else none."""
+    prepared: str | None = None
+    """A prepared ground truth (``dynaeval prepare GT -o PREP``, ``dynaeval.prepare``): its
+    regions and ground-truth flows are read instead of computed. Checked against the ground-truth
+    files (content hashes) and the settings before the work starts; never changes a number.
+    Recorded as ``settings["prepared"]`` (path and id)."""
 
     def __post_init__(self) -> None:
         self.metrics = _check_metrics(self.metrics)
@@ -138,6 +143,13 @@ class ScoreConfig:
         check_lpips_net(protocol, self.resolved_lpips_net())
         check_background(protocol, self.background)
         self.resolved_quantize()  # raises when the protocol fixes another 8-bit step
+        if self.prepared is not None:
+            from pathlib import Path
+
+            if not isinstance(self.prepared, str | Path) or not (Path(self.prepared) / "manifest.json").is_file():
+                raise InputError(f"prepared must be a folder written by 'dynaeval prepare' (with a "
+                                 f"manifest.json), got {self.prepared!r}")
+            self.prepared = str(self.prepared)
         if self.shard is not None:
             from dynaeval.io.frames import parse_shard
 

@@ -111,6 +111,12 @@ def score(
     try:
         masks, mask_warnings = _given_masks(config, layout, pairing.pairs)
         run = prepare_run(config, masks)
+        if config.prepared is not None:  # checked against the files and settings before the work
+            from dynaeval.prepare import open_prepared
+
+            run.prepared = open_prepared(config.prepared, layout.gt, pairing.pairs, run.config,
+                                         run.sources)
+            run.settings["prepared"] = run.prepared.describe()
     except BaseException:
         progress.close(completed=False)
         raise

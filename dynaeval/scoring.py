@@ -67,6 +67,8 @@ class Run:
     """``dynaeval.io.masks.MaskSet`` of given masks (``masked_*`` over them), or None."""
     protocol: Any = None
     """The run's ``dynaeval.metrics.protocols.Protocol``."""
+    prepared: Any = None
+    """``dynaeval.prepare.PreparedGT`` of ``--prepared`` (regions and flows read), or None."""
 
     def add_time(self, times: dict[str, float]) -> None:
         with self.lock:
@@ -337,13 +339,15 @@ def camera_regions_of(camera: str, pairs: list[FramePair], run: Run,
     from dynaeval.regions.focus import camera_regions
 
     t0 = time.perf_counter()
+    regions = run.prepared.regions(camera) if run.prepared is not None else None
     try:
-        first_gt = load_gt(pairs[0], run.config, cache)
-        regions = camera_regions(
-            camera, [p.frame for p in pairs],
-            lambda i: load_gt(pairs[i], run.config, cache),
-            first_gt.shape[:2], run.sources, run.pool, paths=[p.gt for p in pairs],
-        )
+        if regions is None:  # not prepared (dynaeval prepare): found here
+            first_gt = load_gt(pairs[0], run.config, cache)
+            regions = camera_regions(
+                camera, [p.frame for p in pairs],
+                lambda i: load_gt(pairs[i], run.config, cache),
+                first_gt.shape[:2], run.sources, run.pool, paths=[p.gt for p in pairs],
+            )
         if run.masks is not None:
             from dynaeval.regions.given import given_masks
 
@@ -575,6 +579,7 @@ def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], run:
         static_mask=static,
         region_masks=region_masks,
         config=tcfg,
+        flow_cache=run.prepared.flow_cache() if run.prepared is not None else None,
         executor=run.pool,
         window=2 * config.workers,
         on_pair=run.on_pair,

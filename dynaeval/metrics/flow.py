@@ -198,17 +198,21 @@ class FlowCache:
     Memory: a flow is ``8 * H * W`` bytes (16.6 MB at 1920x1080, 4.1 MB at 960x540). The
     in-memory part is an LRU bounded by ``max_bytes``; with ``directory`` set, every flow is also
     written there as ``<key>.npy`` and read back on a later miss (unbounded: you choose the disk).
+    ``known`` maps keys to ``.npy`` files of flows computed beforehand (a prepared ground truth,
+    ``dynaeval prepare``): read on a miss, never written.
     Thread-safe: flows are computed outside the lock, so threads computing different pairs run
     in parallel (two threads asking for one new pair may both compute it; the numbers agree).
     """
 
-    def __init__(self, max_bytes: int = 1 << 30, directory: str | Path | None = None) -> None:
+    def __init__(self, max_bytes: int = 1 << 30, directory: str | Path | None = None,
+                 known: dict[str, Path] | None = None) -> None:
         if max_bytes < 0:
             raise InputError(f"FlowCache max_bytes must be >= 0, got {max_bytes}")
         self.max_bytes = int(max_bytes)
         self.directory = None if directory is None else Path(directory)
         if self.directory is not None:
             self.directory.mkdir(parents=True, exist_ok=True)
+        self.known = dict(known or {})
         self._items: OrderedDict[str, np.ndarray] = OrderedDict()
         self._lock = threading.Lock()
         self._bytes = 0
@@ -249,8 +253,9 @@ class FlowCache:
                 self.hits += 1
                 return self._items[k]
         path = None if self.directory is None else self.directory / f"{k}.npy"
-        if path is not None and path.exists():
-            flow = np.load(path)
+        stored = self.known.get(k, path)
+        if stored is not None and stored.exists():
+            flow = np.load(stored)
             hit = True
         else:
             flow = _flow_from_gray(ga, gb, config)

@@ -24,7 +24,7 @@ LAYERS = {
     "regions": ("dynaeval.regions",),
     "metrics": ("dynaeval.metrics",),
     "evaluate": ("dynaeval.config", "dynaeval.scoring", "dynaeval.evaluate",
-                 "dynaeval.distributed"),
+                 "dynaeval.distributed", "dynaeval.prepare"),
     "report": ("dynaeval.report",),
     "cli": ("dynaeval.cli", "dynaeval.__main__"),
 }

@@ -1,0 +1,323 @@
+"""Ground truth prepared once: ``dynaeval prepare GT -o PREP``, then ``score ... --prepared PREP``.
+
+What a scoring run computes from the ground truth alone is the same for every method scored on
+one scene: the regions of every frame (detector boxes, motion masks, the camera's motion check)
+and the ground-truth optical flows of every consecutive pair (forward and backward, the two of
+the three flows a temporal pair needs). :func:`prepare` computes them once, with the same code
+and settings a run uses, and writes them into a folder (``dynaeval.io.prepared``):
+
+* ``manifest.json``: format version, dynaeval version, the settings that change these numbers
+  (:func:`prepared_settings`: focus source, expansion, detector or boxes file with its SHA-256,
+  motion masks, background, 8-bit step, flow estimator), the blake2b of every ground-truth file,
+  and per camera its frames, the JSON part of its regions and the keys of its flows;
+* ``regions/<i>.npz`` (compressed): camera ``i``'s boxes and bit-packed motion masks;
+* ``flows/<key>.npy``: float32 ``(H, W, 2)`` flows (16.6 MB at 1920x1080), named by the flow
+  cache's content key (``FlowCache.key``: both gray frames' hashes and the flow settings).
+
+:func:`open_prepared` checks a folder against a run before any frame is scored: other settings,
+another dynaeval version or format, a ground-truth file that changed or is not in the folder:
+``InputError`` naming the setting or the file. A camera whose frames differ from the prepared
+ones (``--allow-missing``) gets its regions computed again; its flows are content-keyed, so a
+flow is only ever reused for the very same pair of ground-truth images. The numbers are those of
+a run without ``--prepared``, bit for bit (tests/dynaeval/test_prepare.py).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dynaeval.config import ScoreConfig
+from dynaeval.errors import InputError, UndefinedMetricError
+from dynaeval.io import FramePair
+from dynaeval.io.frames import FrameRef
+from dynaeval.io.prepared import FORMAT_VERSION, MANIFEST, file_digest, manifest_id, read_manifest
+from dynaeval.regions.focus import FrameRegions
+
+__all__ = ["PreparedGT", "open_prepared", "prepare", "prepared_settings"]
+
+
+def _jsonable(value: Any) -> Any:
+    return json.loads(json.dumps(value, default=str))
+
+
+def prepared_settings(config: ScoreConfig, sources: Any) -> dict[str, Any]:
+    """The settings a prepared ground truth depends on (``config``'s, ``sources`` opened from
+    its focus): compared key by key when it is used."""
+    from dynaeval.metrics.flow import FlowConfig
+
+    return _jsonable({
+        "background": config.background, "quantize": config.resolved_quantize(),
+        "focus": sources.settings,
+        "flow": FlowConfig(method=config.flow).describe() if config.temporal else None,
+    })
+
+
+def _by_camera(pairs: list[FramePair]) -> dict[str, list[FramePair]]:
+    out: dict[str, list[FramePair]] = {}
+    for p in pairs:
+        out.setdefault(p.camera, []).append(p)
+    return out
+
+
+def _rel(ref: FrameRef, root: Path) -> str:
+    """The file of ``ref`` relative to the ground-truth root, POSIX, ``#index`` for a video frame."""
+    rel = Path(os.path.relpath(ref.path.resolve(), root.resolve())).as_posix()
+    return rel if ref.index is None else f"{rel}#{ref.index}"
+
+
+# --------------------------------------------------------------------------------------------
+# Writing
+
+
+def prepare(gt_dir: str | Path, out: str | Path, config: ScoreConfig | None = None, *,
+            overwrite: bool = False, **overrides: Any) -> dict[str, Any]:
+    """Compute what scoring depends on from the ground truth alone and write it to ``out``.
+
+    Args:
+        gt_dir: ground-truth frames (images, one sub-folder per camera, or videos).
+        out: the folder to write (atomically; an existing one only with ``overwrite``).
+        config: the settings of the runs that will use it (default ``ScoreConfig()``); its focus,
+            background, quantize, temporal and flow fields matter, ``workers`` and ``progress``
+            are used; keyword ``overrides`` replace fields.
+
+    Returns:
+        The manifest written (``id``: the prepared ground truth's id).
+
+    Raises:
+        InputError: ``out`` exists, bad ground truth or settings (before the work starts).
+    """
+    from dynaeval.io import pair_frames
+    from dynaeval.io.prepared import write_folder_atomic
+    from dynaeval.progress import Progress
+    from dynaeval.regions.focus import open_sources
+    from dynaeval.scoring import Run
+
+    config = replace(config or ScoreConfig(), **overrides)
+    config = replace(config, quantize=config.resolved_quantize())
+    gt_dir, out = Path(gt_dir), Path(out)
+    if out.exists() and not overwrite:
+        raise InputError("prepared folder exists; pass --overwrite or choose another -o", path=out)
+    if not out.parent.is_dir():
+        raise InputError("folder for the prepared ground truth does not exist", path=out.parent)
+    pairing = pair_frames(gt_dir, gt_dir)
+    sources = open_sources(config.focus)
+    run = Run(config, {}, {}, list(sources.warnings), sources)
+    cams = _by_camera(pairing.pairs)
+    progress = Progress({"regions": len(pairing.pairs),
+                         "pairs": sum(len(c) - 1 for c in cams.values()) if config.temporal else 0},
+                        enabled=config.progress)
+    from dynaeval import __version__
+
+    manifest: dict[str, Any] = {
+        "format_version": FORMAT_VERSION, "dynaeval_version": __version__,
+        "gt": str(gt_dir.resolve()), "settings": prepared_settings(config, sources),
+        "files": {}, "cameras": {},
+    }
+
+    def fill(tmp: Path) -> None:
+        (tmp / "regions").mkdir()
+        (tmp / "flows").mkdir()
+        for p in pairing.pairs:
+            manifest["files"].setdefault(_rel(p.gt, gt_dir).split("#")[0], file_digest(p.gt.path))
+        for i, (cam, pairs) in enumerate(cams.items()):
+            progress.set_note(f"camera {cam}")
+            manifest["cameras"][cam] = _prepare_camera(i, cam, pairs, run, gt_dir, tmp, progress)
+        manifest["id"] = manifest_id(manifest)
+        (tmp / MANIFEST).write_text(json.dumps(manifest, indent=1) + "\n", encoding="utf-8")
+
+    from concurrent.futures import ThreadPoolExecutor
+
+    run.pool = ThreadPoolExecutor(config.workers) if config.workers > 1 else None
+    completed = False
+    try:
+        write_folder_atomic(out, fill, overwrite=overwrite, what="prepared folder")
+        completed = True
+    finally:
+        progress.close(completed)
+        if run.pool:
+            run.pool.shutdown()
+    return manifest
+
+
+def _prepare_camera(i: int, cam: str, pairs: list[FramePair], run: Any, gt_dir: Path,
+                    tmp: Path, progress: Any) -> dict[str, Any]:
+    """Camera ``cam``'s manifest entry; its regions and flows written under ``tmp``."""
+    from dynaeval.io.cache import FrameCache
+    from dynaeval.scoring import camera_regions_of
+
+    cache = FrameCache(run.config.cache_mb * 2**20)
+    regions = camera_regions_of(cam, pairs, run, cache)
+    progress.advance("regions", len(pairs))
+    entry: dict[str, Any] = {"frames": [[p.frame, _rel(p.gt, gt_dir)] for p in pairs],
+                             "regions": None, "flows": None}
+    if regions and regions[0].not_video is None:  # no video: computed again when scored
+        entry["regions"] = _save_regions(regions, tmp / "regions" / f"{i}.npz")
+        if run.config.temporal:
+            entry["flows"] = _save_flows(pairs, run, cache, tmp / "flows", progress)
+    if run.config.temporal:
+        progress.advance("pairs", max(len(pairs) - 1, 0) - len(entry["flows"] or ()))
+    return entry
+
+
+_FIELDS = ("boxes", "raw_boxes", "mask")
+
+
+def _save_regions(regions: list[FrameRegions], path: Path) -> dict[str, Any]:
+    """Write the arrays of a camera's regions to ``path`` (npz, masks bit-packed); returns the
+    JSON part (reasons, records, sizes, the camera's motion check)."""
+    arrays: dict[str, np.ndarray] = {}
+    frames = []
+    for k, r in enumerate(regions):
+        for name in _FIELDS:
+            value = getattr(r, name)
+            if value is not None:
+                arrays[f"{name}{k}"] = np.packbits(value.ravel()) if name == "mask" else value
+        frames.append({"boxes_reason": r.boxes_reason, "mask_reason": r.mask_reason,
+                       "records": r.records, "size": r.size,
+                       "mask_shape": None if r.mask is None else list(r.mask.shape)})
+    np.savez_compressed(path, **arrays)
+    return {"file": f"regions/{path.name}", "frames": _jsonable(frames),
+            "camera_motion": _jsonable(regions[0].camera_motion)}
+
+
+def _save_flows(pairs: list[FramePair], run: Any, cache: Any, folder: Path,
+                progress: Any) -> list[list[str]] | None:
+    """The ground-truth flows of every consecutive pair (forward, backward) as
+    ``folder/<key>.npy``; their keys, or None when the camera has no temporal terms."""
+    from dynaeval.metrics.flow import FlowCache, FlowConfig, _flow_from_gray, check_flow_size
+    from dynaeval.metrics.pair_kernels import prepare as frame_prep
+    from dynaeval.scoring import load_gt
+    from dynaeval.validation import as_image
+
+    indices = [p.index for p in pairs]
+    if len(pairs) < 2 or indices != list(range(indices[0], indices[0] + len(indices))):
+        return None
+    first = load_gt(pairs[0], run.config, cache)
+    try:
+        check_flow_size(first.shape)
+    except UndefinedMetricError:
+        return None
+    flow_cfg = FlowConfig(method=run.config.flow)
+
+    def gray(k: int) -> Any:
+        g = as_image(load_gt(pairs[k], run.config, cache))
+        return frame_prep(g, g)
+
+    def pair(k: int) -> list[str]:
+        a, b = gray(k), gray(k + 1)
+        keys = []
+        for x, y in ((a, b), (b, a)):
+            key = FlowCache.key(x.gray_gt, y.gray_gt, flow_cfg, (x.digests[1], y.digests[1]))
+            np.save(folder / f"{key}.npy", _flow_from_gray(x.gray_gt, y.gray_gt, flow_cfg))
+            keys.append(key)
+        progress.advance("pairs")
+        return keys
+
+    ks = range(len(pairs) - 1)
+    return list(run.pool.map(pair, ks)) if run.pool else [pair(k) for k in ks]
+
+
+# --------------------------------------------------------------------------------------------
+# Reading
+
+
+@dataclass
+class PreparedGT:
+    """A prepared ground truth checked against one run: regions by camera, flows by key."""
+
+    path: Path
+    manifest: dict[str, Any]
+    reuse: dict[str, bool] = field(default_factory=dict)
+    """Camera -> its prepared regions match the run's frames (else computed again)."""
+
+    def regions(self, camera: str) -> list[FrameRegions] | None:
+        """The prepared regions of ``camera``, or None when they are computed again."""
+        if not self.reuse.get(camera):
+            return None
+        entry = self.manifest["cameras"][camera]["regions"]
+        motion = entry["camera_motion"]  # one dict shared by the camera's frames, as computed
+        out = []
+        with np.load(self.path / entry["file"]) as arrays:
+            for k, f in enumerate(entry["frames"]):
+                got = {n: arrays[f"{n}{k}"] if f"{n}{k}" in arrays else None for n in _FIELDS}
+                if got["mask"] is not None:
+                    h, w = f["mask_shape"]
+                    got["mask"] = np.unpackbits(got["mask"], count=h * w).reshape(h, w).view(bool)
+                out.append(FrameRegions(
+                    boxes=got["boxes"], boxes_reason=f["boxes_reason"], mask=got["mask"],
+                    mask_reason=f["mask_reason"], raw_boxes=got["raw_boxes"], records=f["records"],
+                    size=None if f["size"] is None else tuple(f["size"]), camera_motion=motion))
+        return out
+
+    def flow_cache(self) -> Any:
+        """A flow cache (64 MiB in memory, as the run's own) that reads the prepared flows."""
+        from dynaeval.metrics.flow import FlowCache
+
+        known = {k: self.path / "flows" / f"{k}.npy"
+                 for cam in self.manifest["cameras"].values() for pair in cam["flows"] or ()
+                 for k in pair}
+        return FlowCache(max_bytes=1 << 26, known=known)
+
+    def describe(self) -> dict[str, Any]:
+        """``settings["prepared"]`` of the results."""
+        return {"path": str(self.path), "id": self.manifest["id"],
+                "regions_reused": [c for c, ok in self.reuse.items() if ok],
+                "regions_computed": [c for c, ok in self.reuse.items() if not ok]}
+
+
+def open_prepared(path: str | Path, gt_root: Path, pairs: list[FramePair],
+                  config: ScoreConfig, sources: Any) -> PreparedGT:
+    """Check the prepared ground truth at ``path`` against a run (its ground-truth folder, its
+    pairs, its settings) and open it.
+
+    Raises:
+        InputError: not a prepared folder; another format or dynaeval version; a setting that
+            differs (named, with both values); a ground-truth file that is not in it or changed
+            since (named).
+    """
+    from dynaeval import __version__
+
+    path = Path(path)
+    manifest = read_manifest(path)
+    where = path / MANIFEST
+    if manifest.get("dynaeval_version") != __version__:
+        raise InputError(f"prepared with dynaeval {manifest.get('dynaeval_version')}, this is "
+                         f"{__version__}: prepare it again", path=where)
+    _check_settings(manifest["settings"], prepared_settings(config, sources), where)
+    digests: dict[str, str] = {}
+    for p in pairs:
+        rel = _rel(p.gt, gt_root).split("#")[0]
+        if rel in digests:
+            continue
+        if rel not in manifest["files"]:
+            raise InputError("ground-truth file is not in the prepared ground truth "
+                             f"{path} (added since?): run 'dynaeval prepare' again", path=p.gt.path)
+        digests[rel] = file_digest(p.gt.path)
+        if digests[rel] != manifest["files"][rel]:
+            raise InputError(f"ground-truth file changed since it was prepared in {path}: run "
+                             "'dynaeval prepare' again", path=p.gt.path)
+    prepared = PreparedGT(path, manifest)
+    for cam, cam_pairs in _by_camera(pairs).items():
+        entry = manifest["cameras"].get(cam)
+        frames = [[p.frame, _rel(p.gt, gt_root)] for p in cam_pairs]
+        prepared.reuse[cam] = bool(entry and entry["regions"] and entry["frames"] == frames)
+    return prepared
+
+
+def _check_settings(prepared: dict[str, Any], run: dict[str, Any], where: Path) -> None:
+    """InputError naming the first setting of the run that differs from the prepared one's."""
+    for key, value in run.items():
+        got = prepared.get(key)
+        if key == "flow" and (value is None or got is None):
+            continue  # no temporal terms in the run, or no flows prepared (computed as usual)
+        if got != value:
+            raise InputError(
+                f"setting {key!r} differs from the prepared ground truth's: prepared "
+                f"{json.dumps(got)}, this run {json.dumps(value)}; score with the prepared "
+                "settings or run 'dynaeval prepare' again with these", path=where)

@@ -1,0 +1,172 @@
+"""``dynaeval prepare``: a prepared ground truth gives the numbers of a run without it, bit for bit,
+and is refused (exit 2, naming the file or the setting) when the ground truth or a setting changed."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from dynaeval import score
+from dynaeval.cli import main, sample_dir
+from dynaeval.errors import InputError
+from dynaeval.prepare import prepare
+from dynaeval.regions.focus import FocusConfig
+
+SAMPLE = sample_dir()
+FAST = {"metrics": ("psnr", "ssim"), "progress": False}
+VOLATILE = ("timing", "created")
+
+
+def _comparable(results: dict) -> dict:
+    """The results without what may differ between equal runs (timing, date) and the record of
+    the prepared ground truth itself."""
+    doc = json.loads(json.dumps(results))
+    for key in VOLATILE:
+        doc.pop(key, None)
+    doc["settings"].pop("prepared", None)
+    return doc
+
+
+@pytest.fixture(scope="module")
+def prepared_motion(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("prep") / "motion"
+    prepare(SAMPLE / "gt", out, focus=FocusConfig(source="motion"), progress=False)
+    return out
+
+
+@pytest.mark.parametrize("source", ["motion", "detector"])
+@pytest.mark.parametrize("workers", [1, 2])
+def test_prepared_results_are_bit_identical(tmp_path, prepared_motion, source, workers):
+    focus = FocusConfig(source=source)
+    if source == "motion":
+        prep = prepared_motion
+    else:
+        prep = tmp_path / "prep"
+        prepare(SAMPLE / "gt", prep, focus=focus, progress=False, workers=workers)
+    plain = score(SAMPLE / "pred", SAMPLE / "gt", focus=focus, workers=workers, **FAST)
+    fast = score(SAMPLE / "pred", SAMPLE / "gt", focus=focus, workers=workers, prepared=str(prep),
+                 **FAST)
+    assert _comparable(fast) == _comparable(plain)
+    used = fast["settings"]["prepared"]
+    assert used["path"] == str(prep) and used["regions_reused"] == ["cam07", "eval00"]
+    assert used["id"] == json.loads((prep / "manifest.json").read_text())["id"]
+    assert "prepared" not in plain["settings"]
+
+
+def test_prepared_flows_are_read_not_computed(prepared_motion, monkeypatch):
+    """The ground-truth flows come from the folder: only the predictions' flows are computed."""
+    from dynaeval.metrics import flow
+
+    calls = []
+    real = flow._flow_from_gray
+    monkeypatch.setattr(flow, "_flow_from_gray", lambda *a: calls.append(1) or real(*a))
+    score(SAMPLE / "pred", SAMPLE / "gt", focus=FocusConfig(source="motion"),
+          prepared=str(prepared_motion), **FAST)
+    assert len(calls) == 14  # 2 cameras x 7 pairs, one prediction flow each (GT: 2 x 14 read)
+
+
+def _copy_gt(tmp_path: Path) -> Path:
+    gt = tmp_path / "gt"
+    shutil.copytree(SAMPLE / "gt", gt)
+    return gt
+
+
+def test_changed_gt_file_refused_with_exit_2_naming_it(tmp_path, capsys):
+    gt = _copy_gt(tmp_path)
+    prep = tmp_path / "prep"
+    assert main(["prepare", str(gt), "-o", str(prep), "--focus", "motion", "-q"]) == 0
+    victim = sorted((gt / "cam07").iterdir())[3]
+    other = sorted((gt / "cam07").iterdir())[4]
+    victim.write_bytes(other.read_bytes())  # same size, other content
+    out = tmp_path / "r.json"
+    code = main(["score", str(SAMPLE / "pred"), str(gt), "--focus", "motion", "--no-lpips", "-q",
+                 "--prepared", str(prep), "-o", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and str(victim) in err and "changed since it was prepared" in err
+    assert not out.exists()
+
+
+def test_added_gt_file_refused(tmp_path, prepared_motion):
+    gt = _copy_gt(tmp_path)
+    pred = tmp_path / "pred"
+    shutil.copytree(SAMPLE / "pred", pred)
+    for root in (gt, pred):
+        shutil.copy(root / "cam07" / "0007.png", root / "cam07" / "0008.png")
+    with pytest.raises(InputError, match="not in the prepared ground truth") as err:
+        score(pred, gt, focus=FocusConfig(source="motion"), prepared=str(prepared_motion), **FAST)
+    assert err.value.path is not None and str(err.value.path).endswith("0008.png")
+
+
+@pytest.mark.parametrize(("override", "setting"), [
+    ({"focus": FocusConfig(source="motion", expand="margin")}, "focus"),
+    ({"focus": FocusConfig(source="motion"), "flow": "farneback"}, "flow"),
+    ({"focus": FocusConfig(source="motion"), "background": "black"}, "background"),
+])
+def test_mismatched_setting_refused_naming_it(prepared_motion, override, setting):
+    with pytest.raises(InputError, match=f"setting '{setting}' differs"):
+        score(SAMPLE / "pred", SAMPLE / "gt", prepared=str(prepared_motion), **FAST, **override)
+
+
+def test_mismatched_setting_exit_2(prepared_motion, capsys):
+    code = main(["score", str(SAMPLE / "pred"), str(SAMPLE / "gt"), "--focus", "detector",
+                 "--no-lpips", "-q", "--prepared", str(prepared_motion)])
+    assert code == 2 and "setting 'focus' differs" in capsys.readouterr().err
+
+
+def test_edited_manifest_refused(tmp_path, prepared_motion):
+    prep = tmp_path / "prep"
+    shutil.copytree(prepared_motion, prep)
+    manifest = json.loads((prep / "manifest.json").read_text())
+    manifest["settings"]["focus"]["expand"]["scale_x"] = 6.0
+    (prep / "manifest.json").write_text(json.dumps(manifest))
+    with pytest.raises(InputError, match="changed after it was written"):
+        score(SAMPLE / "pred", SAMPLE / "gt", focus=FocusConfig(source="motion"),
+              prepared=str(prep), **FAST)
+
+
+def test_no_clobber_and_atomic(tmp_path, prepared_motion, monkeypatch, capsys):
+    prep = tmp_path / "prep"
+    prep.mkdir()
+    (prep / "mine.txt").write_text("keep")
+    code = main(["prepare", str(SAMPLE / "gt"), "-o", str(prep), "--focus", "motion", "-q"])
+    assert code == 2 and "pass --overwrite" in capsys.readouterr().err
+    assert [p.name for p in prep.iterdir()] == ["mine.txt"]
+    from dynaeval import prepare as module
+
+    def boom(*a, **k):
+        raise RuntimeError("interrupted")
+
+    monkeypatch.setattr(module, "_save_flows", boom)  # fails halfway through the first camera
+    with pytest.raises(RuntimeError):
+        prepare(SAMPLE / "gt", prep, focus=FocusConfig(source="motion"), progress=False,
+                overwrite=True)
+    assert [p.name for p in prep.iterdir()] == ["mine.txt"]  # untouched
+    assert [p.name for p in tmp_path.iterdir()] == ["prep"]  # no temporary folder left
+    monkeypatch.undo()
+    prepare(SAMPLE / "gt", prep, focus=FocusConfig(source="motion"), progress=False,
+            overwrite=True)
+    assert (prep / "manifest.json").is_file() and not (prep / "mine.txt").exists()
+
+
+def test_cli_round_trip(tmp_path, capsys):
+    prep, a, b = tmp_path / "prep", tmp_path / "a.json", tmp_path / "b.json"
+    assert main(["prepare", str(SAMPLE / "gt"), "-o", str(prep), "--focus", "motion", "-q",
+                 "--workers", "2"]) == 0
+    assert "28 flows prepared" in capsys.readouterr().out
+    flows = list((prep / "flows").glob("*.npy"))
+    assert len(flows) == 28 and np.load(flows[0]).dtype == np.float32
+    args = [str(SAMPLE / "pred"), str(SAMPLE / "gt"), "--focus", "motion", "--no-lpips", "-q"]
+    assert main(["score", *args, "-o", str(a)]) == 0
+    assert main(["score", *args, "--prepared", str(prep), "-o", str(b)]) == 0
+    ra, rb = (json.loads(p.read_text()) for p in (a, b))
+    assert rb["settings"]["prepared"]["path"] == str(prep)
+    assert _comparable(ra) == _comparable(rb)
+
+
+def test_missing_prepared_folder_is_an_input_error(tmp_path):
+    with pytest.raises(InputError, match="dynaeval prepare"):
+        score(SAMPLE / "pred", SAMPLE / "gt", prepared=str(tmp_path / "nope"), **FAST)
