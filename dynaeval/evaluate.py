@@ -117,6 +117,7 @@ def score(
             run.prepared = open_prepared(config.prepared, layout.gt, pairing.pairs, run.config,
                                          run.sources)
             run.settings["prepared"] = run.prepared.describe()
+            run.warnings.extend(run.prepared.warnings())
     except BaseException:
         progress.close(completed=False)
         raise

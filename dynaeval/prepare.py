@@ -265,10 +265,16 @@ class PreparedGT:
         return FlowCache(max_bytes=1 << 26, known=known)
 
     def describe(self) -> dict[str, Any]:
-        """``settings["prepared"]`` of the results."""
-        return {"path": str(self.path), "id": self.manifest["id"],
-                "regions_reused": [c for c, ok in self.reuse.items() if ok],
-                "regions_computed": [c for c, ok in self.reuse.items() if not ok]}
+        """``settings["prepared"]`` of the results: the folder and its id (the same for every
+        shard of a run, so that ``dynaeval merge`` combines them)."""
+        return {"path": str(self.path), "id": self.manifest["id"]}
+
+    def warnings(self) -> list[dict[str, str]]:
+        """One results warning per camera whose regions were computed again."""
+        return [{"camera": cam, "reason": (
+            "regions computed again, not read from the prepared ground truth: the camera's "
+            "frames differ from the prepared ones (or it is no video)")}
+            for cam, ok in self.reuse.items() if not ok]
 
 
 def open_prepared(path: str | Path, gt_root: Path, pairs: list[FramePair],

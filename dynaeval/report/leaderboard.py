@@ -47,9 +47,12 @@ RUN_IGNORED_SETTINGS = (
     "focus.detector.onnxruntime",
     "focus.detector.outputs_note",
     "masks.folder",
+    "prepared.path",
+    "prepared.id",
 )
 """Run settings that never change a number (paths, devices, the text saying which detector
-output was taken as what: ``focus.detector.outputs`` is compared): not compared."""
+output was taken as what: ``focus.detector.outputs`` is compared; a prepared ground truth,
+``--prepared``, which gives the same numbers): not compared."""
 
 
 def _ignored_settings() -> tuple[str, ...]:

@@ -1,0 +1,119 @@
+"""A method scored against a prepared ground truth (``dynaeval prepare``) against the first,
+unprepared scoring of it, as a ratio measured in one run.
+
+``python benchmarks/prepared_speed.py [--job DIR] [--rounds N] [--out docs/benchmarks.md]``
+
+The job is ``benchmarks.temporal_speed.make_job``'s (the bundled sample, 2 cameras x 8 frames,
+upscaled to 1920x1080). ``dynaeval prepare JOB/gt -o PREP --focus motion`` runs once (timed);
+then ``dynaeval score JOB/pred JOB/gt --focus motion --no-lpips`` without and with
+``--prepared PREP`` run in child processes, alternating (A, B, A, B, ...) after a warm-up
+round, best of ``--rounds`` wall times each: the ratio of the two is the speed-up. The two
+results documents must be equal apart from timing, date and ``settings.prepared``. Also given:
+the size of the prepared folder per frame and where the unprepared run's time goes (its
+``timing``). Section ``prepared`` of docs/benchmarks.md (``--out``) is replaced in place.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shlex
+import subprocess
+import sys
+import tempfile
+import time
+from datetime import datetime, timezone
+from pathlib import Path
+
+COMMAND = "python benchmarks/prepared_speed.py"
+SCORE_ARGS = ["--focus", "motion", "--no-lpips", "-q"]
+
+
+def _run(args: list[str]) -> float:
+    """Wall seconds of ``python -m dynaeval ARGS`` in a child process."""
+    t0 = time.perf_counter()
+    subprocess.run([sys.executable, "-m", "dynaeval", *args], check=True,
+                   stdout=subprocess.DEVNULL)
+    return time.perf_counter() - t0
+
+
+def _comparable(path: Path) -> dict:
+    doc = json.loads(path.read_text())
+    for key in ("timing", "created"):
+        doc.pop(key, None)
+    doc["settings"].pop("prepared", None)
+    return doc
+
+
+def _size_mb(folder: Path, pattern: str) -> float:
+    return sum(p.stat().st_size for p in folder.rglob(pattern)) / 1e6
+
+
+def bench_prepared(job: Path, rounds: int) -> str:
+    """Markdown: prepare once, then unprepared and prepared scoring alternating."""
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        prep = tmp / "prep"
+        t_prep = _run(["prepare", str(job / "gt"), "-o", str(prep), "--focus", "motion", "-q"])
+        outs = {"first": tmp / "first.json", "prepared": tmp / "prepared.json"}
+        extra = {"first": [], "prepared": ["--prepared", str(prep)]}
+
+        def score(name: str) -> float:
+            return _run(["score", str(job / "pred"), str(job / "gt"), *SCORE_ARGS, *extra[name],
+                         "-o", str(outs[name]), "--overwrite"])
+
+        for name in outs:  # warm-up (page cache, imports)
+            score(name)
+        best = dict.fromkeys(outs, float("inf"))
+        for _ in range(rounds):
+            for name in outs:
+                best[name] = min(best[name], score(name))
+        same = _comparable(outs["first"]) == _comparable(outs["prepared"])
+        timing = json.loads(outs["first"].read_text())["timing"]
+        timing_p = json.loads(outs["prepared"].read_text())["timing"]
+        n_frames = len(json.loads(outs["first"].read_text())["frames"])
+        flows_mb, regions_mb = _size_mb(prep, "*.npy"), _size_mb(prep, "*.npz")
+        n_flows = len(list(prep.rglob("*.npy")))
+    ratio = best["first"] / best["prepared"]
+    return "\n".join([
+        f"`python -m dynaeval score {job}/pred {job}/gt {' '.join(SCORE_ARGS)} [--prepared PREP]` "
+        f"in a child process (2 cameras x 8 frames, 1920x1080, 1 worker), without and with "
+        f"`--prepared`, alternating after a warm-up round, best of {rounds} wall times each. "
+        f"Results documents equal apart from timing, date and `settings.prepared`: "
+        f"{'yes' if same else 'NO'}.", "",
+        "| run | wall s | regions s | temporal s |", "|---|---:|---:|---:|",
+        f"| `dynaeval prepare {job}/gt -o PREP --focus motion` (once) | {t_prep:.1f} | — | — |",
+        f"| first scoring (no `--prepared`) | {best['first']:.1f} | {timing.get('regions', 0):.1f} "
+        f"| {timing.get('temporal', 0):.1f} |",
+        f"| scoring with `--prepared PREP` | {best['prepared']:.1f} | "
+        f"{timing_p.get('regions', 0):.1f} | {timing_p.get('temporal', 0):.1f} |", "",
+        f"Speed-up of a method scored against the prepared ground truth: **{ratio:.2f}x** "
+        "(target >= 1.6x). Regions and temporal seconds are the last run's `timing`.", "",
+        f"Size of PREP: {n_flows} flows, {flows_mb:.1f} MB ({flows_mb / max(n_frames, 1):.1f} MB per "
+        f"frame: 2 float32 flows of 8.3 MB per consecutive pair), regions {regions_mb:.2f} MB "
+        "(compressed npz, motion masks bit-packed).",
+    ])
+
+
+def main(argv: list[str] | None = None) -> int:
+    from benchmarks.sections import put_section
+    from benchmarks.temporal_speed import make_job
+
+    parser = argparse.ArgumentParser(prog=COMMAND, description=__doc__.split("\n")[0])
+    parser.add_argument("--job", default="/tmp/dynaeval-bench-1080p", help="job folder (made if missing)")
+    parser.add_argument("--rounds", type=int, default=3, help="alternating timed rounds (best kept)")
+    parser.add_argument("--out", default="docs/benchmarks.md", help="markdown file ('-': print only)")
+    args = parser.parse_args(argv)
+    command = COMMAND + " " + shlex.join(argv if argv is not None else sys.argv[1:])
+    started = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    body = bench_prepared(make_job(args.job), args.rounds)
+    text = (f"## Ground truth prepared once (`dynaeval prepare`)\n\nCommand: `{command}` — run "
+            f"{started}.\n\n{body}\n")
+    print(text)
+    if args.out != "-":
+        put_section(args.out, "prepared", text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
