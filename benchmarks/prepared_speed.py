@@ -88,9 +88,10 @@ def bench_prepared(job: Path, rounds: int) -> str:
         f"| scoring with `--prepared PREP` | {best['prepared']:.1f} | "
         f"{timing_p.get('regions', 0):.1f} | {timing_p.get('temporal', 0):.1f} |", "",
         f"Speed-up of a method scored against the prepared ground truth: **{ratio:.2f}x** "
-        "(target >= 1.6x). Regions and temporal seconds are the last run's `timing`.", "",
+        "(target >= 1.6x). Regions and temporal seconds: the `timing` of each path's last run "
+        "(sums of phases, not of the best run).", "",
         f"Size of PREP: {n_flows} flows, {flows_mb:.1f} MB ({flows_mb / max(n_frames, 1):.1f} MB per "
-        f"frame: 2 float32 flows of 8.3 MB per consecutive pair), regions {regions_mb:.2f} MB "
+        f"frame: 2 float32 flows of {flows_mb / max(n_flows, 1):.1f} MB per consecutive pair), regions {regions_mb:.2f} MB "
         "(compressed npz, motion masks bit-packed).",
     ])
 

@@ -38,10 +38,11 @@ def prepared_motion(tmp_path_factory) -> Path:
     return out
 
 
-@pytest.mark.parametrize("source", ["motion", "detector"])
+@pytest.mark.parametrize("source", ["motion", "detector", "boxes"])
 @pytest.mark.parametrize("workers", [1, 2])
 def test_prepared_results_are_bit_identical(tmp_path, prepared_motion, source, workers):
-    focus = FocusConfig(source=source)
+    focus = (FocusConfig.parse(f"boxes:{SAMPLE / 'boxes.json'}") if source == "boxes" else
+             FocusConfig(source=source))
     if source == "motion":
         prep = prepared_motion
     else:
@@ -56,6 +57,22 @@ def test_prepared_results_are_bit_identical(tmp_path, prepared_motion, source, w
                                                  for w in fast["warnings"])
     assert used["id"] == json.loads((prep / "manifest.json").read_text())["id"]
     assert "prepared" not in plain["settings"]
+
+
+def test_shards_with_prepared_merge_into_the_unprepared_numbers(tmp_path, prepared_motion):
+    from dynaeval.report import write_json_atomic
+    from dynaeval.report.merge import merge_results
+
+    kw = {"focus": FocusConfig(source="motion"), **FAST}
+    whole = score(SAMPLE / "pred", SAMPLE / "gt", **kw)
+    parts = []
+    for i in (1, 2):
+        part = score(SAMPLE / "pred", SAMPLE / "gt", shard=(i, 2), prepared=str(prepared_motion),
+                     **kw)
+        parts.append(write_json_atomic(tmp_path / f"s{i}.json", part))
+    merged = merge_results(parts)
+    for key in ("frames", "cameras", "summary"):
+        assert merged[key] == _comparable(whole)[key]
 
 
 def test_prepared_flows_are_read_not_computed(prepared_motion, monkeypatch):
