@@ -8,7 +8,8 @@ and settings a run uses, and writes them into a folder (``dynaeval.io.prepared``
 
 * ``manifest.json``: format version, dynaeval version, the settings that change these numbers
   (:func:`prepared_settings`: focus source, expansion, detector or boxes file with its SHA-256,
-  motion masks, background, 8-bit step, flow estimator), the blake2b of every ground-truth file,
+  motion masks, background, 8-bit step, the protocol's 16-bit decode rule, flow estimator; given
+  masks, ``--masks``, are applied on top of the prepared regions when scored), the blake2b of every ground-truth file,
   and per camera its frames, the JSON part of its regions and the keys of its flows;
 * ``regions/<i>.npz`` (compressed): camera ``i``'s boxes and bit-packed motion masks;
 * ``flows/<key>.npy``: float32 ``(H, W, 2)`` flows (16.6 MB at 1920x1080), named by the flow
@@ -50,10 +51,11 @@ def prepared_settings(config: ScoreConfig, sources: Any) -> dict[str, Any]:
     """The settings a prepared ground truth depends on (``config``'s, ``sources`` opened from
     its focus): compared key by key when it is used."""
     from dynaeval.metrics.flow import FlowConfig
+    from dynaeval.metrics.protocols import get_protocol
 
     return _jsonable({
         "background": config.background, "quantize": config.resolved_quantize(),
-        "focus": sources.settings,
+        "decode": get_protocol(config.protocol).decode, "focus": sources.settings,
         "flow": FlowConfig(method=config.flow).describe() if config.temporal else None,
     })
 

@@ -123,6 +123,7 @@ def test_added_gt_file_refused(tmp_path, prepared_motion):
     ({"focus": FocusConfig(source="motion", expand="margin")}, "focus"),
     ({"focus": FocusConfig(source="motion"), "flow": "farneback"}, "flow"),
     ({"focus": FocusConfig(source="motion"), "background": "black"}, "background"),
+    ({"focus": FocusConfig(source="motion"), "protocol": "nerfbaselines"}, "quantize"),
 ])
 def test_mismatched_setting_refused_naming_it(prepared_motion, override, setting):
     with pytest.raises(InputError, match=f"setting '{setting}' differs"):
@@ -210,3 +211,23 @@ def test_camera_with_other_frames_gets_its_regions_computed_again(tmp_path, prep
     assert [w["camera"] for w in again] == ["cam07"]
     fast["warnings"].remove(again[0])
     assert _comparable(fast) == _comparable(plain)
+
+
+def test_given_masks_apply_on_top_of_prepared_regions(tmp_path, prepared_motion):
+    import cv2
+
+    masks = tmp_path / "masks"
+    for f in sorted((SAMPLE / "gt").rglob("*.png")):
+        img = cv2.imread(str(f), cv2.IMREAD_GRAYSCALE)
+        m = np.zeros_like(img)
+        m[: img.shape[0] // 2, : img.shape[1] // 3] = 255
+        target = masks / f.relative_to(SAMPLE / "gt")
+        target.parent.mkdir(parents=True, exist_ok=True)
+        cv2.imwrite(str(target), m)
+    kw = {"focus": FocusConfig(source="motion"), "masks": str(masks), **FAST}
+    plain = score(SAMPLE / "pred", SAMPLE / "gt", **kw)
+    fast = score(SAMPLE / "pred", SAMPLE / "gt", prepared=str(prepared_motion), **kw)
+    assert "masks" in plain["settings"]
+    assert _comparable(fast) == _comparable(plain)
+    unmasked = score(SAMPLE / "pred", SAMPLE / "gt", focus=FocusConfig(source="motion"), **FAST)
+    assert fast["summary"]["masked_psnr"] != unmasked["summary"]["masked_psnr"]
