@@ -125,8 +125,10 @@ def prepare(gt_dir: str | Path, out: str | Path, config: ScoreConfig | None = No
     def fill(tmp: Path) -> None:
         (tmp / "regions").mkdir()
         (tmp / "flows").mkdir()
-        for p in pairing.pairs:
-            manifest["files"].setdefault(_rel(p.gt, gt_dir).split("#")[0], file_digest(p.gt.path))
+        for p in pairing.pairs:  # a video file once, not once per frame
+            rel = _rel(p.gt, gt_dir).split("#")[0]
+            if rel not in manifest["files"]:
+                manifest["files"][rel] = file_digest(p.gt.path)
         for i, (cam, pairs) in enumerate(cams.items()):
             progress.set_note(f"camera {cam}")
             manifest["cameras"][cam] = _prepare_camera(i, cam, pairs, run, gt_dir, tmp, progress)
