@@ -39,7 +39,7 @@ def prepared_motion(tmp_path_factory) -> Path:
 
 
 @pytest.mark.parametrize("source", ["motion", "detector", "boxes"])
-@pytest.mark.parametrize("workers", [1, 2])
+@pytest.mark.parametrize("workers", [1, 2, 3])
 def test_prepared_results_are_bit_identical(tmp_path, prepared_motion, source, workers):
     focus = (FocusConfig.parse(f"boxes:{SAMPLE / 'boxes.json'}") if source == "boxes" else
              FocusConfig(source=source))
