@@ -49,11 +49,11 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.errors import InputError
-from dynaeval.validation import check_data_range, check_pair
-from dynaeval.metrics.pixel import psnr as _psnr
 from dynaeval.boxes import as_boxes, box_iou_matrix, boxes_to_mask, clip_boxes
+from dynaeval.errors import InputError
+from dynaeval.metrics.pixel import psnr as _psnr
 from dynaeval.metrics.registry import PRESENCE_CLASSES, keys_of, result_key
+from dynaeval.validation import check_data_range, check_pair
 
 PRESENCE_METRICS = tuple(keys_of("object"))
 """Result keys of the presence check (``presence_<class>``, ``tight_psnr_<class>``), from the

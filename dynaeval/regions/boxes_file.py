@@ -35,9 +35,9 @@ from typing import Any
 
 import numpy as np
 
+from dynaeval.boxes import as_boxes
 from dynaeval.errors import InputError
 from dynaeval.io.atomic import write_text_atomic
-from dynaeval.boxes import as_boxes
 
 BOXES_SCHEMA = "dynaeval/boxes/v1"
 """Value of the ``"schema"`` field of the wrapper layout."""

@@ -31,11 +31,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from dynaeval.boxes import mask_to_box
 from dynaeval.metrics import lpips as lpips_metric
 from dynaeval.metrics import psnr_from_stats, squared_error_stats, ssim
 from dynaeval.metrics.flow import FlowCache, FlowConfig, optical_flow
 from dynaeval.metrics.temporal import TemporalConfig, temporal_metrics
-from dynaeval.boxes import mask_to_box
 from reference_models.common.paths import docs_dir
 from reference_models.studies._doc import replace_block
 

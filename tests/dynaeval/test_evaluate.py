@@ -12,7 +12,6 @@ import dynaeval
 from dynaeval import metrics as M
 from dynaeval.errors import InputError
 from dynaeval.evaluate import ScoreConfig
-from dynaeval.metrics import perceptual
 from dynaeval.regions import write_boxes_file
 from dynaeval.regions.focus import FocusConfig
 from dynaeval.report import schema_path

@@ -14,8 +14,8 @@ from dynaeval.errors import InputError
 from dynaeval.evaluate import ScoreConfig
 from dynaeval.io import pair_frames
 from dynaeval.io.cache import FrameCache
-from dynaeval.regions.focus import NOT_A_VIDEO, FocusConfig
 from dynaeval.metrics.flow import MIN_FLOW_SIZE as TEMPORAL_MIN_SIZE
+from dynaeval.regions.focus import NOT_A_VIDEO, FocusConfig
 from dynaeval.scoring import camera_regions_of, prepare_run, score_frame
 
 from .helpers import textured_frame

@@ -12,7 +12,6 @@ import pytest
 from dynaeval.cli import main
 
 
-
 def run(capsys, *args):
     code = main([str(a) for a in args])
     out, err = capsys.readouterr()

@@ -11,7 +11,6 @@ import pytest
 from dynaeval.cli import build_parser, config_from_args, main
 
 
-
 @pytest.fixture
 def no_work(monkeypatch):
     """Any scoring, detection or merging fails the test: the refusal must come before."""

@@ -71,9 +71,9 @@ def test_lossless_video_stack_scores_its_thirds_exactly(tmp_path):
     proto = get_protocol("kplanes")
     f = lambda u: u.astype(np.float32) / 255  # noqa: E731
     assert [r["psnr"] for r in res["frames"]] == pytest.approx(
-        [proto.whole_psnr(f(p), f(g)) for p, g in zip(preds, gts)], abs=1e-12)
+        [proto.whole_psnr(f(p), f(g)) for p, g in zip(preds, gts, strict=True)], abs=1e-12)
     assert res["summary"]["msssim"] == pytest.approx(
-        np.mean([ms_ssim(f(p), f(g), clip=True) for p, g in zip(preds, gts)]), abs=1e-12)
+        np.mean([ms_ssim(f(p), f(g), clip=True) for p, g in zip(preds, gts, strict=True)]), abs=1e-12)
     assert res["inputs"]["cameras"] == ["step30000"] and res["summary"]["n_frames"] == 3
     assert res["method"] == "dnerf_lego"  # the experiment's log folder, as for render folders
     stack = res["inputs"]["layout"]["stack"]

@@ -12,8 +12,8 @@ from dynaeval import metrics as M
 from dynaeval.cli import sample_dir
 from dynaeval.errors import InputError
 from dynaeval.io import read_image
-from dynaeval.regions.focus import FocusConfig
 from dynaeval.metrics.accumulate import ImageMetrics
+from dynaeval.regions.focus import FocusConfig
 
 torch = pytest.importorskip("torch")
 

@@ -12,6 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from dynaeval.boxes import boxes_to_mask
 from dynaeval.errors import EmptyRegionError, InputError
 from dynaeval.metrics import (
     SquaredErrorStats,
@@ -20,7 +21,6 @@ from dynaeval.metrics import (
     quantize,
     squared_error_stats,
 )
-from dynaeval.boxes import boxes_to_mask
 
 ATOL_DB = 1e-9
 
@@ -253,8 +253,8 @@ def test_overflowing_squared_error_is_an_error():
 @settings(max_examples=40, deadline=None)
 @given(st.lists(st.tuples(st.integers(-5, 30), st.integers(-5, 30), st.integers(1, 20), st.integers(1, 20)), min_size=1, max_size=6))
 def test_disjoint_rectangles_cover_the_union_once(raw):
-    from dynaeval.metrics.pixel import disjoint_rectangles
     from dynaeval.boxes import clip_boxes
+    from dynaeval.metrics.pixel import disjoint_rectangles
 
     boxes = clip_boxes(np.array([[x, y, x + w, y + h] for x, y, w, h in raw]), 25, 30)
     cover = np.zeros((25, 30), int)

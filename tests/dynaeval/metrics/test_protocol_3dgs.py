@@ -169,7 +169,7 @@ class LpipsPyTorchVGG(torch.nn.Module):
 
     def forward(self, x, y):
         fx, fy = self._features(x), self._features(y)
-        res = [F.conv2d((a - b) ** 2, w).mean((2, 3), True) for a, b, w in zip(fx, fy, self.lins)]
+        res = [F.conv2d((a - b) ** 2, w).mean((2, 3), True) for a, b, w in zip(fx, fy, self.lins, strict=True)]
         return torch.sum(torch.cat(res, 0), 0, True)
 
     def _features(self, x):

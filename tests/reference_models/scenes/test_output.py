@@ -6,8 +6,8 @@ import cv2
 import numpy as np
 import pytest
 
-from dynaeval.errors import InputError
 from dynaeval.boxes import mask_to_box
+from dynaeval.errors import InputError
 from dynaeval.regions.boxes_file import read_boxes_file
 from reference_models.scenes import build_scene, render_scene
 

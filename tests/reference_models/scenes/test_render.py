@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from dynaeval.errors import InputError
 from dynaeval.boxes import mask_to_box
+from dynaeval.errors import InputError
 from reference_models.scenes import PRESETS, build_scene, render_view
 from reference_models.scenes.geometry import closest_on_segment
 
