@@ -37,6 +37,9 @@ import numpy as np
 import dynaeval
 from dynaeval import __version__
 
+if not __package__:  # run as `python benchmarks/NAME.py`: make `benchmarks` importable
+    sys.path.insert(0, str(__import__("pathlib").Path(__file__).resolve().parents[1]))
+
 DEFAULT_SIZES = ("1920x1080", "960x540")
 
 

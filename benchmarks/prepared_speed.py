@@ -25,6 +25,9 @@ import time
 from datetime import datetime, timezone
 from pathlib import Path
 
+if not __package__:  # run as `python benchmarks/NAME.py`: make `benchmarks` importable
+    sys.path.insert(0, str(__import__("pathlib").Path(__file__).resolve().parents[1]))
+
 COMMAND = "python benchmarks/prepared_speed.py"
 SCORE_ARGS = ["--focus", "motion", "--no-lpips", "-q"]
 

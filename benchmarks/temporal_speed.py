@@ -43,6 +43,9 @@ from typing import Any
 
 import numpy as np
 
+if not __package__:  # run as `python benchmarks/NAME.py`: make `benchmarks` importable
+    sys.path.insert(0, str(__import__("pathlib").Path(__file__).resolve().parents[1]))
+
 COMMAND = "python benchmarks/temporal_speed.py"
 SIZE = (1080, 1920)
 
