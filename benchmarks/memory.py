@@ -1,0 +1,100 @@
+"""Peak memory of one long 1080p camera: does it stop growing at the frame-cache budget?
+
+Writes one camera of N distinct 1080p frames (the bundled sample's cam07 frames upscaled and
+cycled, each with its own moving square so no two frames are equal, predictions with fresh
+noise), scores it in a child process (``dynaeval score --focus motion --no-lpips``) and reads the
+child's peak resident set size from ``os.wait4``. Run for several N and cache budgets:
+
+    python benchmarks/memory.py --frames 16 300 --cache-mb 1024 256
+
+prints a markdown table (and writes it into docs/benchmarks.md with ``--out``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shlex
+import subprocess
+import sys
+import tempfile
+import time
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+
+if not __package__:  # run as `python benchmarks/NAME.py`: make `benchmarks` importable
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+COMMAND = "python benchmarks/memory.py"
+SIZE = (1080, 1920)
+
+
+def make_camera(dst: Path, n_frames: int, seed: int = 0) -> Path:
+    """``dst/{gt,pred}/cam/NNNN.png``: ``n_frames`` distinct 1080p frames (kept if present)."""
+    import cv2
+
+    from dynaeval.cli import sample_dir
+
+    if (dst / "gt" / "cam").is_dir() and len(list((dst / "gt" / "cam").glob("*.png"))) == n_frames:
+        return dst
+    rng = np.random.default_rng(seed)
+    base = [cv2.resize(cv2.imread(str(f)), SIZE[::-1], interpolation=cv2.INTER_CUBIC)
+            for f in sorted((sample_dir() / "gt" / "cam07").glob("*.png"))]
+    for side in ("gt", "pred"):
+        (dst / side / "cam").mkdir(parents=True, exist_ok=True)
+    for i in range(n_frames):
+        im = base[i % len(base)].copy()
+        x = 100 + (7 * i) % (SIZE[1] - 300)
+        im[500:620, x:x + 60] = (40 + i % 200, 90, 200)  # a moving square: every frame differs
+        cv2.imwrite(str(dst / "gt" / "cam" / f"{i:04d}.png"), im)
+        noisy = np.clip(im + rng.normal(0, 3, im.shape), 0, 255).astype(np.uint8)
+        cv2.imwrite(str(dst / "pred" / "cam" / f"{i:04d}.png"), noisy)
+    return dst
+
+
+def peak_rss_mb(job: Path, cache_mb: int) -> tuple[float, float]:
+    """(peak RSS in MB, wall s) of one ``dynaeval score`` child process on ``job``."""
+    with tempfile.TemporaryDirectory() as tmp:
+        cmd = [sys.executable, "-m", "dynaeval", "score", str(job / "pred"), str(job / "gt"),
+               "--focus", "motion", "--no-lpips", "-q", "--cache-mb", str(cache_mb),
+               "-o", str(Path(tmp) / "r.json")]
+        t0 = time.perf_counter()
+        proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL)
+        _, status, usage = os.wait4(proc.pid, 0)
+        wall = time.perf_counter() - t0
+        if os.waitstatus_to_exitcode(status) != 0:
+            raise SystemExit(f"dynaeval score failed on {job}: {shlex.join(cmd)}")
+    return usage.ru_maxrss / 1024, wall  # Linux: kB
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog=COMMAND, description=__doc__.split("\n")[0])
+    parser.add_argument("--frames", type=int, nargs="+", default=[16, 300])
+    parser.add_argument("--cache-mb", type=int, nargs="+", default=[1024])
+    parser.add_argument("--root", default="/tmp/dynaeval-bench-memory", help="jobs (made if missing)")
+    parser.add_argument("--out", default="-", help="markdown file to put the section in ('-': print)")
+    args = parser.parse_args(argv)
+    command = COMMAND + " " + shlex.join(argv if argv is not None else sys.argv[1:])
+    rows = ["| frames | --cache-mb | peak RSS (MB) | wall (s) |", "|---:|---:|---:|---:|"]
+    for n in args.frames:
+        job = make_camera(Path(args.root) / f"n{n}", n)
+        for mb in args.cache_mb:
+            rss, wall = peak_rss_mb(job, mb)
+            rows.append(f"| {n} | {mb} | {rss:.0f} | {wall:.1f} |")
+            print(rows[-1], flush=True)
+    started = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    text = (f"## Memory of a long 1080p camera\n\nCommand: `{command}` — run {started}. One camera "
+            "of distinct 1080p frames, `--focus motion --no-lpips`, one worker; peak resident set "
+            "size of the scoring process.\n\n" + "\n".join(rows) + "\n")
+    print(text)
+    if args.out != "-":
+        from benchmarks.sections import put_section
+
+        put_section(args.out, "memory", text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
