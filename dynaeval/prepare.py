@@ -327,7 +327,19 @@ def _check_settings(prepared: dict[str, Any], run: dict[str, Any], where: Path) 
         if key == "flow" and (value is None or got is None):
             continue  # no temporal terms in the run, or no flows prepared (computed as usual)
         if got != value:
+            name, got, value = _first_difference(key, got, value)
             raise InputError(
-                f"setting {key!r} differs from the prepared ground truth's: prepared "
+                f"setting {name!r} differs from the prepared ground truth's: prepared "
                 f"{json.dumps(got)}, this run {json.dumps(value)}; score with the prepared "
                 "settings or run 'dynaeval prepare' again with these", path=where)
+
+
+def _first_difference(key: str, a: Any, b: Any) -> tuple[str, Any, Any]:
+    """The dotted name and the two values of the first leaf where settings ``a`` and ``b``
+    differ (``focus.source``, not the whole ``focus`` dict)."""
+    while isinstance(a, dict) and isinstance(b, dict):
+        sub = next((k for k in dict.fromkeys([*a, *b]) if a.get(k) != b.get(k)), None)
+        if sub is None:
+            break
+        key, a, b = f"{key}.{sub}", a.get(sub), b.get(sub)
+    return key, a, b

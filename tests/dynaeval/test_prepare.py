@@ -120,8 +120,8 @@ def test_added_gt_file_refused(tmp_path, prepared_motion):
 
 
 @pytest.mark.parametrize(("override", "setting"), [
-    ({"focus": FocusConfig(source="motion", expand="margin")}, "focus"),
-    ({"focus": FocusConfig(source="motion"), "flow": "farneback"}, "flow"),
+    ({"focus": FocusConfig(source="motion", expand="margin")}, "focus.expand.rule"),
+    ({"focus": FocusConfig(source="motion"), "flow": "farneback"}, "flow.method"),
     ({"focus": FocusConfig(source="motion"), "background": "black"}, "background"),
     ({"focus": FocusConfig(source="motion"), "protocol": "nerfbaselines"}, "quantize"),
 ])
@@ -133,7 +133,9 @@ def test_mismatched_setting_refused_naming_it(prepared_motion, override, setting
 def test_mismatched_setting_exit_2(prepared_motion, capsys):
     code = main(["score", str(SAMPLE / "pred"), str(SAMPLE / "gt"), "--focus", "detector",
                  "--no-lpips", "-q", "--prepared", str(prepared_motion)])
-    assert code == 2 and "setting 'focus' differs" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert code == 2 and """setting 'focus.source' differs from the prepared ground truth's: """ \
+        """prepared "motion", this run "detector";""" in err
 
 
 def test_edited_manifest_refused(tmp_path, prepared_motion):
