@@ -277,8 +277,10 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("score", help="score predicted frames against ground truth",
                        description="Score PRED frames against GT frames (folders of images, one "
                                    "sub-folder per camera, or videos), or one render folder of "
-                                   "NeRFBaselines (color/ + gt-color/) or ns-render (rgb/ + "
-                                   "gt-rgb/): docs/integration.md.")
+                                   "NeRFBaselines (color/ + gt-color/), ns-render (rgb/ + "
+                                   "gt-rgb/), the 3DGS family (MODEL or MODEL/test/ours_N), "
+                                   "DyCheck, or a K-Planes step<N>.mp4 / log folder: "
+                                   "docs/integration.md.")
     p.add_argument("pred", help="folder of predicted frames, or a render folder")
     p.add_argument("gt", nargs="?",
                    help="folder of ground-truth frames, same layout (omit for a render folder)")
