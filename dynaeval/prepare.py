@@ -196,11 +196,10 @@ def _save_flows(pairs: list[FramePair], run: Any, cache: Any, folder: Path,
     ``folder/<key>.npy``; their keys, or None when the camera has no temporal terms."""
     from dynaeval.metrics.flow import FlowCache, FlowConfig, _flow_from_gray, check_flow_size
     from dynaeval.metrics.pair_kernels import prepare as frame_prep
-    from dynaeval.scoring import load_gt
+    from dynaeval.scoring import consecutive, load_gt
     from dynaeval.validation import as_image
 
-    indices = [p.index for p in pairs]
-    if len(pairs) < 2 or indices != list(range(indices[0], indices[0] + len(indices))):
+    if len(pairs) < 2 or not consecutive(pairs):
         return None
     first = load_gt(pairs[0], run.config, cache)
     try:

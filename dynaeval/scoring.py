@@ -459,6 +459,13 @@ REGIONLESS_REASONS = ("no pair of consecutive frames has a region", "no frame ha
 """How ``temporal_metrics`` says a focused term is null because frames had no region."""
 
 
+def consecutive(pairs: list[FramePair]) -> bool:
+    """True when the frames' indices run without a gap (none skipped): a sequence the temporal
+    and video metrics can use."""
+    indices = [p.index for p in pairs]
+    return indices == list(range(indices[0], indices[0] + len(indices)))
+
+
 class _Clip:
     """One side of a camera's frames as a sequence read on demand (through the camera's cache)."""
 
@@ -486,10 +493,9 @@ def video_metrics_of(camera: str, pairs: list[FramePair], regions: list[FrameReg
     """The video metrics (``jod``, ``focused_jod``) of one camera, ``{key: {"value", "reason",
     "fps"}}``: null with the reason for frames that differ in shape or are not consecutive, and
     for a focused window with no box in any frame."""
-    indices = [p.index for p in pairs]
     reason = (differ.reason() if differ is not None else
               "frames are not consecutive (some were skipped): a video metric needs the sequence"
-              if indices != list(range(indices[0], indices[0] + len(indices))) else None)
+              if not consecutive(pairs) else None)
     fps = camera_fps(pairs, run.config)
     if reason is not None:
         return {k: {"value": None, "reason": reason, "fps": fps} for k in run.camera_fns}
@@ -559,8 +565,7 @@ def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], run:
     from dynaeval.regions.focus import same_shape
 
     config = run.config
-    indices = [p.index for p in pairs]
-    if indices != list(range(indices[0], indices[0] + len(indices))):
+    if not consecutive(pairs):
         reason = "frames are not consecutive (some were skipped): temporal terms need a sequence"
         return {n: {"value": None, "reason": reason} for n in temporal_keys()}
     static = None
