@@ -29,6 +29,7 @@ from typing import Any
 
 from dynaeval.config import ScoreConfig
 from dynaeval.io import FramePair, pair_frames
+from dynaeval.io.frames import pairs_by_camera
 from dynaeval.regions.focus import FrameRegions
 
 __all__ = ["DynaevalWarning", "Results", "ScoreConfig", "score"]
@@ -185,19 +186,12 @@ def warning_text(warning: dict[str, Any]) -> str:
     return f"{metric}: {reason}" if metric and not reason.lower().startswith(metric) else reason
 
 
-def _by_camera(pairs: list[FramePair]) -> dict[str, list[FramePair]]:
-    by_camera: dict[str, list[FramePair]] = {}
-    for pair in pairs:
-        by_camera.setdefault(pair.camera, []).append(pair)
-    return by_camera
-
-
 def run_progress(pairs: list[FramePair], config: ScoreConfig) -> Any:
     """The run's ``dynaeval.progress.Progress`` (silent unless ``config.progress``): regions and
     scored frames per frame, temporal pairs per consecutive pair, video metrics per camera."""
     from dynaeval.progress import Progress
 
-    cams = _by_camera(pairs)
+    cams = pairs_by_camera(pairs)
     n_pairs = sum(len(c) - 1 for c in cams.values()) if config.temporal else 0
     return Progress({"regions": len(pairs), "frames": len(pairs), "pairs": n_pairs,
                      "video": len(cams)}, enabled=config.progress)
@@ -226,7 +220,7 @@ def _score_cameras(pairs: list[FramePair], run: Any, on_regions: RegionsCallback
 
     completed = False
     try:
-        for cam, cam_pairs in _by_camera(pairs).items():
+        for cam, cam_pairs in pairs_by_camera(pairs).items():
             progress.set_note(f"camera {cam}")
             before = progress.done["pairs"]
             scores = score_camera(cam, cam_pairs, run, on_regions=regions_done,

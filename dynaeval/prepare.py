@@ -36,7 +36,7 @@ import numpy as np
 from dynaeval.config import ScoreConfig
 from dynaeval.errors import InputError, UndefinedMetricError
 from dynaeval.io import FramePair
-from dynaeval.io.frames import FrameRef
+from dynaeval.io.frames import FrameRef, pairs_by_camera
 from dynaeval.io.prepared import FORMAT_VERSION, MANIFEST, file_digest, manifest_id, read_manifest
 from dynaeval.regions.focus import FrameRegions
 
@@ -58,13 +58,6 @@ def prepared_settings(config: ScoreConfig, sources: Any) -> dict[str, Any]:
         "decode": get_protocol(config.protocol).decode, "focus": sources.settings,
         "flow": FlowConfig(method=config.flow).describe() if config.temporal else None,
     })
-
-
-def _by_camera(pairs: list[FramePair]) -> dict[str, list[FramePair]]:
-    out: dict[str, list[FramePair]] = {}
-    for p in pairs:
-        out.setdefault(p.camera, []).append(p)
-    return out
 
 
 def _rel(ref: FrameRef, root: Path) -> str:
@@ -110,7 +103,7 @@ def prepare(gt_dir: str | Path, out: str | Path, config: ScoreConfig | None = No
     pairing = pair_frames(gt_dir, gt_dir)
     sources = open_sources(config.focus)
     run = Run(config, {}, {}, list(sources.warnings), sources)
-    cams = _by_camera(pairing.pairs)
+    cams = pairs_by_camera(pairing.pairs)
     progress = Progress({"regions": len(pairing.pairs),
                          "pairs": sum(len(c) - 1 for c in cams.values()) if config.temporal else 0},
                         enabled=config.progress)
@@ -312,7 +305,7 @@ def open_prepared(path: str | Path, gt_root: Path, pairs: list[FramePair],
             raise InputError(f"ground-truth file changed since it was prepared in {path}: run "
                              "'dynaeval prepare' again", path=p.gt.path)
     prepared = PreparedGT(path, manifest)
-    for cam, cam_pairs in _by_camera(pairs).items():
+    for cam, cam_pairs in pairs_by_camera(pairs).items():
         entry = manifest["cameras"].get(cam)
         frames = [[p.frame, _rel(p.gt, gt_root)] for p in cam_pairs]
         prepared.reuse[cam] = bool(entry and entry["regions"] and entry["frames"] == frames)

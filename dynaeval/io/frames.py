@@ -255,6 +255,14 @@ def pair_frames(
     return Pairing(pairs=pairs, unscored_cameras=unscored, skipped=skipped, warnings=warnings)
 
 
+def pairs_by_camera(pairs: list[FramePair]) -> dict[str, list[FramePair]]:
+    """``pairs`` grouped by camera, cameras and frames in the order met."""
+    out: dict[str, list[FramePair]] = {}
+    for pair in pairs:
+        out.setdefault(pair.camera, []).append(pair)
+    return out
+
+
 def parse_shard(spec: str) -> tuple[int, int]:
     """``"I/N"`` (1 <= I <= N) -> (I, N); InputError otherwise."""
     try:
