@@ -27,7 +27,6 @@ from torch import nn
 from reference_models.common.train import ModelSpec, standard_presets
 
 _PRIMES = (1, 2654435761, 805459861)
-_CORNERS = torch.tensor([[i >> 2 & 1, i >> 1 & 1, i & 1] for i in range(8)], dtype=torch.int64)
 
 
 @dataclass
@@ -68,37 +67,70 @@ class TemporalHashEncoding(nn.Module):
         self.register_buffer("dense", torch.tensor([(r + 1) ** 3 <= 2 ** cfg.log2_table for r in res]),
                              persistent=False)
         self.table = nn.Parameter(torch.empty(sum(rows), self.channels).uniform_(-1e-4, 1e-4))
+        n_dense = sum((r + 1) ** 3 <= 2 ** cfg.log2_table for r in res)  # coarse levels: a prefix
+        self._level_groups = [g for g in (slice(0, n_dense), slice(n_dense, cfg.levels))
+                              if g.stop > g.start]
         self._window_l1 = torch.zeros(())
 
-    def _row_index(self, corner: torch.Tensor) -> torch.Tensor:
-        """(N, L, 8, 3) integer corners -> (N, L, 8) rows of the flat table."""
-        side = (self.resolution + 1)[:, None]
-        dense = corner[..., 0] + side * (corner[..., 1] + side * corner[..., 2])
-        hashed = corner[..., 0] * _PRIMES[0]
-        hashed = hashed ^ (corner[..., 1] * _PRIMES[1]) ^ (corner[..., 2] * _PRIMES[2])
-        idx = torch.where(self.dense[:, None], dense, hashed % self.rows[:, None])
-        return idx + self.offsets[:, None]
+    def _corner_rows(self, base: torch.Tensor, levels: slice) -> torch.Tensor:
+        """(l, 3, N) integer cell corners of the levels ``levels`` -> (l, 8, N) rows of the flat
+        table of each cell's 8 corners (corner ``4 cx + 2 cy + cz``).
+
+        Built per axis and combined by broadcasting, with the points on the innermost axis so
+        every elementwise pass is a contiguous, vectorised one; dense levels by place value,
+        hashed ones by instant-NGP's XOR of primes."""
+        c = torch.stack([base, base + 1], 2)  # (l, 3, 2, N): each axis' two corner coordinates
+        cx, cy, cz = c[:, 0, :, None, None], c[:, 1, None, :, None], c[:, 2, None, None, :]
+        if bool(self.dense[levels][0]):
+            side = (self.resolution[levels] + 1)[:, None, None, None, None]
+            idx = cx + side * cy + side * side * cz
+        else:
+            idx = (cx * _PRIMES[0]) ^ (cy * _PRIMES[1]) ^ (cz * _PRIMES[2])
+            idx = idx % self.rows[levels][:, None, None, None, None]
+        return idx.reshape(base.shape[0], 8, -1) + self.offsets[levels][:, None, None]
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        """(N, 4) coordinates in [-1, 1] -> (N, levels * features) features."""
+        """(N, 4) coordinates in [-1, 1] -> (N, levels * features) features.
+
+        When every point has the same time and no gradient is recorded (rendering a view), the
+        two time windows are blended once for the whole table and each lookup reads ``features``
+        channels instead of ``features + 1``; the window regulariser (a training term) is then
+        not computed. Gathers are ``index_select`` on flat indices (its backward is a plain
+        ``index_add``, several times faster on the CPU than advanced indexing's)."""
         n, feats = x.shape[0], self.cfg.features
-        p = ((x[:, :3] + 1.0) * 0.5).clamp(0.0, 1.0)
-        pos = p[:, None, :] * self.resolution[None, :, None].to(p.dtype)  # (N, L, 3)
-        base = pos.floor().to(torch.int64).clamp(max=self.resolution[None, :, None] - 1)
+        p = ((x[:, :3].t() + 1.0) * 0.5).clamp(0.0, 1.0)  # (3, N)
+        pos = p[None] * self.resolution[:, None, None].to(p.dtype)  # (L, 3, N)
+        base = pos.floor().to(torch.int64).clamp(max=self.resolution[:, None, None] - 1)
         frac = pos - base.to(pos.dtype)
-        corner = base[:, :, None, :] + _CORNERS  # (N, L, 8, 3)
-        w = torch.where(_CORNERS.bool(), frac[:, :, None, :], 1.0 - frac[:, :, None, :]).prod(-1)
-        rows = self._row_index(corner)
+        wa = torch.stack([1.0 - frac, frac], 2)  # (L, 3, 2, N): each axis' two corner weights
+        w = (wa[:, 0, :, None, None] * wa[:, 1, None, :, None]
+             * wa[:, 2, None, None, :]).reshape(-1, 8, n, 1)
         s = ((x[:, 3] + 1.0) * 0.5).clamp(0.0, 1.0) * (self.knots - 1)
         k = s.floor().to(torch.int64).clamp(max=self.knots - 2)
-        a = (s - k.to(s.dtype))[:, None, None, None]
-        cols = k[:, None, None, None] + torch.arange(feats + 1)  # (N, 1, 1, F + 1)
-        flat = rows[..., None] * self.channels + cols
-        vals = self.table.view(-1)[flat]  # (N, L, 8, F + 1)
-        lo, hi = vals[..., :feats], vals[..., 1:]
-        self._window_l1 = (hi - lo).abs().mean()
-        blended = (1.0 - a) * lo + a * hi
-        return (w[..., None] * blended).sum(2).reshape(n, -1)
+        a = s - k.to(s.dtype)
+        one_time = n > 0 and not torch.is_grad_enabled() and bool((s == s[0]).all())
+        if one_time:
+            k0 = int(k[0])
+            table = torch.lerp(self.table[:, k0:k0 + feats], self.table[:, k0 + 1:k0 + 1 + feats],
+                               float(a[0]))
+        else:
+            cols = k[:, None] + torch.arange(feats + 1)  # (N, F + 1)
+            a = a[:, None]
+        out, l1 = [], []
+        for lv in self._level_groups:
+            rows = self._corner_rows(base[lv], lv)  # (l, 8, N)
+            if one_time:
+                blended = table.index_select(0, rows.reshape(-1)).view(*rows.shape, feats)
+            else:
+                flat = (rows[..., None] * self.channels + cols).reshape(-1)
+                vals = self.table.view(-1).index_select(0, flat).view(*rows.shape, feats + 1)
+                lo, hi = vals[..., :feats], vals[..., 1:]
+                l1.append((hi - lo).abs().sum())
+                blended = (1.0 - a) * lo + a * hi
+            out.append((w[lv] * blended).sum(1))  # (l, N, F)
+        if l1:
+            self._window_l1 = sum(l1) / (n * self.cfg.levels * 8 * feats)
+        return torch.cat(out, 0).permute(1, 0, 2).reshape(n, -1)
 
     def regularizers(self) -> dict[str, torch.Tensor]:
         """``window_l1``: mean L1 between the two blended channels of the last forward's lookups."""

@@ -76,3 +76,18 @@ def test_window_regulariser_and_size():
         enc(torch.zeros(5, 4))
         assert float(enc.regularizers()["window_l1"]) == 0.0  # constant in time: no penalty
     assert enc.table.shape == (27 + 256, 2 + 4 - 1)  # level 0 dense (3^3), level 1 hashed
+
+
+def test_one_time_lookup_equals_the_training_lookup(rng):
+    """Rendering a view (one time, no gradient) blends the table once; same features."""
+    cfg = NeRFPlayerConfig(levels=3, features=2, log2_table=9, base_resolution=4, max_resolution=16)
+    enc = TemporalHashEncoding(cfg, n_frames=5)
+    with torch.no_grad():
+        enc.table.normal_()
+    x = torch.tensor(rng.uniform(-1, 1, (50, 4)), dtype=torch.float32)
+    for t in (-1.0, 0.1, 1.0):
+        x[:, 3] = t
+        with torch.no_grad():
+            fast = enc(x)
+        slow = enc(x).detach()  # with gradients: the per-point window path
+        np.testing.assert_allclose(fast.numpy(), slow.numpy(), rtol=1e-6, atol=1e-6)
