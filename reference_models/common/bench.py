@@ -38,7 +38,7 @@ def measure(data: str, model: str, size: str, steps: int) -> dict:
     if spec.scene_extras is not None:
         scene.update(spec.scene_extras(model_cfg, ds))
     net = build_model(spec, model_cfg, render_cfg, scene)
-    optim = torch.optim.Adam(net.parameters(), lr=train_cfg.lr)
+    optim = torch.optim.Adam(net.parameters(), lr=train_cfg.lr, eps=1e-15, fused=True)
     sampler = RaySampler(ds.train)
     views = ds.train
     c2w, intr = torch.from_numpy(views.c2w), torch.from_numpy(views.intrinsics)

@@ -67,3 +67,31 @@ def test_harmonics_addition_theorem(x, y, z):
     sh = spherical_harmonics(d)[0].numpy()
     for lo, hi, deg in ((0, 1, 0), (1, 4, 1), (4, 9, 2), (9, 16, 3)):
         assert np.sum(sh[lo:hi] ** 2) == pytest.approx((2 * deg + 1) / (4 * np.pi), rel=1e-9)
+
+
+def test_squared_difference_mean_has_autograd_s_gradient():
+    from reference_models.common.encodings import squared_difference_mean
+
+    torch.manual_seed(1)
+    with torch.enable_grad():
+        for dim in (-1, -2):
+            p = torch.rand(1, 3, 7, 5, dtype=torch.float64, requires_grad=True)
+            want = torch.autograd.grad(p.diff(dim=dim).square().mean(), p)[0]
+            value = squared_difference_mean(p, dim)
+            got = torch.autograd.grad(value, p)[0]
+            assert float(value.detach()) == pytest.approx(float(p.detach().diff(dim=dim).square().mean()), rel=1e-12)
+            torch.testing.assert_close(got, want, rtol=1e-12, atol=1e-15)
+
+
+def test_static_only_is_the_same_field_while_time_planes_are_one():
+    torch.manual_seed(2)
+    enc = PlaneEncoding(8, 5, (1, 2), 4)
+    x = torch.rand(40, 4) * 2 - 1
+    full = enc(x)
+    enc.static_only = True
+    torch.testing.assert_close(enc(x), full, rtol=1e-6, atol=0)  # a look-up of ones is 1 (an ulp)
+    assert enc.plane_pairs[2] == (0, 3)
+    enc.planes[2].add_(0.5)  # a time plane (xt) moves: only the full field sees it
+    torch.testing.assert_close(enc(x), full, rtol=1e-6, atol=0)
+    enc.static_only = False
+    assert float((enc(x) - full).abs().max()) > 1e-3
