@@ -1,7 +1,8 @@
 """The command line every reference model shares (exit 0 done, 2 bad input)::
 
     python -m reference_models.<model> train DATA --out RUN [--size tiny|small] [--iters N]
-        [--minutes M] [--sampling uniform|isg|ist] [--resume] [--threads 1]
+        [--minutes M] [--sampling uniform|isg|ist] [--importance-fraction F]
+        [--static-warmup F] [--batch-rays N] [--resume] [--threads 1]
     python -m reference_models.<model> render RUN [--data DATA] [--every N]
 """
 
@@ -28,6 +29,11 @@ def _parser(spec: ModelSpec) -> argparse.ArgumentParser:
     t.add_argument("--minutes", type=float,
                    help="training-time budget: stop (and anneal) by then even before --iters")
     t.add_argument("--sampling", choices=SAMPLING, help="ray sampling (default: the preset's, uniform)")
+    t.add_argument("--importance-fraction", type=float,
+                   help="share of each batch drawn by importance weights (default: the preset's)")
+    t.add_argument("--static-warmup", type=float,
+                   help="fraction of the run that learns the static scene first (K-Planes)")
+    t.add_argument("--batch-rays", type=int, help="rays per step (default: the preset's)")
     t.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
     t.add_argument("--threads", type=int, default=1, help="torch CPU threads (default 1: faster than 2 on a shared machine)")
     t.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -49,7 +55,9 @@ def main(spec: ModelSpec, argv: list[str] | None = None) -> int:
     torch.set_num_threads(max(1, args.threads))
     try:
         if args.command == "train":
-            over = {} if args.minutes is None else {"minutes": args.minutes}
+            given = {"minutes": args.minutes, "importance_fraction": args.importance_fraction,
+                     "static_warmup": args.static_warmup, "batch_rays": args.batch_rays}
+            over = {k: v for k, v in given.items() if v is not None}
             rec = train(spec, args.data, args.out, size=args.size, iters=args.iters,
                         sampling=args.sampling, resume=args.resume, progress=not args.quiet,
                         overrides=over)

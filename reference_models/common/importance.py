@@ -120,11 +120,13 @@ class RaySampler:
         cdf[:, -1] = 1.0
         self._cdf, self._totals, self._kind = cdf.to(torch.float32), totals, kind
 
-    def sample(self, n: int, progress: float = 0.0) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-        """``n`` pixels: view (n,), row (n,), col (n,) int64 tensors."""
+    def sample(self, n: int, progress: float = 0.0, importance: bool = True
+               ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """``n`` pixels: view (n,), row (n,), col (n,) int64 tensors; ``importance=False`` draws
+        them all uniformly whatever the mode (a static warm-up)."""
         v_count, h, w = len(self.views), self.views.height, self.views.width
         g = self.generator
-        kind = self.kind_at(progress)
+        kind = self.kind_at(progress) if importance else None
         n_imp = 0 if kind is None else int(round(self.fraction * n))
         view = torch.randint(0, v_count, (n - n_imp,), generator=g)
         pix = torch.randint(0, h * w, (n - n_imp,), generator=g)

@@ -177,6 +177,15 @@ class DynamicRadianceModel(nn.Module):
             losses["distortion"] = distortion_loss(edges, weights)
         return RenderOutput(rgb, depth, losses)
 
+    def set_static_only(self, static: bool) -> None:
+        """Look up only the static part of the field and the proposals (static warm-up; see
+        ``PlaneEncoding.static_only``). Raises ValueError for an encoding without one."""
+        if static and not hasattr(self.encoding, "static_only"):
+            raise ValueError(f"{type(self.encoding).__name__} has no static part to warm up")
+        for mod in [self.encoding, *self.proposals]:
+            if hasattr(mod, "static_only"):
+                mod.static_only = static
+
     def regularizers(self) -> dict[str, torch.Tensor]:
         """Unweighted regularisers of the field and the proposals, summed by name."""
         out: dict[str, torch.Tensor] = {}
@@ -187,7 +196,7 @@ class DynamicRadianceModel(nn.Module):
 
     @torch.no_grad()
     def render_image(self, c2w: torch.Tensor, intrinsics: torch.Tensor, time: float, height: int,
-                     width: int, chunk: int = 4096, stride: int = 1) -> torch.Tensor:
+                     width: int, chunk: int = 1024, stride: int = 1) -> torch.Tensor:
         """Render one view: ``c2w`` (4, 4), ``intrinsics`` (4,) -> (H, W, 3) float32 in [0, 1];
         with ``stride`` only every stride-th row and column: (ceil(H / s), ceil(W / s), 3)."""
         from reference_models.common.rays import pixel_rays

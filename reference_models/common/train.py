@@ -51,6 +51,11 @@ class TrainConfig:
     """``uniform``, ``isg`` or ``ist`` (ISG, then IST from ``ist_from``)."""
     importance_fraction: float = 0.25
     """Share of each batch drawn by importance weights when sampling is ``isg``/``ist``."""
+    static_warmup: float = 0.0
+    """Fraction of the run (by steps or time, like the schedule) spent learning the static
+    scene first: the planes with a time axis are not looked up (they stay 1, so the field is
+    K-Planes' own, at about half the look-ups) and rays are drawn uniformly — the seed's "learn the
+    empty stadium once". 0: off. Needs an encoding with ``static_only`` (K-Planes)."""
     ist_from: float = 5 / 9
     """``ist``: fraction of the run after which IST replaces ISG (K-Planes: 50k of 90k)."""
     tv: float = 2e-4
@@ -227,6 +232,13 @@ def train(spec: ModelSpec, data_path: str | Path, out: str | Path, size: str = "
         raise InputError(f"sampling must be one of {', '.join(SAMPLING)}, got {train_cfg.sampling!r}")
     if train_cfg.iters < 1:
         raise InputError(f"iters must be >= 1, got {train_cfg.iters}")
+    if not 0.0 <= train_cfg.static_warmup < 1.0:
+        raise InputError(f"static_warmup must be in [0, 1), got {train_cfg.static_warmup}")
+    if train_cfg.batch_rays < 1:
+        raise InputError(f"batch_rays must be >= 1, got {train_cfg.batch_rays}")
+    if train_cfg.static_warmup and spec.name != "kplanes":
+        raise InputError(f"static_warmup needs a field with a static part (K-Planes' space "
+                         f"planes); {spec.name} has none")
     data = load_dataset(data_path)
     if resume:
         cfg["train_config"] = asdict(train_cfg)
@@ -247,7 +259,7 @@ def _loop(model: DynamicRadianceModel, data: Dataset, cfg: TrainConfig, out: Pat
 
     views = data.train
     sampler = RaySampler(views, cfg.sampling, cfg.importance_fraction, cfg.ist_from, cfg.seed)
-    optim = torch.optim.Adam(model.parameters(), lr=cfg.lr, eps=1e-15)
+    optim = torch.optim.Adam(model.parameters(), lr=cfg.lr, eps=1e-15, fused=True)
     step, seconds = 0, 0.0
     if ckpt is not None:
         optim.load_state_dict(ckpt["optimizer"])
@@ -274,7 +286,9 @@ def _loop(model: DynamicRadianceModel, data: Dataset, cfg: TrainConfig, out: Pat
         progress_now = _progress(step, seconds, cfg)
         for g in optim.param_groups:
             g["lr"] = cfg.lr * _lr_factor(step, progress_now, cfg)
-        v, r, c = sampler.sample(cfg.batch_rays, progress_now)
+        static = progress_now < cfg.static_warmup
+        model.set_static_only(static)
+        v, r, c = sampler.sample(cfg.batch_rays, progress_now, importance=not static)
         o, d = pixel_rays(c2w[v], intr[v], r, c)
         target = images[v, r, c].to(torch.float32) / 255.0
         res = model.render(RayBatch(o, d, times[v]), training=True)
@@ -297,7 +311,8 @@ def _loop(model: DynamicRadianceModel, data: Dataset, cfg: TrainConfig, out: Pat
             record = {"step": step, "loss": acc_loss / window_n, "psnr": acc_psnr / window_n,
                       "it_per_s": window_n / window_t, "train_seconds": round(seconds, 3),
                       "lr": optim.param_groups[0]["lr"],
-                      "sampling": sampler.kind_at(progress_now) or "uniform"}
+                      "sampling": (None if static else sampler.kind_at(progress_now)) or "uniform",
+                      "static": static}
             if is_eval:
                 record["eval_psnr"] = eval_psnr(model, data.eval, cfg.eval_views, cfg.eval_stride)
             log_file.write(json.dumps(record) + "\n")

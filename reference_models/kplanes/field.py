@@ -58,13 +58,15 @@ class DynamicBoxEncoding(nn.Module):
         box = torch.as_tensor(box_grid, dtype=torch.float32)
         self.register_buffer("centre", 0.5 * (box[0] + box[1]))
         self.register_buffer("half_size", (0.5 * (box[1] - box[0])).clamp_min(1e-6))
+        self.static_only = False
+        """Skip the time factor (the same field while its planes are all 1: static warm-up)."""
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         """(N, 4) grid coordinates in [-1, 1] -> (N, out_dim) features."""
         local = (x[:, :3] - self.centre) / self.half_size
         inside = (local.abs() <= 1.0).all(-1, keepdim=True)
         f = self.static(x)
-        if bool(inside.any()):
+        if not self.static_only and bool(inside.any()):
             sel = inside[:, 0]
             factor = self.time(torch.cat([local[sel], x[sel, 3:]], -1))
             f = f.clone()

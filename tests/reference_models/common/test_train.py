@@ -114,3 +114,22 @@ def test_bad_model_settings():
     with pytest.raises(ValueError, match="one proposal resolution per proposal level"):
         DynamicRadianceModel(PlaneEncoding(4, 3, (1,), 2), torch.tensor([[-1.0] * 3, [1.0] * 3]), 3,
                              RenderConfig(proposal_samples=(8, 4), proposal_resolution=(8,)))
+
+
+def test_static_warmup_keeps_time_planes_at_one_then_uses_them(tiny_data, tmp_path):
+    warm = {**FAST, "static_warmup": 0.5, "log_every": 1}
+    train(SPEC, tiny_data, tmp_path / "r", size="tiny", iters=6, sampling="isg", progress=False,
+          overrides=warm)
+    log = [json.loads(x) for x in (tmp_path / "r" / "log.jsonl").read_text().splitlines()]
+    assert [r["static"] for r in log] == [True] * 3 + [False] * 3
+    assert [r["sampling"] for r in log] == ["uniform"] * 3 + ["isg"] * 3
+    train(SPEC, tiny_data, tmp_path / "w", size="tiny", iters=3, progress=False, overrides=warm | {
+        "static_warmup": 0.99})
+    _, model, _ = load_run(tmp_path / "w", SPEC)
+    times = [p for p, (_, b) in zip(model.encoding.planes, model.encoding.plane_pairs, strict=True)
+             if b == 3]
+    assert times and all(bool((p == 1.0).all()) for p in times)  # untouched: exactly one
+    with pytest.raises(InputError, match="static_warmup needs a field with a static part"):
+        train(NERFPLAYER, tiny_data, tmp_path / "n", size="tiny", iters=1, overrides=warm)
+    with pytest.raises(InputError, match=r"static_warmup must be in \[0, 1\)"):
+        train(SPEC, tiny_data, tmp_path / "n", size="tiny", iters=1, overrides={"static_warmup": 1.0})
