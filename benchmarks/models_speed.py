@@ -1,0 +1,162 @@
+"""Speed of the reference models' training and rendering, this checkout against an older one.
+
+For every model preset it trains ``--steps`` steps and renders ``--views`` eval views with the
+models' own command lines, once with this checkout and once with ``--before DIR`` (a worktree of
+an older commit), one after the other so both see the same machine load, and prints seconds per
+step, rays per second and render seconds per view with the ratio after / before::
+
+    git worktree add --detach /tmp/before a1f0bb6
+    python -m reference_models.scenes render single-player-closeup DATA --size small --frames 24
+    python benchmarks/models_speed.py DATA --before /tmp/before [--out docs/reference-models.md]
+
+Step times are the training loop's own (``log.jsonl``'s ``it_per_s`` over the last logged window,
+evaluation excluded); render times are those of ``render_image`` (each checkout's own, with
+its default chunk) over ``--views`` eval views spread over the clip, model and data loading not
+counted. One torch thread each (``--threads``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from datetime import datetime, timezone
+from pathlib import Path
+
+if not __package__:  # run as `python benchmarks/NAME.py`: make `benchmarks` importable
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+COMMAND = "python benchmarks/models_speed.py"
+REPO = Path(__file__).resolve().parents[1]
+
+VARIANTS = (
+    ("kplanes", "small", ()),
+    ("kplanes", "small-dynbox", ()),
+    ("nerfplayer", "small", ()),
+    ("kplanes", "small-dynbox", ("--batch-rays", "1024", "--static-warmup", "0.99")),
+)
+"""(model, size, extra train arguments); the last one (the static warm-up phase) exists only in
+checkouts that have ``--static-warmup`` and is measured for this one alone."""
+
+
+_RENDER = """
+import sys, time, importlib, numpy as np, torch
+from reference_models.common.data import load_dataset
+from reference_models.common.train import load_run
+run, model, n = sys.argv[1], sys.argv[2], int(sys.argv[3])
+torch.set_num_threads(1)
+cfg, net, _ = load_run(run, importlib.import_module("reference_models." + model).SPEC)
+views = load_dataset(cfg["data"]).eval
+net.eval()
+idx = np.round(np.linspace(0, len(views) - 1, n)).astype(int)
+t0 = time.perf_counter()
+for i in idx:
+    net.render_image(torch.from_numpy(views.c2w[i]), torch.from_numpy(views.intrinsics[i]),
+                     float(views.times[i]), views.height, views.width)
+print((time.perf_counter() - t0) / len(idx))
+"""
+"""Renders ``n`` eval views of a run with the checkout's own ``render_image`` (its default chunk)
+and prints seconds per view: model and data loading are not counted."""
+
+
+def _run(code: Path, args: list[str], threads: int) -> float:
+    """Wall seconds of ``python -m ARGS`` with ``code`` first on the path; raises on failure."""
+    env = {**os.environ, "PYTHONPATH": str(code), "OMP_NUM_THREADS": str(threads)}
+    t0 = time.perf_counter()
+    done = subprocess.run([sys.executable, "-m", *args], env=env, capture_output=True, text=True)
+    if done.returncode:
+        raise RuntimeError(f"{' '.join(args)} failed:\n{done.stderr[-2000:]}")
+    return time.perf_counter() - t0
+
+
+def measure(code: Path, data: Path, model: str, size: str, extra: tuple[str, ...], steps: int,
+            views: int, threads: int) -> dict:
+    """One row: s/step, rays/s and render s/view of ``model``'s ``size`` with the code at ``code``."""
+    with tempfile.TemporaryDirectory() as tmp:
+        run = Path(tmp) / "run"
+        _run(code, [f"reference_models.{model}", "train", str(data), "--out", str(run), "--size", size,
+                    "--iters", str(steps), "--threads", str(threads), "--quiet", *extra], threads)
+        log = [json.loads(x) for x in (run / "log.jsonl").read_text().splitlines()]
+        rays = json.loads((run / "config.json").read_text())["train_config"]["batch_rays"]
+        step_s = 1.0 / log[-1]["it_per_s"]
+        done = subprocess.run([sys.executable, "-c", _RENDER, str(run), model, str(views)],
+                              env={**os.environ, "PYTHONPATH": str(code),
+                                   "OMP_NUM_THREADS": str(threads)},
+                              capture_output=True, text=True)
+        if done.returncode:
+            raise RuntimeError(f"rendering {run} failed:\n{done.stderr[-2000:]}")
+        per_view = float(done.stdout.split()[-1])
+    return {"model": model, "size": size + (" " + " ".join(extra) if extra else ""), "rays": rays,
+            "s_per_step": step_s, "rays_per_s": rays / step_s, "render_s_per_view": per_view}
+
+
+def table(rows: list[dict]) -> str:
+    """Markdown table of paired rows with after/before ratios (speed-ups: before / after time)."""
+    head = ("| model | preset | rays/step | s/step before | s/step after | rays/s before | "
+            "rays/s after | speed-up | render s/view before | after | speed-up |")
+    out = [head, "|" + "---|" * 11]
+    for r in rows:
+        b, a = r.get("before"), r["after"]
+
+        def fmt(key: str, row: dict | None, spec: str = ".3f") -> str:
+            return "—" if row is None else format(row[key], spec)
+
+        step_up = "—" if b is None else f"{b['s_per_step'] / a['s_per_step']:.2f}x"
+        render_up = "—" if b is None else f"{b['render_s_per_view'] / a['render_s_per_view']:.2f}x"
+        out.append(f"| {a['model']} | {a['size']} | {a['rays']} | {fmt('s_per_step', b)} | "
+                   f"{a['s_per_step']:.3f} | {fmt('rays_per_s', b, '.0f')} | {a['rays_per_s']:.0f} | "
+                   f"{step_up} | {fmt('render_s_per_view', b, '.2f')} | {a['render_s_per_view']:.2f} | "
+                   f"{render_up} |")
+    return "\n".join(out)
+
+
+def main(argv: list[str] | None = None) -> int:
+    from benchmarks.sections import put_section
+
+    p = argparse.ArgumentParser(prog=COMMAND, description=__doc__.split("\n")[0])
+    p.add_argument("data", type=Path, help="dataset folder (the scene generator's output)")
+    p.add_argument("--before", type=Path, required=True, help="checkout of the older code")
+    p.add_argument("--steps", type=int, default=50, help="training steps per measurement")
+    p.add_argument("--views", type=int, default=2, help="eval views rendered per measurement")
+    p.add_argument("--threads", type=int, default=1, help="torch threads per process")
+    p.add_argument("--out", type=Path, help="write the table into this file's `models-speed` section")
+    args = p.parse_args(argv)
+    if not (args.data / "transforms.json").is_file():
+        print(f"error: {args.data}: no transforms.json (render a scene first)", file=sys.stderr)
+        return 2
+    if not (args.before / "reference_models").is_dir():
+        print(f"error: {args.before}: not a checkout of this repository", file=sys.stderr)
+        return 2
+    rows = []
+    for k, (model, size, extra) in enumerate(VARIANTS):
+        row = {}
+        for name, code in ([] if extra else [("before", args.before)]) + [("after", REPO)]:
+            print(f"[{k + 1}/{len(VARIANTS)}] {model} {size} {' '.join(extra)} {name}", file=sys.stderr)
+            row[name] = measure(code, args.data, model, size, extra, args.steps, args.views,
+                                args.threads)
+        rows.append(row)
+    stamp = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    text = (f"`{COMMAND} DATA --before BEFORE --steps {args.steps} --views {args.views} --threads "
+            f"{args.threads}` ({stamp}; before = {_commit(args.before)}, after = {_commit(REPO)}; "
+            f"load average at the end {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores):\n\n"
+            + table(rows) + "\n")
+    print(text)
+    if args.out:
+        put_section(args.out, "models-speed", text)
+    return 0
+
+
+def _commit(code: Path) -> str:
+    done = subprocess.run(["git", "-C", str(code), "rev-parse", "--short", "HEAD"],
+                          capture_output=True, text=True)
+    dirty = subprocess.run(["git", "-C", str(code), "status", "--porcelain", "--untracked-files=no"],
+                           capture_output=True, text=True).stdout.strip()
+    return (done.stdout.strip() or "?") + ("+changes" if dirty else "")
+
+
+if __name__ == "__main__":
+    sys.exit(main())
