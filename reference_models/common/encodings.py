@@ -50,13 +50,15 @@ class PlaneEncoding(nn.Module):
     Space-only planes start uniform in [0.1, 0.5], planes with a time axis start at 1 (so a
     static scene needs no change in them). ``planes="space"`` keeps only the three space planes
     (a static field), ``planes="time"`` only the three with a time axis (a time factor).
-    ``static_only`` (set by the training loop's static warm-up) skips the planes with a time
+    ``factor=True`` starts every plane at 1: a multiplicative factor on another field that
+    changes nothing until trained. ``static_only`` (set by the training loop's static warm-up) skips the planes with a time
     axis: while they are still 1 this is the same field (up to the rounding of a bilinear
     look-up of ones) at half the look-ups.
     """
 
     def __init__(self, resolution: int, time_resolution: int, scales: tuple[int, ...],
-                 features: int, max_resolution: int = 256, planes: str = "space-time") -> None:
+                 features: int, max_resolution: int = 256, planes: str = "space-time",
+                 factor: bool = False) -> None:
         super().__init__()
         all_pairs = list(itertools.combinations(range(4), 2))
         choice = {"space-time": all_pairs, "space": [p for p in all_pairs if 3 not in p],
@@ -76,7 +78,7 @@ class PlaneEncoding(nn.Module):
             for a, b in self.pairs:
                 self.plane_pairs.append((a, b))
                 size = [time_resolution if ax == 3 else res for ax in (b, a)]
-                if 3 in (a, b):
+                if 3 in (a, b) or factor:
                     self.planes.append(nn.Parameter(torch.ones(1, features, *size)))
                 else:
                     self.planes.append(nn.Parameter(torch.empty(1, features, *size).uniform_(0.1, 0.5)))

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 import torch
 
+from dynaeval.errors import InputError
 from reference_models.kplanes import SPEC, KPlanesConfig
 from reference_models.kplanes.field import build_encoding
 from tests.reference_models.common.tiny import check_tiny_run
@@ -68,3 +69,25 @@ def test_moving_box_needs_something_that_moves(tmp_path):
     data = Dataset(tmp_path, views, None, 6, np.array([[-1.0] * 3, [1.0] * 3], np.float32))
     with pytest.raises(InputError, match="found nothing that moves"):
         find_moving_box(KPlanesConfig(dynamic_box=True), data)
+
+
+def test_fine_dynamic_box_adds_its_own_space_planes_starting_at_one():
+    scene = {"n_frames": 5, "box": [[-1.0, -1.0, -1.0], [1.0, 1.0, 1.0]],
+             "moving_box": [[-0.5, -0.5, -0.5], [0.5, 0.5, 0.5]]}
+    cfg = KPlanesConfig(resolution=8, scales=(1,), features=4, dynamic_box=True,
+                        dynamic_resolution=4, dynamic_planes="space-time")
+    enc = build_encoding(cfg, scene)
+    assert len(enc.time.planes) == 6 and all(bool((p == 1).all()) for p in enc.time.planes)
+    x = torch.tensor([[0.1, 0.0, 0.0, -1.0], [0.1, 0.0, 0.0, 1.0], [-0.1, 0.0, 0.0, -1.0],
+                      [0.9, 0.9, 0.9, 0.0]])
+    with torch.no_grad():
+        np.testing.assert_allclose(enc(x), enc.static(x), rtol=1e-6)  # a factor of ones
+        assert enc.time.plane_pairs[0] == (0, 1)
+        enc.time.planes[0].mul_(torch.linspace(0.5, 2.0, 4).view(1, 1, 1, 4))  # xy varies along x
+        f = enc(x)
+        np.testing.assert_allclose(f[0], f[1], rtol=1e-6)  # a space plane: no change in time
+        assert not torch.allclose(f[0] / enc.static(x)[0], f[2] / enc.static(x)[2])  # but in x
+        np.testing.assert_allclose(f[3], enc.static(x)[3], rtol=1e-6)  # outside the box: static
+    with pytest.raises(InputError, match="dynamic_planes must be"):
+        build_encoding(KPlanesConfig(dynamic_box=True, dynamic_planes="space"), scene)
+    assert "small-dynbox-fine" in SPEC.presets and "tiny-dynbox-fine" in SPEC.presets
