@@ -73,6 +73,11 @@ def test_time_budget_stops_and_anneals(tiny_data, tmp_path):
     rec = train(SPEC, tiny_data, tmp_path / "r", size="tiny", iters=1000, progress=False,
                 overrides={"minutes": 1e-9, "batch_rays": 16})
     assert rec["step"] == 1 and "eval_psnr" in rec  # over budget after the first step
+    rec = train(SPEC, tiny_data, tmp_path / "c", size="tiny", iters=1000, progress=False,
+                overrides={"minutes": 1e-9, "batch_rays": 16, "clock": "cpu"})
+    assert rec["step"] == 1 and 0 < rec["train_cpu_seconds"]
+    with pytest.raises(InputError, match="clock must be 'wall' or 'cpu'"):
+        train(SPEC, tiny_data, tmp_path / "d", size="tiny", overrides={"clock": "gpu"})
 
 
 def test_schedule_warms_up_then_decays_with_steps_or_time():
