@@ -1,9 +1,10 @@
-"""PSNR against training wall time, from the runs' own logs (no number typed by hand)::
+"""PSNR against training time, from the runs' own logs (no number typed by hand)::
 
     python -m reference_models.common.curves RUN [RUN ...] --out docs/img/models_psnr_time.png
 
-Plots the logged eval-camera PSNR of every run against its training seconds and prints a
-Markdown table per run: steps, training minutes, iterations/s, last eval PSNR, parameters,
+Plots the logged eval-camera PSNR of every run against its training CPU seconds (wall seconds
+for runs that logged none) and prints a Markdown table per run: steps, training minutes (wall
+and CPU), rays per step, iterations/s, last eval PSNR, parameters,
 checkpoint size, and — when ``RUN/results.json`` from ``dynaeval score`` exists — its whole-frame,
 focused, masked and per-object (tight box) PSNR.
 Whether the ball survives is dynaeval's own ``presence_ball`` (``dynaeval.metrics.presence``),
@@ -44,6 +45,10 @@ def run_summary(run: Path) -> dict:
         "run": Path(run).name,
         "steps": log[-1]["step"],
         "train_min": log[-1]["train_seconds"] / 60.0,
+        "cpu_min": (log[-1]["train_cpu_seconds"] / 60.0 if "train_cpu_seconds" in log[-1]
+                    else None),
+        "rays_per_step": json.loads((Path(run) / "config.json").read_text())["train_config"][
+            "batch_rays"] if (Path(run) / "config.json").is_file() else None,
         "it_per_s": log[-1]["step"] / log[-1]["train_seconds"],
         "eval_psnr": evals[-1]["eval_psnr"] if evals else None,
         "params_M": sum(v.numel() for k, v in state.items() if v.is_floating_point()) / 1e6,
@@ -71,9 +76,11 @@ def plot(runs: list[Path], out: Path) -> None:
         if not (Path(run) / "log.jsonl").is_file():
             continue  # a baseline without training has no curve
         evals = [r for r in read_log(run) if "eval_psnr" in r]
-        ax.plot([r["train_seconds"] / 60 for r in evals], [r["eval_psnr"] for r in evals],
-                marker="o", label=Path(run).name)
-    ax.set_xlabel("training wall time (min, 1 thread on a shared 2-core machine)")
+        cpu = bool(evals) and "train_cpu_seconds" in evals[0]
+        ax.plot([r["train_cpu_seconds" if cpu else "train_seconds"] / 60 for r in evals],
+                [r["eval_psnr"] for r in evals], marker="o",
+                label=Path(run).name + ("" if cpu else " (wall time)"))
+    ax.set_xlabel("training time (min of one core's CPU time; wall time where marked)")
     ax.set_ylabel("eval-camera PSNR (dB)")
     ax.grid(alpha=0.3)
     if ax.get_legend_handles_labels()[0]:

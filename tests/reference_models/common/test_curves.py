@@ -25,7 +25,7 @@ def test_table_and_plot(tmp_path, capsys):
     assert main([str(a), "--out", str(tmp_path / "img" / "c.png")]) == 0
     assert (tmp_path / "img" / "c.png").stat().st_size > 1000
     out = capsys.readouterr().out
-    assert "| a | 20 | 1.00 | 0.33 | 18.00 |" in out and "n/a" in out
+    assert "| a | 20 | 1.00 | n/a | n/a | 0.33 | 18.00 |" in out  # no CPU time, no config logged
     assert markdown_table([{"x": 1}, {"y": 2.0}]).splitlines()[2:] == ["| 1 | n/a |", "| n/a | 2.00 |"]
 
 
