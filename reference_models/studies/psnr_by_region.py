@@ -71,7 +71,8 @@ def region_psnr(data: Path, pred: Path) -> dict[str, dict[str, float]]:
             count[k] += 3 * sel.sum()
     total = sse.sum()
     return {name: {"psnr": (10 * math.log10(255.0 ** 2 * count[k] / sse[k]) if sse[k] else math.inf),
-                   "pixel_share": count[k] / count.sum(), "error_share": sse[k] / total}
+                   "pixel_share": count[k] / count.sum(),
+                   "error_share": sse[k] / total if total else 0.0}
             for k, name in enumerate(REGIONS) if count[k]}
 
 
