@@ -39,6 +39,7 @@ from dynaeval.io import FramePair
 from dynaeval.io.frames import FrameRef, pairs_by_camera
 from dynaeval.io.prepared import FORMAT_VERSION, MANIFEST, file_digest, manifest_id, read_manifest
 from dynaeval.regions.focus import FrameRegions
+from dynaeval.regions.packed import PackedMask
 
 __all__ = ["PreparedGT", "open_prepared", "prepare", "prepared_settings"]
 
@@ -166,18 +167,20 @@ _FIELDS = ("boxes", "raw_boxes", "mask")
 
 
 def _save_regions(regions: list[FrameRegions], path: Path) -> dict[str, Any]:
-    """Write the arrays of a camera's regions to ``path`` (npz, masks bit-packed); returns the
-    JSON part (reasons, records, sizes, the camera's motion check)."""
+    """Write the arrays of a camera's regions to ``path`` (npz, masks bit-packed as
+    ``FrameRegions`` holds them); returns the JSON part (reasons, records, sizes, the camera's
+    motion check)."""
     arrays: dict[str, np.ndarray] = {}
     frames = []
     for k, r in enumerate(regions):
-        for name in _FIELDS:
-            value = getattr(r, name)
+        packed = r.packed_mask
+        for name, value in zip(_FIELDS, (r.boxes, r.raw_boxes,
+                                         None if packed is None else packed.bits), strict=True):
             if value is not None:
-                arrays[f"{name}{k}"] = np.packbits(value.ravel()) if name == "mask" else value
+                arrays[f"{name}{k}"] = value
         frames.append({"boxes_reason": r.boxes_reason, "mask_reason": r.mask_reason,
                        "records": r.records, "size": r.size,
-                       "mask_shape": None if r.mask is None else list(r.mask.shape)})
+                       "mask_shape": None if packed is None else list(packed.shape)})
     np.savez_compressed(path, **arrays)
     return {"file": f"regions/{path.name}", "frames": _jsonable(frames),
             "camera_motion": _jsonable(regions[0].camera_motion)}
@@ -242,11 +245,10 @@ class PreparedGT:
         with np.load(self.path / entry["file"]) as arrays:
             for k, f in enumerate(entry["frames"]):
                 got = {n: arrays[f"{n}{k}"] if f"{n}{k}" in arrays else None for n in _FIELDS}
-                if got["mask"] is not None:
-                    h, w = f["mask_shape"]
-                    got["mask"] = np.unpackbits(got["mask"], count=h * w).reshape(h, w).view(bool)
+                packed = (None if got["mask"] is None else
+                          PackedMask(got["mask"], tuple(f["mask_shape"])))  # kept packed
                 out.append(FrameRegions(
-                    boxes=got["boxes"], boxes_reason=f["boxes_reason"], mask=got["mask"],
+                    boxes=got["boxes"], boxes_reason=f["boxes_reason"], packed_mask=packed,
                     mask_reason=f["mask_reason"], raw_boxes=got["raw_boxes"], records=f["records"],
                     size=None if f["size"] is None else tuple(f["size"]), camera_motion=motion))
         return out

@@ -234,7 +234,7 @@ def _metric_values(pair: FramePair, pred: np.ndarray, gt: np.ndarray, regions: F
         if region == "focused" and regions.boxes is None:
             values.append((name, None, regions.boxes_reason))
             continue
-        if region == "masked" and regions.mask is None:
+        if region == "masked" and regions.packed_mask is None:
             values.append((name, None, regions.mask_reason))
             continue
         kw = _region_of(region, regions, run, name)
@@ -563,15 +563,16 @@ def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], run:
     from dynaeval.metrics.registry import SPECS
     from dynaeval.metrics.temporal import temporal_metrics
     from dynaeval.regions.focus import same_shape
+    from dynaeval.regions.packed import union
 
     config = run.config
     if not consecutive(pairs):
         reason = "frames are not consecutive (some were skipped): temporal terms need a sequence"
         return {n: {"value": None, "reason": reason} for n in temporal_keys()}
     static = None
-    masks = [r.mask for r in regions if r.mask is not None]
-    if config.focus.masked and masks:
-        static = ~np.logical_or.reduce(masks)  # static: never moving in any frame
+    if config.focus.masked:  # static: never moving in any frame (None: no frame has a mask)
+        moving = union(r.packed_mask for r in regions if r.packed_mask is not None)
+        static = None if moving is None else ~moving
     region_masks = None  # a frame without boxes: None, the pairs with it have no focused value
     if config.focus.source != "none":
         region_masks = [r.boxes for r in regions]

@@ -18,6 +18,7 @@ import numpy as np
 from dynaeval.boxes import clip_boxes
 from dynaeval.errors import InputError
 from dynaeval.regions.expand import ExpandConfig, expand_boxes
+from dynaeval.regions.packed import PackedMask
 
 FOCUS_SOURCES = ("detector", "motion", "boxes", "none")
 MIN_MOTION_FRAMES = 3
@@ -119,9 +120,10 @@ class FrameRegions:
     """(N, 4) int64 expanded, clipped and merged boxes; None when there is no box."""
     boxes_reason: str | None = None
     """Why ``boxes`` is None."""
-    mask: np.ndarray | None = None
-    """(H, W) bool motion mask, or the given mask (``dynaeval.regions.given``); None when there
-    is none."""
+    packed_mask: PackedMask | None = None
+    """The motion mask, or the given mask (``dynaeval.regions.given``), bit-packed (a camera's
+    frames keep theirs until its temporal pass ends: 1/8 of the bool masks); None when there
+    is none. ``mask`` unpacks it."""
     mask_reason: str | None = None
     """Why ``mask`` is None."""
     raw_boxes: np.ndarray | None = None
@@ -142,6 +144,12 @@ class FrameRegions:
     """Set (the same dict) on every frame of a camera that got motion masks:
     ``{"global_motion_px", "reason"}``, the reason (``static_camera.moving_camera_reason``) not
     None when the camera does not look static."""
+
+    @property
+    def mask(self) -> np.ndarray | None:
+        """(H, W) bool motion (or given) mask, unpacked from ``packed_mask`` on each access (a
+        new array); None when there is none."""
+        return None if self.packed_mask is None else self.packed_mask.unpack()
 
 
 @dataclass
@@ -364,7 +372,7 @@ def _add_motion_masks(out: list[FrameRegions], camera: str, load_gt: Callable[[i
     for r, m in zip(out, masks, strict=True):
         fractions.append(float(m.mean()))
         if m.any():
-            r.mask = m
+            r.packed_mask = PackedMask.pack(m)
         else:
             r.mask_reason = "no moving pixel in the ground truth"
     check = _static_check(load_gt, len(out), float(np.mean(fractions)), focus)
@@ -403,7 +411,7 @@ def _frame_boxes(r: FrameRegions, camera: str, name: str, sources: RegionSources
         hw, found = next(detections)
         r.records = found.records()
         return hw, found.boxes
-    if r.mask is None:  # motion
+    if r.packed_mask is None:  # motion
         r.boxes_reason = r.mask_reason
         return None
     from dynaeval.regions.motion import mask_boxes

@@ -13,6 +13,7 @@ from pathlib import Path
 
 from dynaeval.io.masks import THRESHOLD, MaskSet, read_mask
 from dynaeval.regions.focus import FrameRegions
+from dynaeval.regions.packed import PackedMask
 
 
 def given_masks(regions: Sequence[FrameRegions], gt_paths: Sequence[Path],
@@ -28,7 +29,8 @@ def given_masks(regions: Sequence[FrameRegions], gt_paths: Sequence[Path],
         path = masks.path_of(gt)
         m = read_mask(path, masks.decode) > THRESHOLD
         reason = None if m.any() else f"the given mask {path} holds no pixel above {THRESHOLD}"
-        out.append(replace(r, mask=m if m.any() else None, mask_reason=reason))
+        out.append(replace(r, packed_mask=PackedMask.pack(m) if m.any() else None,
+                           mask_reason=reason))
     return out
 
 

@@ -48,8 +48,9 @@ class RegionRecorder:
             key = (camera, pair.frame)
             if reg.boxes is not None:
                 self.boxes[key] = np.asarray(reg.boxes, dtype=np.int64).reshape(-1, 4)
-            if reg.mask is not None:
-                contours, _ = cv2.findContours(np.ascontiguousarray(reg.mask, dtype=np.uint8),
+            mask = reg.mask  # unpacked on each access
+            if mask is not None:
+                contours, _ = cv2.findContours(np.ascontiguousarray(mask, dtype=np.uint8),
                                                cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
                 self.outlines[key] = [c.reshape(-1, 2) for c in contours]
 
