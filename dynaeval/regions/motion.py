@@ -27,8 +27,9 @@ sample from. Masks threshold the weights (``w > threshold``) then clean them wit
 (opening removes speckle, closing fills holes, small components go, dilation adds a margin).
 
 Memory stays bounded: frames are read one at a time (IST keeps ``2 * window + 1`` frames), and the
-ISG median holds ``min(T, median_frames)`` frames as float32 (``64 x 1920 x 1080 x 3 x 4 B`` ~ 1.6 GB
-at 1080p; lower ``median_frames`` or downscale for bigger inputs). ``frames`` can be an array
+ISG median stacks the rows of ``min(T, median_frames)`` frames as float32, at most
+``MEDIAN_MAX_BYTES`` (256 MiB) at a time: 64 frames of 1080p (1.6 GB) are taken in 7 bands of rows,
+each reading the frames again. ``frames`` can be an array
 ``(T, H, W, C)`` or any sequence with ``len`` and indexing that loads a frame on access (e.g.
 ``LazyFrames(paths, load)``). ISG reads each frame twice (median pass, then weights), so it needs
 such a sequence; IST reads once and accepts any iterable, including a generator.
@@ -154,13 +155,21 @@ def subsample_indices(n: int, max_frames: int) -> np.ndarray:
     return np.unique(np.round(np.linspace(0, n - 1, max_frames)).astype(np.int64))
 
 
-def temporal_median(frames: Sequence, max_frames: int = 64,
-                    executor: Executor | None = None) -> np.ndarray:
+MEDIAN_MAX_BYTES = 256 * 2**20
+"""The ISG median's stack of frames (float32) is at most this big: a longer or larger stack is
+taken band by band of rows, each band reading its frames again (through the caller's frame
+cache), so the memory of the median does not grow with the frames it uses."""
+
+
+def temporal_median(frames: Sequence, max_frames: int = 64, executor: Executor | None = None,
+                    max_bytes: int = MEDIAN_MAX_BYTES) -> np.ndarray:
     """Per-pixel median ``(H, W, C)`` float32 over at most ``max_frames`` evenly spaced frames.
 
     Exact (``np.median`` over all frames, mean of the two middle values for even counts) when
-    ``len(frames) <= max_frames``. ``executor``: threads that read the frames and take the
-    median band by band of rows (each pixel's median is its own: the same values).
+    ``len(frames) <= max_frames``. Each pixel's median is its own, so it is taken band by band of
+    rows (the same values): bands of at most ``max_bytes`` of stacked rows, each reading the
+    frames again (a lazy sequence loads them once per band), and with ``executor`` (threads)
+    the frames read and the band's median taken in parts on it.
     """
     seq = _as_sequence(frames)
     n = len(seq)
@@ -168,25 +177,27 @@ def temporal_median(frames: Sequence, max_frames: int = 64,
         raise InputError("no frames: the temporal median needs at least one frame")
     idx = subsample_indices(n, max_frames)
     first = _frame(seq[int(idx[0])], int(idx[0]), None)
-    stack = np.empty((len(idx), *first.shape), dtype=np.float32)
-    stack[0] = first
-
-    def put(k: int) -> None:
-        stack[k] = _frame(seq[int(idx[k])], int(idx[k]), first.shape)
-
-    if executor is None:
-        for k in range(1, len(idx)):
-            put(k)
-        return np.median(stack, axis=0, overwrite_input=True).astype(np.float32, copy=False)
-    list(executor.map(put, range(1, len(idx))))
+    height = first.shape[0]
+    row_bytes = len(idx) * first[0].nbytes
+    rows = int(min(height, max(1, max_bytes // row_bytes)))
+    stack = np.empty((len(idx), rows, *first.shape[1:]), dtype=np.float32)
     out = np.empty(first.shape, np.float32)
-    step = max(1, -(-first.shape[0] // 16))
+    run = executor.map if executor is not None else map
+    for r0 in range(0, height, rows):
+        part = stack[:, : min(rows, height - r0)]
 
-    def band(r0: int) -> None:
-        part = stack[:, r0 : r0 + step]
-        out[r0 : r0 + step] = np.median(part, axis=0, overwrite_input=True)
+        def put(k: int, r0: int = r0, part: np.ndarray = part) -> None:
+            frame = first if k == 0 else _frame(seq[int(idx[k])], int(idx[k]), first.shape)
+            part[k] = frame[r0 : r0 + part.shape[1]]
 
-    list(executor.map(band, range(0, first.shape[0], step)))
+        list(run(put, range(len(idx))))
+        step = part.shape[1] if executor is None else max(1, -(-part.shape[1] // 16))
+
+        def band(b0: int, r0: int = r0, part: np.ndarray = part, step: int = step) -> None:
+            out[r0 + b0 : r0 + b0 + step] = np.median(part[:, b0 : b0 + step], axis=0,
+                                                      overwrite_input=True)
+
+        list(run(band, range(0, part.shape[1], step)))
     return out
 
 

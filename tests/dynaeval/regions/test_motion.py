@@ -136,6 +136,28 @@ def test_median_on_threads_equals_the_sequential_one(count):
     np.testing.assert_array_equal(got, np.median(frames[:count], axis=0))
 
 
+@pytest.mark.parametrize("threads", [0, 3])
+def test_median_in_bands_of_rows_reads_each_frame_once_a_band(threads):
+    """A stack bigger than ``max_bytes`` is taken band by band of rows (issue 20 item 5: the
+    1080p median held 1.6 GB): the same values, each band reading its frames again and holding
+    no more than ``max_bytes`` of them."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    frames, _ = scene(noise=0.05)
+    reads = []
+    lazy = LazyFrames(range(T), lambda i: reads.append(i) or frames[i])
+    row = T * frames[0][0].nbytes  # one row of every frame
+    pool = ThreadPoolExecutor(threads) if threads else None
+    try:
+        got = temporal_median(lazy, executor=pool, max_bytes=3 * row + 1)
+    finally:
+        if pool is not None:
+            pool.shutdown()
+    np.testing.assert_array_equal(got, np.median(frames, axis=0))
+    bands = -(-frames.shape[1] // 3)
+    assert len(reads) == 1 + (T - 1) * bands  # frame 0 is kept, the others read once a band
+
+
 def test_median_subsample_is_even_and_bounded():
     idx = subsample_indices(1000, 64)
     assert len(idx) == 64 and idx[0] == 0 and idx[-1] == 999
