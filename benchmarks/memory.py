@@ -69,6 +69,39 @@ def peak_rss_mb(job: Path, cache_mb: int) -> tuple[float, float]:
     return usage.ru_maxrss / 1024, wall  # Linux: kB
 
 
+FRAME_MB = SIZE[0] * SIZE[1] * 3 * 4 / 2**20
+"""MB of one decoded 1080p frame in the frame cache (float32 RGB)."""
+NOTE = (
+    "What a camera holds does not grow with its frames beyond the frame cache: each frame keeps "
+    "its motion mask bit-packed (`dynaeval.regions.packed.PackedMask`, 0.26 MB at 1080p instead "
+    "of a 2.1 MB bool array), the static region of the temporal terms is ORed on the packed "
+    "bits (it stacked every mask, (T, H, W), before), and the ISG median stacks at most 256 MiB "
+    "of rows at a time (`MEDIAN_MAX_BYTES`; its 64 float32 frames took 1.6 GB, the peak of a "
+    "long camera before). Left growing with the frames: the packed masks, the per-pair values "
+    "and the frame cache up to its budget (a short camera's frames may not fill it)."
+)
+
+
+def cached_mb(n_frames: int, cache_mb: int) -> float:
+    """MB the frame cache holds at most for a camera of ``n_frames`` (both sides)."""
+    whole = int(cache_mb * 2**20 // (FRAME_MB * 2**20))  # frames that fit
+    return min(2 * n_frames, whole) * FRAME_MB
+
+
+def _growth(peaks: dict[tuple[int, int], float]) -> str:
+    """One sentence per cache budget: the longest camera's peak against the shortest's."""
+    out = []
+    for mb in dict.fromkeys(m for _, m in peaks):
+        ns = sorted(n for n, m in peaks if m == mb)
+        if len(ns) < 2:
+            continue
+        lo, hi = peaks[ns[0], mb], peaks[ns[-1], mb]
+        out.append(f"At `--cache-mb {mb}`: {ns[-1]} frames peak at {hi:.0f} MB, {hi - lo:+.0f} MB "
+                   f"({100 * (hi - lo) / lo:+.1f} %) against {ns[0]} frames, of which "
+                   f"{cached_mb(ns[-1], mb) - cached_mb(ns[0], mb):+.0f} MB more frames cached.")
+    return " ".join(out) + ("\n\n" if out else "")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog=COMMAND, description=__doc__.split("\n")[0])
     parser.add_argument("--frames", type=int, nargs="+", default=[16, 300])
@@ -77,17 +110,24 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", default="-", help="markdown file to put the section in ('-': print)")
     args = parser.parse_args(argv)
     command = COMMAND + " " + shlex.join(argv if argv is not None else sys.argv[1:])
-    rows = ["| frames | --cache-mb | peak RSS (MB) | wall (s) |", "|---:|---:|---:|---:|"]
+    started = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    rows = ["| frames | --cache-mb | frames cached (MB) | peak RSS (MB) | wall (s) |",
+            "|---:|---:|---:|---:|---:|"]
+    peaks: dict[tuple[int, int], float] = {}
     for n in args.frames:
         job = make_camera(Path(args.root) / f"n{n}", n)
         for mb in args.cache_mb:
             rss, wall = peak_rss_mb(job, mb)
-            rows.append(f"| {n} | {mb} | {rss:.0f} | {wall:.1f} |")
+            peaks[n, mb] = rss
+            rows.append(f"| {n} | {mb} | {cached_mb(n, mb):.0f} | {rss:.0f} | {wall:.1f} |")
             print(rows[-1], flush=True)
-    started = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     text = (f"## Memory of a long 1080p camera\n\nCommand: `{command}` — run {started}. One camera "
             "of distinct 1080p frames, `--focus motion --no-lpips`, one worker; peak resident set "
-            "size of the scoring process.\n\n" + "\n".join(rows) + "\n")
+            "size of the scoring process (`os.wait4`). *Frames cached*: what the frame cache "
+            f"holds at most, prediction and ground truth of {FRAME_MB:.1f} MB each (float32 RGB) "
+            "up to `--cache-mb`.\n\n" + "\n".join(rows) + "\n\n" + _growth(peaks) + NOTE
+            + f" Wall times: load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores at "
+            "the end of the run.\n")
     print(text)
     if args.out != "-":
         from benchmarks.sections import put_section
