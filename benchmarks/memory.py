@@ -102,6 +102,25 @@ def _growth(peaks: dict[tuple[int, int], float]) -> str:
     return " ".join(out) + ("\n\n" if out else "")
 
 
+def _row(n: int, mb: int, rss: float, wall: float) -> str:
+    return f"| {n} | {mb} | {cached_mb(n, mb):.0f} | {rss:.0f} | {wall:.1f} |"
+
+
+def section(command: str, results: dict[tuple[int, int], tuple[float, float]]) -> str:
+    """The markdown section: ``command`` (how and when it ran), one row per ``(frames,
+    cache MB) -> (peak RSS MB, wall s)``, the growth per budget and what memory is made of."""
+    rows = ["| frames | --cache-mb | frames cached (MB) | peak RSS (MB) | wall (s) |",
+            "|---:|---:|---:|---:|---:|"] + [_row(n, mb, *got) for (n, mb), got in results.items()]
+    peaks = {key: rss for key, (rss, _) in results.items()}
+    return (f"## Memory of a long 1080p camera\n\nCommand: {command}. One camera of distinct "
+            "1080p frames, `--focus motion --no-lpips`, one worker; peak resident set size of the "
+            "scoring process (`os.wait4`). *Frames cached*: what the frame cache holds at most, "
+            f"prediction and ground truth of {FRAME_MB:.1f} MB each (float32 RGB) up to "
+            "`--cache-mb`.\n\n" + "\n".join(rows) + "\n\n" + _growth(peaks) + NOTE
+            + f" Wall times: load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores at "
+            "the end of the run.\n")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog=COMMAND, description=__doc__.split("\n")[0])
     parser.add_argument("--frames", type=int, nargs="+", default=[16, 300])
@@ -111,23 +130,13 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     command = COMMAND + " " + shlex.join(argv if argv is not None else sys.argv[1:])
     started = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    rows = ["| frames | --cache-mb | frames cached (MB) | peak RSS (MB) | wall (s) |",
-            "|---:|---:|---:|---:|---:|"]
-    peaks: dict[tuple[int, int], float] = {}
+    results: dict[tuple[int, int], tuple[float, float]] = {}
     for n in args.frames:
         job = make_camera(Path(args.root) / f"n{n}", n)
         for mb in args.cache_mb:
-            rss, wall = peak_rss_mb(job, mb)
-            peaks[n, mb] = rss
-            rows.append(f"| {n} | {mb} | {cached_mb(n, mb):.0f} | {rss:.0f} | {wall:.1f} |")
-            print(rows[-1], flush=True)
-    text = (f"## Memory of a long 1080p camera\n\nCommand: `{command}` — run {started}. One camera "
-            "of distinct 1080p frames, `--focus motion --no-lpips`, one worker; peak resident set "
-            "size of the scoring process (`os.wait4`). *Frames cached*: what the frame cache "
-            f"holds at most, prediction and ground truth of {FRAME_MB:.1f} MB each (float32 RGB) "
-            "up to `--cache-mb`.\n\n" + "\n".join(rows) + "\n\n" + _growth(peaks) + NOTE
-            + f" Wall times: load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores at "
-            "the end of the run.\n")
+            results[n, mb] = peak_rss_mb(job, mb)
+            print(_row(n, mb, *results[n, mb]), flush=True)
+    text = section(f"`{command}` — run {started}", results)
     print(text)
     if args.out != "-":
         from benchmarks.sections import put_section
