@@ -67,7 +67,8 @@ def _run(code: Path, args: list[str], threads: int) -> float:
     """Wall seconds of ``python -m ARGS`` with ``code`` first on the path; raises on failure."""
     env = {**os.environ, "PYTHONPATH": str(code), "OMP_NUM_THREADS": str(threads)}
     t0 = time.perf_counter()
-    done = subprocess.run([sys.executable, "-m", *args], env=env, capture_output=True, text=True)
+    done = subprocess.run([sys.executable, "-m", *args], env=env, capture_output=True, text=True,
+                          cwd=code)  # `-m` puts the working directory first on the path
     if done.returncode:
         raise RuntimeError(f"{' '.join(args)} failed:\n{done.stderr[-2000:]}")
     return time.perf_counter() - t0
@@ -75,7 +76,8 @@ def _run(code: Path, args: list[str], threads: int) -> float:
 
 def measure(code: Path, data: Path, model: str, size: str, extra: tuple[str, ...], steps: int,
             views: int, threads: int) -> dict:
-    """One row: s/step, rays/s and render s/view of ``model``'s ``size`` with the code at ``code``."""
+    """One row: s/step, rays/s and render s/view of ``model``'s ``size`` with the code at ``code``
+    (its processes run in ``code``, which ``-m`` / ``-c`` put first on the path)."""
     with tempfile.TemporaryDirectory() as tmp:
         run = Path(tmp) / "run"
         _run(code, [f"reference_models.{model}", "train", str(data), "--out", str(run), "--size", size,
@@ -86,7 +88,7 @@ def measure(code: Path, data: Path, model: str, size: str, extra: tuple[str, ...
         done = subprocess.run([sys.executable, "-c", _RENDER, str(run), model, str(views)],
                               env={**os.environ, "PYTHONPATH": str(code),
                                    "OMP_NUM_THREADS": str(threads)},
-                              capture_output=True, text=True)
+                              capture_output=True, text=True, cwd=code)
         if done.returncode:
             raise RuntimeError(f"rendering {run} failed:\n{done.stderr[-2000:]}")
         per_view = float(done.stdout.split()[-1])
@@ -125,6 +127,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--threads", type=int, default=1, help="torch threads per process")
     p.add_argument("--out", type=Path, help="write the table into this file's `models-speed` section")
     args = p.parse_args(argv)
+    args.data, args.before = args.data.resolve(), args.before.resolve()
     if not (args.data / "transforms.json").is_file():
         print(f"error: {args.data}: no transforms.json (render a scene first)", file=sys.stderr)
         return 2
