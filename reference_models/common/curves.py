@@ -91,9 +91,11 @@ def plot(runs: list[Path], out: Path) -> None:
     plt.close(fig)
 
 
-def strip(runs: list[Path], gt_images: Path, view: str, out: Path) -> None:
+def strip(runs: list[Path], gt_images: Path, view: str, out: Path,
+          crop: tuple[int, int, int, int] | None = None, scale: int = 1) -> None:
     """Ground truth then each run's prediction of ``view`` (``camera/frame``) side by side, with
-    the folder names written on them, saved to ``out`` (PNG)."""
+    the folder names written on them, saved to ``out`` (PNG). ``crop`` ``(x0, y0, x1, y1)``
+    pixels (max exclusive) cuts every image first; ``scale`` enlarges it (nearest neighbour)."""
     import cv2
     import numpy as np
 
@@ -104,6 +106,13 @@ def strip(runs: list[Path], gt_images: Path, view: str, out: Path) -> None:
         img = cv2.imread(str(path))
         if img is None:
             raise InputError(f"no image for {view}", path=path)
+        if crop is not None:
+            x0, y0, x1, y1 = crop
+            img = np.ascontiguousarray(img[y0:y1, x0:x1])
+            if img.size == 0:
+                raise InputError(f"crop {crop} is outside the image", path=path)
+        if scale > 1:
+            img = cv2.resize(img, None, fx=scale, fy=scale, interpolation=cv2.INTER_NEAREST)
         cv2.putText(img, name, (4, 14), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (255, 255, 255), 1, cv2.LINE_AA)
         imgs.append(img)
     cols = 3
@@ -138,10 +147,14 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--out", type=Path, required=True, help="PNG file for the curves")
     p.add_argument("--strip", nargs=3, metavar=("GT_IMAGES", "CAMERA/FRAME", "PNG"),
                    help="also write the ground truth and every run's prediction of one view")
+    p.add_argument("--crop", nargs=4, type=int, metavar=("X0", "Y0", "X1", "Y1"),
+                   help="--strip: cut this pixel box (max exclusive) from every image")
+    p.add_argument("--scale", type=int, default=1, help="--strip: enlarge by this factor")
     args = p.parse_args(argv)
     try:
         if args.strip:
-            strip(args.runs, Path(args.strip[0]), args.strip[1], Path(args.strip[2]))
+            strip(args.runs, Path(args.strip[0]), args.strip[1], Path(args.strip[2]),
+                  tuple(args.crop) if args.crop else None, max(args.scale, 1))
         plot(args.runs, args.out)
         print(markdown_table([run_summary(r) for r in args.runs]))
     except InputError as err:

@@ -54,3 +54,8 @@ def test_strip_of_one_view(tmp_path):
     assert cv2.imread(str(out)).shape == (10, 60, 3)
     with pytest.raises(InputError, match="no image for cam/0002"):
         strip([tmp_path / "a"], tmp_path / "gt", "cam/0002", out)
+    strip([tmp_path / "a", tmp_path / "b"], tmp_path / "gt", "cam/0001", out, crop=(5, 2, 15, 8),
+          scale=3)
+    assert cv2.imread(str(out)).shape == (18, 90, 3)  # 10 x 6 crops, 3x, three tiles
+    with pytest.raises(InputError, match="outside the image"):
+        strip([tmp_path / "a"], tmp_path / "gt", "cam/0001", out, crop=(50, 50, 60, 60))
