@@ -243,9 +243,6 @@ def train(spec: ModelSpec, data_path: str | Path, out: str | Path, size: str = "
         raise InputError(f"static_warmup must be in [0, 1), got {train_cfg.static_warmup}")
     if train_cfg.batch_rays < 1:
         raise InputError(f"batch_rays must be >= 1, got {train_cfg.batch_rays}")
-    if train_cfg.static_warmup and spec.name != "kplanes":
-        raise InputError(f"static_warmup needs a field with a static part (K-Planes' space "
-                         f"planes); {spec.name} has none")
     data = load_dataset(data_path)
     if resume:
         cfg["train_config"] = asdict(train_cfg)
@@ -255,6 +252,9 @@ def train(spec: ModelSpec, data_path: str | Path, out: str | Path, size: str = "
         if spec.scene_extras is not None:
             cfg["scene"].update(spec.scene_extras(model_cfg, data))
         model = build_model(spec, model_cfg, render_cfg, cfg["scene"])
+    if train_cfg.static_warmup and not hasattr(model.encoding, "static_only"):
+        raise InputError(f"static_warmup needs a field with a static part (K-Planes' space "
+                         f"planes); {spec.name}'s {type(model.encoding).__name__} has none")
     out.mkdir(parents=True, exist_ok=True)
     (out / "config.json").write_text(json.dumps(cfg, indent=1) + "\n")
     return _loop(model, data, train_cfg, out, ckpt, progress)
@@ -286,7 +286,8 @@ def _loop(model: DynamicRadianceModel, data: Dataset, cfg: TrainConfig, out: Pat
 
     def save() -> None:
         _atomic_save({"model": model.state_dict(), "optimizer": optim.state_dict(), "step": step,
-                      "train_seconds": seconds, "train_cpu_seconds": cpu_seconds, "sampler_rng": sampler.generator.get_state(),
+                      "train_seconds": seconds, "train_cpu_seconds": cpu_seconds,
+                      "sampler_rng": sampler.generator.get_state(),
                       "torch_rng": torch.get_rng_state()}, out / "checkpoint.pt")
 
     def budget() -> float:

@@ -61,6 +61,8 @@ class DynamicBoxEncoding(nn.Module):
                                     cfg.max_resolution, planes="space")
         if cfg.dynamic_planes not in ("time", "space-time"):
             raise InputError(f"dynamic_planes must be 'time' or 'space-time', got {cfg.dynamic_planes!r}")
+        # ``time``: the factor over the moving box (its planes also hold space-only ones with
+        # ``dynamic_planes="space-time"``; the name stays so checkpoints keep their keys)
         self.time = PlaneEncoding(cfg.dynamic_resolution, t_res, tuple(cfg.scales), cfg.features,
                                   cfg.max_resolution, planes=cfg.dynamic_planes, factor=True)
         self.out_dim = self.static.out_dim
@@ -115,11 +117,9 @@ PRESETS = standard_presets(
     small=KPlanesConfig())
 for _name in ("tiny", "small"):
     _model, _render, _train = PRESETS[_name]
-    PRESETS[f"{_name}-dynbox"] = (replace(_model, dynamic_box=True,
-                                          dynamic_resolution=_model.resolution // 2), _render, _train)
-    PRESETS[f"{_name}-dynbox-fine"] = (replace(_model, dynamic_box=True, dynamic_planes="space-time",
-                                               dynamic_resolution=_model.resolution // 2),
-                                       _render, _train)
+    _dynbox = replace(_model, dynamic_box=True, dynamic_resolution=_model.resolution // 2)
+    PRESETS[f"{_name}-dynbox"] = (_dynbox, _render, _train)
+    PRESETS[f"{_name}-dynbox-fine"] = (replace(_dynbox, dynamic_planes="space-time"), _render, _train)
 """``tiny``: tests (seconds); ``small``: the documented runs (see ``standard_presets``);
 ``-dynbox``: the same with ``dynamic_box``; ``-dynbox-fine``: with the six-plane factor over the
 moving box (``dynamic_planes="space-time"``)."""
