@@ -23,12 +23,10 @@ import argparse
 import math
 import os
 import platform
-import shlex
 import sys
 import time
 import warnings
 from collections.abc import Callable
-from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
@@ -902,12 +900,14 @@ def main(argv: list[str] | None = None) -> int:
 
         torch.set_num_threads(args.torch_threads)
     machine = _machine()
-    started = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    from benchmarks.sections import command_line, utc_stamp
+
+    started = utc_stamp()
     rows = _measure(args)
     table = format_table(rows)
     gap = crop_vs_map(rows)
     sample_gap = sample_scene_crop_vs_map(not args.no_lpips)
-    command = COMMAND + (" " + shlex.join(argv if argv is not None else sys.argv[1:])).rstrip()
+    command = command_line(COMMAND, argv)
     parts = _head_section(command, started, machine, args, rows, table)
     if not args.no_lpips:
         parts += _lpips_floor_section(rows)

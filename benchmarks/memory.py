@@ -19,7 +19,6 @@ import subprocess
 import sys
 import tempfile
 import time
-from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
@@ -128,8 +127,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--root", default="/tmp/dynaeval-bench-memory", help="jobs (made if missing)")
     parser.add_argument("--out", default="-", help="markdown file to put the section in ('-': print)")
     args = parser.parse_args(argv)
-    command = COMMAND + " " + shlex.join(argv if argv is not None else sys.argv[1:])
-    started = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    from benchmarks.sections import command_line, put_section, utc_stamp
+
+    command = command_line(COMMAND, argv)
+    started = utc_stamp()
     results: dict[tuple[int, int], tuple[float, float]] = {}
     for n in args.frames:
         job = make_camera(Path(args.root) / f"n{n}", n)
@@ -139,8 +140,6 @@ def main(argv: list[str] | None = None) -> int:
     text = section(f"`{command}` — run {started}", results)
     print(text)
     if args.out != "-":
-        from benchmarks.sections import put_section
-
         put_section(args.out, "memory", text)
     return 0
 

@@ -24,7 +24,6 @@ import subprocess
 import sys
 import tempfile
 import time
-from datetime import datetime, timezone
 from pathlib import Path
 
 if not __package__:  # run as `python benchmarks/NAME.py`: make `benchmarks` importable
@@ -117,7 +116,7 @@ def table(rows: list[dict]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from benchmarks.sections import put_section
+    from benchmarks.sections import command_line, put_section, utc_stamp
 
     p = argparse.ArgumentParser(prog=COMMAND, description=__doc__.split("\n")[0])
     p.add_argument("data", type=Path, help="dataset folder (the scene generator's output)")
@@ -142,9 +141,7 @@ def main(argv: list[str] | None = None) -> int:
             row[name] = measure(code, args.data, model, size, extra, args.steps, args.views,
                                 args.threads)
         rows.append(row)
-    stamp = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    text = (f"`{COMMAND} DATA --before BEFORE --steps {args.steps} --views {args.views} --threads "
-            f"{args.threads}` ({stamp}; before = {_commit(args.before)}, after = {_commit(REPO)}; "
+    text = (f"`{command_line(COMMAND, argv)}` ({utc_stamp()}; before = {_commit(args.before)}, after = {_commit(REPO)}; "
             f"load average at the end {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores):\n\n"
             + table(rows) + "\n")
     print(text)

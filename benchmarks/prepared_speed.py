@@ -17,12 +17,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import shlex
 import subprocess
 import sys
 import tempfile
 import time
-from datetime import datetime, timezone
 from pathlib import Path
 
 if not __package__:  # run as `python benchmarks/NAME.py`: make `benchmarks` importable
@@ -100,7 +98,7 @@ def bench_prepared(job: Path, rounds: int) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from benchmarks.sections import put_section
+    from benchmarks.sections import command_line, put_section, utc_stamp
     from benchmarks.temporal_speed import make_job
 
     parser = argparse.ArgumentParser(prog=COMMAND, description=__doc__.split("\n")[0])
@@ -108,8 +106,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--rounds", type=int, default=3, help="alternating timed rounds (best kept)")
     parser.add_argument("--out", default="docs/benchmarks.md", help="markdown file ('-': print only)")
     args = parser.parse_args(argv)
-    command = COMMAND + " " + shlex.join(argv if argv is not None else sys.argv[1:])
-    started = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    command = command_line(COMMAND, argv)
+    started = utc_stamp()
     body = bench_prepared(make_job(args.job), args.rounds)
     text = (f"## Ground truth prepared once (`dynaeval prepare`)\n\nCommand: `{command}` — run "
             f"{started}.\n\n{body}\n")

@@ -8,6 +8,9 @@ owns it replaces it (or appends it) and leaves the rest of the file alone, so
 from __future__ import annotations
 
 import re
+import shlex
+import sys
+from datetime import datetime, timezone
 from pathlib import Path
 
 _BLOCK = re.compile(r"<!-- begin (?P<name>[\w-]+) -->\n.*?<!-- end (?P=name) -->\n", re.S)
@@ -35,3 +38,14 @@ def keep_sections(old_text: str, new_text: str) -> str:
     have = blocks(new_text)
     kept = [b for name, b in blocks(old_text).items() if name not in have]
     return new_text if not kept else new_text.rstrip("\n") + "\n\n" + "\n".join(kept)
+
+
+def command_line(prog: str, argv: list[str] | None = None) -> str:
+    """``prog`` with its arguments as given (``argv``; None: this process's own), for the
+    "Command:" line of a section."""
+    return (prog + " " + shlex.join(argv if argv is not None else sys.argv[1:])).rstrip()
+
+
+def utc_stamp() -> str:
+    """The time now as ``YYYY-MM-DD HH:MM UTC``: when a benchmark ran."""
+    return datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")

@@ -31,13 +31,11 @@ import argparse
 import cProfile
 import json
 import pstats
-import shlex
 import subprocess
 import sys
 import tempfile
 import time
 from collections.abc import Callable
-from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
@@ -278,7 +276,7 @@ SECTIONS = {
 
 
 def main(argv: list[str] | None = None) -> int:
-    from benchmarks.sections import put_section
+    from benchmarks.sections import command_line, put_section, utc_stamp
 
     parser = argparse.ArgumentParser(prog=COMMAND, description=__doc__.split("\n")[0])
     parser.add_argument("--job", default="/tmp/dynaeval-bench-1080p", help="job folder (made if missing)")
@@ -286,8 +284,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--rounds", type=int, default=3, help="alternating timed rounds (best kept)")
     parser.add_argument("--out", default="docs/benchmarks.md", help="markdown file ('-': print only)")
     args = parser.parse_args(argv)
-    command = COMMAND + " " + shlex.join(argv if argv is not None else sys.argv[1:])
-    started = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    command = command_line(COMMAND, argv)
+    started = utc_stamp()
     job = make_job(args.job)
     for part in args.parts.split(","):
         name, title, fn = SECTIONS[part]

@@ -30,3 +30,13 @@ def test_interleaved_runs_every_path_each_round_and_keeps_the_best():
     best = interleaved({"a": lambda: calls.append("a"), "b": lambda: calls.append("b")}, 2)
     assert calls == ["a", "b"] * 3  # warm-up round, then 2 alternating rounds
     assert set(best) == {"a", "b"} and all(v["wall"] >= 0 for v in best.values())
+
+
+def test_command_line_and_stamp():
+    import re
+
+    from benchmarks.sections import command_line, utc_stamp
+
+    assert command_line("python benchmarks/x.py", ["--out", "a b"]) == "python benchmarks/x.py --out 'a b'"
+    assert command_line("python benchmarks/x.py", []) == "python benchmarks/x.py"  # no trailing space
+    assert re.fullmatch(r"\d{4}-\d\d-\d\d \d\d:\d\d UTC", utc_stamp())
