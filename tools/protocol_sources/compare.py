@@ -36,13 +36,21 @@ from tests.dynaeval.mask_layouts import (  # noqa: E402
 KW = dict(metrics=("psnr", "ssim"), temporal=False, progress=False, focus=FocusConfig("none"))
 
 
-def nerfbaselines_rows(python: str, tmp: Path) -> list[str]:
-    run = nerfbaselines_folder(tmp / "nb")
+def nerfbaselines_per_image(python: str, run: Path) -> list[dict]:
+    """NeRFBaselines' own ``evaluate`` (run by ``python``, its venv) on the render folder ``run``:
+    its per-image metrics. Writes the ``info.json`` it needs (default protocol, sRGB) into
+    ``run`` and its results beside it (``run.with_suffix(".json")``)."""
     (run / "info.json").write_text(json.dumps({"evaluation_protocol": "default",
                                                "render_dataset_metadata": {"color_space": "srgb"}}))
+    out = run.with_suffix(".json")
     subprocess.run([python, str(ROOT / "tools/protocol_sources/nerfbaselines_eval.py"), str(run),
-                    str(tmp / "nb.json")], check=True, capture_output=True)
-    ref = json.loads((tmp / "nb.json").read_text())["per_image"]
+                    str(out)], check=True, capture_output=True)
+    return json.loads(out.read_text())["per_image"]
+
+
+def nerfbaselines_rows(python: str, tmp: Path) -> list[str]:
+    run = nerfbaselines_folder(tmp / "nb")
+    ref = nerfbaselines_per_image(python, run)
     ours = score(run, protocol="nerfbaselines", **KW)["frames"]
     plain = score(run, **KW)["frames"]
     rows = []
@@ -67,11 +75,7 @@ def decode_rows(python: str, tmp: Path) -> list[str]:
 
     run = nerfbaselines_folder(tmp / "nb16")
     shutil.rmtree(run / "mask")
-    (run / "info.json").write_text(json.dumps({"evaluation_protocol": "default",
-                                               "render_dataset_metadata": {"color_space": "srgb"}}))
-    subprocess.run([python, str(ROOT / "tools/protocol_sources/nerfbaselines_eval.py"), str(run),
-                    str(tmp / "nb16.json")], check=True, capture_output=True)
-    ref = json.loads((tmp / "nb16.json").read_text())["per_image"]
+    ref = nerfbaselines_per_image(python, run)
     ours = score(run, protocol="nerfbaselines", **KW)["frames"]
     old = [psnr_float32(*(quantize(read_image(f), "truncate") for f in (Path(o["pred"]), Path(o["gt"]))),
                         clip=True) for o in ours]
