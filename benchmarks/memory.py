@@ -127,7 +127,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--root", default="/tmp/dynaeval-bench-memory", help="jobs (made if missing)")
     parser.add_argument("--out", default="-", help="markdown file to put the section in ('-': print)")
     args = parser.parse_args(argv)
-    from benchmarks.sections import command_line, put_section, utc_stamp
+    from benchmarks.sections import command_line, publish, utc_stamp
 
     command = command_line(COMMAND, argv)
     started = utc_stamp()
@@ -138,9 +138,7 @@ def main(argv: list[str] | None = None) -> int:
             results[n, mb] = peak_rss_mb(job, mb)
             print(_row(n, mb, *results[n, mb]), flush=True)
     text = section(f"`{command}` — run {started}", results)
-    print(text)
-    if args.out != "-":
-        put_section(args.out, "memory", text)
+    publish(args.out, "memory", text)
     return 0
 
 

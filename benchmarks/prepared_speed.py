@@ -98,7 +98,7 @@ def bench_prepared(job: Path, rounds: int) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from benchmarks.sections import command_line, put_section, utc_stamp
+    from benchmarks.sections import command_line, publish, utc_stamp
     from benchmarks.temporal_speed import make_job
 
     parser = argparse.ArgumentParser(prog=COMMAND, description=__doc__.split("\n")[0])
@@ -111,9 +111,7 @@ def main(argv: list[str] | None = None) -> int:
     body = bench_prepared(make_job(args.job), args.rounds)
     text = (f"## Ground truth prepared once (`dynaeval prepare`)\n\nCommand: `{command}` — run "
             f"{started}.\n\n{body}\n")
-    print(text)
-    if args.out != "-":
-        put_section(args.out, "prepared", text)
+    publish(args.out, "prepared", text)
     return 0
 
 

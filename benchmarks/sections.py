@@ -49,3 +49,11 @@ def command_line(prog: str, argv: list[str] | None = None) -> str:
 def utc_stamp() -> str:
     """The time now as ``YYYY-MM-DD HH:MM UTC``: when a benchmark ran."""
     return datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+
+
+def publish(out: str, name: str, text: str) -> None:
+    """Print a benchmark's section ``text`` and put it into section ``name`` of the markdown file
+    ``out`` (``"-"``: print only, the benchmarks' ``--out -``)."""
+    print(text)
+    if out != "-":
+        put_section(out, name, text)

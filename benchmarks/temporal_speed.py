@@ -276,7 +276,7 @@ SECTIONS = {
 
 
 def main(argv: list[str] | None = None) -> int:
-    from benchmarks.sections import command_line, put_section, utc_stamp
+    from benchmarks.sections import command_line, publish, utc_stamp
 
     parser = argparse.ArgumentParser(prog=COMMAND, description=__doc__.split("\n")[0])
     parser.add_argument("--job", default="/tmp/dynaeval-bench-1080p", help="job folder (made if missing)")
@@ -291,9 +291,7 @@ def main(argv: list[str] | None = None) -> int:
         name, title, fn = SECTIONS[part]
         body = fn(args.rounds) if part == "ssim" else fn(job, args.rounds)
         text = f"## {title}\n\nCommand: `{command}` — run {started}.\n\n{body}\n"
-        print(text)
-        if args.out != "-":
-            put_section(args.out, name, text)
+        publish(args.out, name, text)
     return 0
 
 

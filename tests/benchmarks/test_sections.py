@@ -40,3 +40,12 @@ def test_command_line_and_stamp():
     assert command_line("python benchmarks/x.py", ["--out", "a b"]) == "python benchmarks/x.py --out 'a b'"
     assert command_line("python benchmarks/x.py", []) == "python benchmarks/x.py"  # no trailing space
     assert re.fullmatch(r"\d{4}-\d\d-\d\d \d\d:\d\d UTC", utc_stamp())
+
+
+def test_publish_prints_and_writes_unless_dash(tmp_path, capsys):
+    from benchmarks.sections import publish
+
+    publish("-", "x", "body")
+    assert capsys.readouterr().out == "body\n" and not list(tmp_path.iterdir())
+    publish(str(tmp_path / "d.md"), "x", "body")
+    assert "<!-- begin x -->\nbody\n<!-- end x -->" in (tmp_path / "d.md").read_text()
