@@ -23,7 +23,6 @@ import os
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 if not __package__:  # run as `python benchmarks/NAME.py`: make `benchmarks` importable
@@ -62,15 +61,14 @@ print((time.perf_counter() - t0) / len(idx))
 and prints seconds per view: model and data loading are not counted."""
 
 
-def _run(code: Path, args: list[str], threads: int) -> float:
-    """Wall seconds of ``python -m ARGS`` with ``code`` first on the path; raises on failure."""
+def _run(code: Path, args: list[str], threads: int) -> str:
+    """Stdout of ``python ARGS`` (``-m ...`` or ``-c ...``) run in the checkout ``code`` with it
+    first on the path (``-m`` and ``-c`` put the working directory first); raises on failure."""
     env = {**os.environ, "PYTHONPATH": str(code), "OMP_NUM_THREADS": str(threads)}
-    t0 = time.perf_counter()
-    done = subprocess.run([sys.executable, "-m", *args], env=env, capture_output=True, text=True,
-                          cwd=code)  # `-m` puts the working directory first on the path
+    done = subprocess.run([sys.executable, *args], env=env, capture_output=True, text=True, cwd=code)
     if done.returncode:
-        raise RuntimeError(f"{' '.join(args)} failed:\n{done.stderr[-2000:]}")
-    return time.perf_counter() - t0
+        raise RuntimeError(f"{' '.join(args[:3])} failed:\n{done.stderr[-2000:]}")
+    return done.stdout
 
 
 def measure(code: Path, data: Path, model: str, size: str, extra: tuple[str, ...], steps: int,
@@ -79,18 +77,12 @@ def measure(code: Path, data: Path, model: str, size: str, extra: tuple[str, ...
     (its processes run in ``code``, which ``-m`` / ``-c`` put first on the path)."""
     with tempfile.TemporaryDirectory() as tmp:
         run = Path(tmp) / "run"
-        _run(code, [f"reference_models.{model}", "train", str(data), "--out", str(run), "--size", size,
+        _run(code, ["-m", f"reference_models.{model}", "train", str(data), "--out", str(run), "--size", size,
                     "--iters", str(steps), "--threads", str(threads), "--quiet", *extra], threads)
         log = [json.loads(x) for x in (run / "log.jsonl").read_text().splitlines()]
         rays = json.loads((run / "config.json").read_text())["train_config"]["batch_rays"]
         step_s = 1.0 / log[-1]["it_per_s"]
-        done = subprocess.run([sys.executable, "-c", _RENDER, str(run), model, str(views)],
-                              env={**os.environ, "PYTHONPATH": str(code),
-                                   "OMP_NUM_THREADS": str(threads)},
-                              capture_output=True, text=True, cwd=code)
-        if done.returncode:
-            raise RuntimeError(f"rendering {run} failed:\n{done.stderr[-2000:]}")
-        per_view = float(done.stdout.split()[-1])
+        per_view = float(_run(code, ["-c", _RENDER, str(run), model, str(views)], threads).split()[-1])
     return {"model": model, "size": size + (" " + " ".join(extra) if extra else ""), "rays": rays,
             "s_per_step": step_s, "rays_per_s": rays / step_s, "render_s_per_view": per_view}
 
