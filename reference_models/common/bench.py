@@ -27,7 +27,7 @@ def measure(data: str, model: str, size: str, steps: int) -> dict:
     from reference_models.common.importance import RaySampler
     from reference_models.common.model import RayBatch
     from reference_models.common.rays import pixel_rays
-    from reference_models.common.train import build_model, scene_info
+    from reference_models.common.train import build_model, make_optimizer, scene_info
 
     spec = importlib.import_module(f"reference_models.{model}").SPEC
     if size not in spec.presets:
@@ -38,7 +38,7 @@ def measure(data: str, model: str, size: str, steps: int) -> dict:
     if spec.scene_extras is not None:
         scene.update(spec.scene_extras(model_cfg, ds))
     net = build_model(spec, model_cfg, render_cfg, scene)
-    optim = torch.optim.Adam(net.parameters(), lr=train_cfg.lr, eps=1e-15, fused=True)
+    optim = make_optimizer(net, train_cfg)
     sampler = RaySampler(ds.train)
     views = ds.train
     c2w, intr = torch.from_numpy(views.c2w), torch.from_numpy(views.intrinsics)

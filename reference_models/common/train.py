@@ -133,6 +133,12 @@ def build_model(spec: ModelSpec, model_cfg: Any, render_cfg: RenderConfig, scene
     return DynamicRadianceModel(enc, torch.tensor(scene["box"]), scene["n_frames"], render_cfg)
 
 
+def make_optimizer(model: torch.nn.Module, cfg: TrainConfig) -> torch.optim.Optimizer:
+    """The training loop's Adam (fused: one kernel over every parameter, ~5x cheaper a step on
+    the CPU than the for-loop form), at ``cfg.lr``; the schedule sets the rate each step."""
+    return torch.optim.Adam(model.parameters(), lr=cfg.lr, eps=1e-15, fused=True)
+
+
 def _progress(step: int, seconds: float, cfg: TrainConfig) -> float:
     """How far the run is, in [0, 1]: steps done, or the time budget used when further along."""
     done = step / cfg.iters
@@ -266,7 +272,7 @@ def _loop(model: DynamicRadianceModel, data: Dataset, cfg: TrainConfig, out: Pat
 
     views = data.train
     sampler = RaySampler(views, cfg.sampling, cfg.importance_fraction, cfg.ist_from, cfg.seed)
-    optim = torch.optim.Adam(model.parameters(), lr=cfg.lr, eps=1e-15, fused=True)
+    optim = make_optimizer(model, cfg)
     step, seconds, cpu_seconds = 0, 0.0, 0.0
     if ckpt is not None:
         optim.load_state_dict(ckpt["optimizer"])
