@@ -1,6 +1,6 @@
 """Validation study: the toolkit against the reference models, reproducible with one command.
 
-    python -m reference_models.study [--preset tiny|small] --out STUDY [--scenes ...]
+    python -m reference_models.study [--preset tiny|small|small-30min] --out STUDY [--scenes ...]
         [--models kplanes nerfplayer] [--sampling uniform isg] [--jobs N] [--docs docs/validation.md]
 
 For every scene x model x ray sampling it renders the scene (once per scene), trains the model,
@@ -24,7 +24,7 @@ import argparse
 import json
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -48,11 +48,38 @@ class StudyPreset:
     """Training steps (None: the model preset's)."""
     frames: int | None = None
     """Frames per camera (None: the generator size's)."""
+    model_sizes: dict[str, str] = field(default_factory=dict)
+    """Model -> its preset where it is not ``model_size``."""
+    train: dict[str, Any] = field(default_factory=dict)
+    """``TrainConfig`` fields set for every model (e.g. a time budget)."""
+    model_train: dict[str, dict[str, Any]] = field(default_factory=dict)
+    """Model -> more ``TrainConfig`` fields for that model only."""
+    description: str = ""
+    """One sentence for the report: what a run of this preset trains."""
+
+    def size_of(self, model: str) -> str:
+        """The model preset a run of ``model`` trains."""
+        return self.model_sizes.get(model, self.model_size)
+
+    def overrides_of(self, model: str) -> dict[str, Any]:
+        """The ``TrainConfig`` fields a run of ``model`` sets."""
+        return {**self.train, **self.model_train.get(model, {})}
 
 
 PRESETS = {
     "tiny": StudyPreset(scene_size="tiny", model_size="tiny", iters=150),
-    "small": StudyPreset(scene_size="small", model_size="small", iters=None, frames=24),
+    "small": StudyPreset(scene_size="small", model_size="small", iters=None, frames=24,
+                         description="each run trains its model's `small` preset for its "
+                                     "1,500 steps of 512 rays"),
+    "small-30min": StudyPreset(
+        scene_size="small", model_size="small", iters=100_000, frames=24,
+        model_sizes={"kplanes": "small-dynbox-fine"},
+        train={"minutes": 30.0, "clock": "cpu", "batch_rays": 1024, "importance_fraction": 0.5},
+        model_train={"kplanes": {"static_warmup": 0.15}},
+        description="each run trains for 30 minutes of one core's CPU time (`--clock cpu`), "
+                    "1,024 rays per step, half of each batch by importance under ISG; K-Planes "
+                    "is `small-dynbox-fine` with the first 15 % on the static scene, NeRFPlayer "
+                    "`small` (docs/reference-models.md, \"30-minute runs\")"),
 }
 
 
@@ -99,8 +126,9 @@ def train_and_render(study: Path, scene: str, model: str, sampling: str, preset:
     if not (run / "train.json").is_file():
         resume = (run / "checkpoint.pt").is_file()
         t0 = time.perf_counter()
-        record = train(spec, data if not resume else None, run, size=preset.model_size,
-                       iters=preset.iters, sampling=sampling, resume=resume, progress=progress)
+        record = train(spec, data if not resume else None, run, size=preset.size_of(model),
+                       iters=preset.iters, sampling=sampling, resume=resume, progress=progress,
+                       overrides=preset.overrides_of(model) or None)
         _write_json(run / "train.json", {"wall_s": time.perf_counter() - t0, **record})
     if not (run / "render.json").is_file():
         import shutil

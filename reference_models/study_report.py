@@ -220,7 +220,7 @@ def write_report(study: Path, path: Path, *, preset: str, command: str,
                  results_dir: Path | None = None) -> Path:
     """Write the Markdown report of ``study`` to ``path`` (images next to it in img/)."""
     docs = _load(study)
-    from reference_models.study import SCENES
+    from reference_models.study import PRESETS, SCENES
 
     by_scene: dict[str, list[dict]] = {}
     for d in sorted(docs, key=lambda d: (SCENES.index(d["scene"]) if d["scene"] in SCENES
@@ -247,6 +247,8 @@ def write_report(study: Path, path: Path, *, preset: str, command: str,
         f"two run at once). From the first scene render to the last result "
         f"{elapsed / 60:.1f} min elapsed (including any pause before a resume).",
         "",
+        *([f"Training: {PRESETS[preset].description}.", ""]
+          if preset in PRESETS and PRESETS[preset].description else []),
         "Runs are `<model>-<sampling>`: `uniform` samples training rays uniformly, `isg` uses ray "
         "importance sampling (ISG weights from dynaeval's motion masks). Metrics: whole frame, "
         "`f-` focused (generator's exact boxes, expanded as in the paper), `m-` masked (motion "

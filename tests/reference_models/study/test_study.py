@@ -66,3 +66,27 @@ def test_unknown_preset_and_bad_jobs():
         run_study(__import__("pathlib").Path("/nonexistent"), "huge")
     with pytest.raises(InputError, match="jobs must be >= 1"):
         run_study(__import__("pathlib").Path("/nonexistent"), "tiny", jobs=0)
+
+
+def test_a_preset_trains_each_model_with_its_own_size_and_settings(tmp_path, monkeypatch):
+    """small-30min: K-Planes at small-dynbox-fine with the static warm-up, NeRFPlayer at small
+    without it (it has no static-only look-up), both on the 30-minute CPU budget."""
+    import reference_models.common.train as train_mod
+    from reference_models.study import PRESETS, train_and_render
+
+    calls = []
+
+    def fake_train(spec, data, out, size, iters, sampling, resume, progress, overrides):
+        calls.append((spec.name, size, iters, overrides))
+        out.mkdir(parents=True, exist_ok=True)
+        return {"step": 0}
+
+    monkeypatch.setattr(train_mod, "train", fake_train)
+    monkeypatch.setattr(train_mod, "render_run", lambda spec, run, data, progress: [])
+    for model in MODELS:
+        train_and_render(tmp_path, "single-player-closeup", model, "isg", PRESETS["small-30min"],
+                         tmp_path / "data", progress=False)
+    budget = {"minutes": 30.0, "clock": "cpu", "batch_rays": 1024, "importance_fraction": 0.5}
+    assert calls == [("kplanes", "small-dynbox-fine", 100_000, {**budget, "static_warmup": 0.15}),
+                     ("nerfplayer", "small", 100_000, budget)]
+    assert PRESETS["small"].overrides_of("kplanes") == {}
