@@ -20,6 +20,7 @@ reused buffers, and reduces in float64 (optionally over ``threads`` threads; sam
 
 from __future__ import annotations
 
+import math
 import threading
 from typing import Any
 
@@ -59,8 +60,16 @@ def _check_size(h: int, w: int) -> None:
         )
 
 
-BAND_ROWS = 32
-"""Output rows per band: the work is done band by band so the temporaries stay cache-sized."""
+BAND_ROWS = 96
+"""Output rows per band (a multiple of ``SUM_ROWS``); each band is computed tile after tile."""
+SUM_ROWS = 32
+"""Output rows per float64 partial sum of the whole-image SSIM: fixed, so the sum does not depend
+on the band or tile sizes (the partition the results have always been summed in)."""
+TILE_VALUES = 600
+"""Values per row of a tile (pixels x channels, the 2r halo columns included): a band's tile of
+``BAND_ROWS + 2r`` rows then keeps its six float32 buffers (~1.5 MB) in the core's L2 cache from
+the first elementwise step to the last (measured: the band-wide buffers of before streamed from
+L3 at every step)."""
 
 
 def _kernel() -> np.ndarray:
@@ -71,22 +80,49 @@ def _kernel() -> np.ndarray:
 class _Workspace:
     """Float32 buffers for one band, reused band after band.
 
-    Fresh 1-2 MB temporaries on every band are page-faulted in again and again (measured: ~15 %
-    of the SSIM time at 1080p); one workspace per thread keeps them warm.
+    ``x, y, d, xy`` hold a tile's centred data and products and are filtered in place into its
+    moments; ``t1, t2`` are the SSIM step's scratch; ``q`` collects the band's SSIM, all columns.
+    Fresh temporaries on every band are page-faulted in again and again (measured: ~15 % of the
+    SSIM time at 1080p); one workspace per thread keeps them warm.
     """
 
     def __init__(self, rows_in: int, width: int, channels: int) -> None:
-        shape = (rows_in, width * channels)
         self.channels = channels
         self.kernel = _kernel()
-        self.x, self.y, self.d, self.xy = (np.empty(shape, np.float32) for _ in range(4))
-        self.a, self.b, self.exy, self.ed2 = (np.empty(shape, np.float32) for _ in range(4))
-        self.t1, self.t2 = np.empty(shape, np.float32), np.empty(shape, np.float32)
+        self.tiles = _tiles(width, channels)
+        tile_shape = (rows_in, max(t1 - t0 for t0, t1 in self.tiles) * channels)
+        self.x, self.y, self.d, self.xy = (np.empty(tile_shape, np.float32) for _ in range(4))
+        self.t1, self.t2 = (np.empty(tile_shape, np.float32) for _ in range(2))
+        self.q = np.empty((rows_in - 2 * RADIUS, width * channels), np.float32)
 
 
-SUB_ROWS = 8
-"""Rows per step of the elementwise work inside a band: its handful of temporaries then stay in
-the core's L2 cache between the steps (the same operations on fewer rows at a time: same bits)."""
+SIMD_SPAN = 64
+"""Values that any SIMD width OpenCV uses divides (4 to 16 float32 lanes, unrolled)."""
+
+
+def _tiles(width: int, channels: int) -> list[tuple[int, int]]:
+    """Input pixel columns [t0, t1) of the tiles of a band ``width`` pixels wide; tile k's output
+    columns are [t0 + r, t1 - r) and the tiles together cover the W - 2r valid ones.
+
+    OpenCV runs an elementwise step on a row with SIMD and the row's last values (its length
+    modulo the SIMD width) with scalar code, which rounds differently (``addWeighted`` fuses a
+    multiply-add only in SIMD). So every tile is a multiple of ``SIMD_SPAN`` values wide: no
+    value is rounded the scalar way, whatever the tiling, as none was when whole rows were run
+    ``SUB_ROWS`` = 8 at a time before. The last tile ends at the image's edge and may overlap the
+    one before it (it is written after it; overlapping columns are the same values). A row
+    narrower than ``SIMD_SPAN`` values is one tile.
+    """
+    span = SIMD_SPAN // math.gcd(SIMD_SPAN, channels)  # pixels per SIMD-clean step
+    span *= -(-WIN_SIZE // span)  # a tile holds at least one window
+    if width < span:
+        return [(0, width)]
+    size = min(max(1, TILE_VALUES // channels // span) * span, width // span * span)
+    tiles, start = [], 0
+    while start + size < width:
+        tiles.append((start, start + size))
+        start += size - 2 * RADIUS
+    last = min(size, -(-(width - start) // span) * span)  # covers [start, width)
+    return tiles + [(width - last, width)]
 
 
 _WORKSPACES = threading.local()
@@ -94,8 +130,8 @@ _WORKSPACES = threading.local()
 
 def _workspace(rows_in: int, width: int, channels: int) -> _Workspace:
     """A workspace for bands of this size: this thread's, kept from one image to the next when it
-    is large (the frames of a run share one size: their ~10 MB of buffers are not paged in
-    again per image); small ones (crops) are cheap to make afresh."""
+    is large (the frames of a run share one size: their buffers are not paged in again per
+    image); small ones (crops) are cheap to make afresh."""
     key = (rows_in, width, channels)
     if width * channels < 2048:
         return _Workspace(*key)
@@ -116,47 +152,41 @@ def _band(xb: np.ndarray, yb: np.ndarray, inv: float, ws: _Workspace) -> np.ndar
         ws: buffers at least as large as the band.
 
     Returns:
-        (rows, W * C) float32 view into ``ws``; the r border columns of each side (r * C values)
-        are not valid windows and must be dropped by the caller.
+        (rows, W * C) float32 view into ``ws.q``; the r border columns of each side (r * C
+        values) are not valid windows and must be dropped by the caller.
 
+    The band is done in the tiles of ``_tiles`` (their input: r more columns each side than they
+    output); every value depends only on its own window, so the tiling changes no bit (tested).
     Fused moments: 4 filtered images instead of 5, data centred at 0.5 (``x = p / L - 0.5``), and
     with ``d = x - y``: ``mu_x^2 + mu_y^2 = 2 mu_x mu_y + (mu_x - mu_y)^2`` and
     ``sigma_x^2 + sigma_y^2 = 2 sigma_xy + var(d)``, ``var(d) = w * d^2 - (w * d)^2``. Elementwise
-    steps are fused where OpenCV offers it (``addWeighted`` = a * alpha + b * beta + gamma), write
-    into the workspace and run ``SUB_ROWS`` rows at a time.
+    steps are fused where OpenCV offers it (``addWeighted`` = a * alpha + b * beta + gamma) and
+    write into the workspace.
     """
     import cv2
 
     n = xb.shape[0]
     rows = n - 2 * RADIUS
     c = ws.channels
-    x, y, d, xy = ws.x[:n], ws.y[:n], ws.d[:n], ws.xy[:n]
-    for s0 in range(0, n, SUB_ROWS):
-        s = slice(s0, s0 + SUB_ROWS)
-        cv2.addWeighted(xb[s], inv, xb[s], 0.0, -0.5, dst=x[s], dtype=cv2.CV_32F)
-        cv2.addWeighted(yb[s], inv, yb[s], 0.0, -0.5, dst=y[s], dtype=cv2.CV_32F)
-        np.subtract(x[s], y[s], out=d[s])
-        np.multiply(d[s], d[s], out=d[s])
-        np.multiply(x[s], y[s], out=xy[s])
-
-    def blur(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
-        # separable, 11 taps; the reflected border only reaches rows/columns dropped later
-        cv2.sepFilter2D(
-            src.reshape(n, -1, c),
-            cv2.CV_32F,
-            ws.kernel,
-            ws.kernel,
-            dst=dst[:n].reshape(n, -1, c),
-            borderType=cv2.BORDER_REFLECT,
-        )
-        return dst[RADIUS : RADIUS + rows]
-
-    moments = (blur(x, ws.a), blur(y, ws.b), blur(xy, ws.exy), blur(d, ws.ed2))
-    out = ws.t1[:rows]
-    for s0 in range(0, rows, SUB_ROWS):
-        s = slice(s0, s0 + SUB_ROWS)
-        _ssim_rows(*(m[s] for m in moments), out[s], ws.t2[:rows][s])
-    return out
+    for t0, t1 in ws.tiles:  # input pixel columns [t0, t1), output [t0 + r, t1 - r)
+        cols = slice(t0 * c, t1 * c)
+        m = cols.stop - cols.start
+        x, y, d, xy = (b[:n, :m] for b in (ws.x, ws.y, ws.d, ws.xy))
+        cv2.addWeighted(xb[:, cols], inv, xb[:, cols], 0.0, -0.5, dst=x, dtype=cv2.CV_32F)
+        cv2.addWeighted(yb[:, cols], inv, yb[:, cols], 0.0, -0.5, dst=y, dtype=cv2.CV_32F)
+        np.subtract(x, y, out=d)
+        np.multiply(d, d, out=d)
+        np.multiply(x, y, out=xy)
+        for buf in (x, y, xy, d):  # in place: separable, 11 taps; the reflected border only
+            cv2.sepFilter2D(  # reaches rows and columns dropped below
+                buf.reshape(n, -1, c), cv2.CV_32F, ws.kernel, ws.kernel,
+                dst=buf.reshape(n, -1, c), borderType=cv2.BORDER_REFLECT,
+            )
+        moments = (b[RADIUS : RADIUS + rows] for b in (x, y, xy, d))
+        out = ws.t1[:rows, :m]
+        _ssim_rows(*moments, out, ws.t2[:rows, :m])
+        ws.q[:rows, (t0 + RADIUS) * c : (t1 - RADIUS) * c] = out[:, RADIUS * c : m - RADIUS * c]
+    return ws.q[:rows]
 
 
 def _ssim_rows(a: np.ndarray, b: np.ndarray, exy: np.ndarray, ed2: np.ndarray, ab: np.ndarray,
@@ -231,10 +261,11 @@ def _channel_sum(p: np.ndarray, g: np.ndarray, data_range: float, threads: int =
     c = 1 if p.ndim == 2 else p.shape[2]
     lo, hi = RADIUS * c, (w - RADIUS) * c
 
-    def band_sum(r0: int, r1: int, q: np.ndarray) -> float:
-        return cv2.sumElems(q[:, lo:hi])[0]  # OpenCV accumulates float32 sums in float64
+    def band_sums(r0: int, r1: int, q: np.ndarray) -> list[float]:
+        # OpenCV accumulates float32 sums in float64; one partial sum per SUM_ROWS rows
+        return [cv2.sumElems(q[s : s + SUM_ROWS, lo:hi])[0] for s in range(0, r1 - r0, SUM_ROWS)]
 
-    sums = _run_bands(p, g, data_range, threads, band_sum)
+    sums = [v for part in _run_bands(p, g, data_range, threads, band_sums) for v in part]
     return float(np.sum(sums, dtype=np.float64)), (h - 2 * RADIUS) * (w - 2 * RADIUS) * c
 
 

@@ -292,3 +292,40 @@ def test_too_small_is_an_undefined_metric_not_a_bad_input():
     with pytest.raises(InputError, match="same shape") as info:
         ssim(np.zeros((12, 12)), np.zeros((12, 13)))
     assert not isinstance(info.value, UndefinedMetricError)
+
+
+@pytest.mark.parametrize("channels", [1, 2, 3, 4, 7])
+def test_tiles_cover_the_valid_columns_in_simd_clean_widths(channels):
+    from dynaeval.metrics import structural
+
+    span = structural.SIMD_SPAN // np.gcd(structural.SIMD_SPAN, channels)
+    for width in range(WIN_SIZE, 900):
+        tiles = structural._tiles(width, channels)
+        covered = np.zeros(width, bool)
+        for t0, t1 in tiles:
+            assert 0 <= t0 and t1 <= width and t1 - t0 >= WIN_SIZE
+            assert len(tiles) == 1 and width < span or (t1 - t0) % span == 0, (width, tiles)
+            covered[t0 + structural.RADIUS : t1 - structural.RADIUS] = True
+        assert covered[structural.RADIUS : width - structural.RADIUS].all() and tiles[-1][1] == width
+
+
+@pytest.mark.parametrize("channels", [1, 2, 3, 4])
+@pytest.mark.parametrize("width", [11, 40, 63, 64, 65, 71, 134, 199, 330, 701])
+def test_tiling_changes_no_bit(rng, monkeypatch, channels, width):
+    """The band's tiles (any TILE_VALUES) give the bits of one tile per row, for any channel
+    count and width: no value is rounded by OpenCV's scalar tail code in one and not the other."""
+    import threading
+
+    from dynaeval.metrics import structural
+
+    a, b = _pair(rng, (30, width, channels) if channels > 1 else (30, width))
+    a255, b255 = np.round(a * 255), np.round(b * 255)
+    results = []
+    for tile_values in (64, 600, 10**6):
+        monkeypatch.setattr(structural, "TILE_VALUES", tile_values)
+        monkeypatch.setattr(structural, "_WORKSPACES", threading.local())
+        results.append((ssim_map(a, b), ssim(a, b), ssim_map(a255, b255, data_range=255.0)))
+    for got in results[1:]:
+        np.testing.assert_array_equal(got[0], results[0][0])
+        assert got[1] == results[0][1]
+        np.testing.assert_array_equal(got[2], results[0][2])
