@@ -153,7 +153,8 @@ def _add_score_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--flow", choices=FLOW_METHODS, default=d.flow,
                    help=f"optical flow for the temporal metrics (default: {d.flow})")
     p.add_argument("--workers", type=int, default=d.workers, metavar="N",
-                   help=f"frames scored concurrently; never changes a number (default: {d.workers})")
+                   help=f"threads scoring frames and pairs, and cameras scored at a time; never "
+                   f"changes a number (default: {d.workers})")
     p.add_argument("--device", choices=DEVICES, default=d.device,
                    help=f"torch device for LPIPS and the detector (default: {d.device})")
     p.add_argument("--cache-mb", type=int, default=d.cache_mb, metavar="MB",

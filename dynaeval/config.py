@@ -71,14 +71,16 @@ class ScoreConfig:
     flow: str = "dis"
     """Optical flow for the temporal terms: ``dis``, ``farneback`` or ``tvl1``."""
     workers: int = 1
-    """Frames scored concurrently (threads). Never changes a number."""
+    """Threads scoring frames and temporal pairs; with several cameras, also how many cameras
+    are scored at a time. Never changes a number."""
     device: str = "cpu"
     """Torch device for LPIPS: ``cpu``, ``cuda[:i]`` or ``auto`` (``dynaeval.runtime``)."""
     progress: bool = True
     """Show a progress bar on stderr."""
     cache_mb: int = 1024
-    """Decoded frames kept for reuse (MiB; one camera is scored at a time), so the passes over a
-    camera (regions, metrics, temporal) decode each file once where it fits. Never changes a number."""
+    """Decoded frames kept for reuse (MiB, shared by the cameras scored at a time), so the passes
+    over a camera (regions, metrics, temporal) decode each file once where it fits. Never changes a
+    number."""
     shard: tuple[int, int] | None = None
     """Score only slice ``(I, N)`` (or ``"I/N"``) of the cameras (``dynaeval.io.frames.select_shard``); the
     shards' results combine with ``dynaeval merge`` into exactly the unsharded numbers."""

@@ -5,7 +5,8 @@
 (``ScoreConfig``'s).
 
 Order of work, camera by camera (so memory is bounded by one camera's regions,
-``dynaeval.scoring``):
+``dynaeval.scoring``; with ``workers`` > 1, up to ``workers`` cameras at a time, sharing the
+frame cache budget):
 
 1. regions from the ground truth only (``dynaeval.regions.focus``): boxes (detector, boxes file
    or motion) expanded and merged, and motion masks;
@@ -199,19 +200,22 @@ def run_progress(pairs: list[FramePair], config: ScoreConfig) -> Any:
 
 def _score_cameras(pairs: list[FramePair], run: Any, on_regions: RegionsCallback | None,
                    progress: Any) -> tuple[list, list, dict, dict]:
-    """Every camera's rows, warnings, temporal terms and regions summary, camera after camera."""
+    """Every camera's rows, warnings, temporal terms and regions summary, in camera order.
+
+    With ``workers`` > 1 and several cameras, up to ``workers`` cameras are scored at the same
+    time (``run.lanes``), all feeding the one pool of ``workers`` threads: a camera's serial
+    steps (regions, decoding, folding the pairs) overlap another's frames and flows, and the
+    pool does not drain between a camera's phases. Each camera's numbers do not depend on it.
+    """
     from concurrent.futures import ThreadPoolExecutor
 
     from dynaeval.io.video import close_videos
-    from dynaeval.scoring import score_camera
 
-    rows: list[dict] = []
-    warnings = list(run.warnings)
-    temporal: dict[str, dict[str, dict]] = {}
-    regions: dict[str, dict] = {}
+    cams = pairs_by_camera(pairs)
     workers = run.config.workers
     run.pool = ThreadPoolExecutor(max_workers=workers) if workers > 1 else None
-    run.on_pair = lambda: progress.advance("pairs")
+    run.lanes = max(1, min(workers, len(cams)))
+    lanes = ThreadPoolExecutor(max_workers=run.lanes) if run.lanes > 1 else None
 
     def regions_done(cam: str, cam_pairs: list[FramePair], found: list[FrameRegions]) -> None:
         progress.advance("regions", len(cam_pairs))
@@ -220,27 +224,53 @@ def _score_cameras(pairs: list[FramePair], run: Any, on_regions: RegionsCallback
 
     completed = False
     try:
-        for cam, cam_pairs in pairs_by_camera(pairs).items():
-            progress.set_note(f"camera {cam}")
-            before = progress.done["pairs"]
-            scores = score_camera(cam, cam_pairs, run, on_regions=regions_done,
-                                  on_frame=lambda: progress.advance("frames"))
-            if run.config.temporal:  # pairs a camera could not score (no sequence) count as done
-                progress.advance("pairs", len(cam_pairs) - 1 - (progress.done["pairs"] - before))
-            progress.advance("video")
-            rows.extend(scores.rows)
-            warnings.extend(scores.warnings)
-            if scores.temporal is not None:
-                temporal[cam] = scores.temporal
-            if scores.regions is not None:
-                regions[cam] = scores.regions
+        if lanes is None:
+            scored = [_score_one_camera(c, p, run, regions_done, progress) for c, p in cams.items()]
+        else:
+            futures = [lanes.submit(_score_one_camera, c, p, run, regions_done, progress)
+                       for c, p in cams.items()]
+            scored = [f.result() for f in futures]
         completed = True
     finally:
+        if lanes is not None:
+            lanes.shutdown(cancel_futures=True)
         progress.close(completed)
         if run.pool:
             run.pool.shutdown()
         close_videos()
+    rows: list[dict] = []
+    warnings = list(run.warnings)
+    temporal: dict[str, dict[str, dict]] = {}
+    regions: dict[str, dict] = {}
+    for cam, scores in zip(cams, scored, strict=True):
+        rows.extend(scores.rows)
+        warnings.extend(scores.warnings)
+        if scores.temporal is not None:
+            temporal[cam] = scores.temporal
+        if scores.regions is not None:
+            regions[cam] = scores.regions
     return rows, warnings, temporal, regions
+
+
+def _score_one_camera(cam: str, cam_pairs: list[FramePair], run: Any, regions_done: RegionsCallback,
+                      progress: Any) -> Any:
+    """``score_camera`` with its progress: frames, pairs (those a camera could not score, no
+    sequence, count as done) and the camera's video step."""
+    from dynaeval.scoring import score_camera
+
+    pairs_done = [0]
+
+    def on_pair() -> None:
+        pairs_done[0] += 1
+        progress.advance("pairs")
+
+    progress.set_note(f"camera {cam}")
+    scores = score_camera(cam, cam_pairs, run, on_regions=regions_done,
+                          on_frame=lambda: progress.advance("frames"), on_pair=on_pair)
+    if run.config.temporal:
+        progress.advance("pairs", len(cam_pairs) - 1 - pairs_done[0])
+    progress.advance("video")
+    return scores
 
 
 def _assemble(layout: Any, run_name: str | None, pairing: Any, run: Any, rows: list,

@@ -56,8 +56,9 @@ class Run:
     """Seconds per phase and metric, summed over frames."""
     lock: threading.Lock = field(default_factory=threading.Lock)
     """Guards ``timing``."""
-    on_pair: Callable[[], None] | None = None
-    """Called as each temporal frame pair is done (progress)."""
+    lanes: int = 1
+    """Cameras scored at the same time (``dynaeval.evaluate``); their frame caches share
+    ``config.cache_mb``."""
     every: dict[str, int] = field(default_factory=dict)
     """Result key -> K: that per-frame metric is scored on frames whose index % K == 0 only."""
     camera_fns: dict[str, tuple[str, Any]] = field(default_factory=dict)
@@ -370,13 +371,15 @@ def _not_video_warning(camera: str, pairs: list[FramePair], err: Any) -> dict:
 
 def score_camera(camera: str, pairs: list[FramePair], run: Run, *,
                  on_regions: Callable | None = None,
-                 on_frame: Callable[[], None] | None = None) -> CameraScores:
+                 on_frame: Callable[[], None] | None = None,
+                 on_pair: Callable[[], None] | None = None) -> CameraScores:
     """Regions, per-frame values and temporal terms of one camera (its frames in order).
 
     ``on_regions(camera, pairs, regions)`` is called before the frames are scored; ``on_frame()``
-    after each frame (progress).
+    after each frame and ``on_pair()`` after each temporal pair (progress). Cameras may be
+    scored at the same time on one ``run`` (its pool is shared; nothing here depends on order).
     """
-    cache = FrameCache(run.config.cache_mb * 2**20)  # dropped after the camera's temporal pass
+    cache = FrameCache(run.config.cache_mb * 2**20 // max(1, run.lanes))  # dropped at the end
     regions = camera_regions_of(camera, pairs, run, cache)
     if on_regions is not None:
         on_regions(camera, pairs, regions)
@@ -397,7 +400,8 @@ def score_camera(camera: str, pairs: list[FramePair], run: Run, *,
         # the camera's pairs run on the pool (flows dominate: 3 per pair); the frames are
         # decoded here meanwhile, and the next camera starts when they are done
         t0 = time.perf_counter()
-        temporal, differ = _temporal_or_reason(camera, pairs, regions, run, cache, differ)
+        temporal, differ = _temporal_or_reason(camera, pairs, regions, run, cache, differ,
+                                               on_pair)
         run.add_time({"temporal": time.perf_counter() - t0})
     if run.camera_fns:
         t0 = time.perf_counter()
@@ -517,7 +521,8 @@ def video_metrics_of(camera: str, pairs: list[FramePair], regions: list[FrameReg
 
 
 def _temporal_or_reason(camera: str, pairs: list[FramePair], regions: list[FrameRegions],
-                        run: Run, cache: FrameCache, differ: Any) -> tuple[dict[str, dict], Any]:
+                        run: Run, cache: FrameCache, differ: Any,
+                        on_pair: Callable[[], None] | None = None) -> tuple[dict[str, dict], Any]:
     """The camera's temporal terms, or every term null with the reason: frames that differ in
     shape (``differ``: the ``FramesDiffer`` found by the regions, or found here), frames too
     small for optical flow. InputErrors that name no file are raised naming the camera."""
@@ -534,7 +539,7 @@ def _temporal_or_reason(camera: str, pairs: list[FramePair], regions: list[Frame
     except UndefinedMetricError as err:
         return nulls(f"temporal terms of camera {camera!r}: {err}"), None
     try:
-        return temporal_of_camera(pairs, regions, run, cache, shape), None
+        return temporal_of_camera(pairs, regions, run, cache, shape, on_pair), None
     except FramesDiffer as err:
         return nulls(err.reason()), err
     except InputError as err:
@@ -556,7 +561,8 @@ def _small_for_tlp(run: Run, h: int, w: int) -> str | None:
 
 
 def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], run: Run,
-                       cache: FrameCache, shape: tuple[int, ...]) -> dict[str, dict]:
+                       cache: FrameCache, shape: tuple[int, ...],
+                       on_pair: Callable[[], None] | None = None) -> dict[str, dict]:
     """The temporal terms of one camera (``dynaeval.metrics.temporal.temporal_metrics`` output),
     its ground truth of ``shape`` (the first frame's); tLP null with the reason when the frames
     are smaller than LPIPS accepts."""
@@ -588,7 +594,7 @@ def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], run:
         flow_cache=run.prepared.flow_cache() if run.prepared is not None else None,
         executor=run.pool,
         window=2 * config.workers,
-        on_pair=run.on_pair,
+        on_pair=on_pair,
     )
     if small is not None:
         out.update({k: {"value": None, "reason": small, "per_pair": []} for k in SPECS["tlp"].keys()})

@@ -224,8 +224,9 @@ def test_default_config_is_the_cli_default():
 
 
 def test_temporal_pass_on_the_pool_keeps_numbers_and_order(tmp_path):
-    """With workers > 1 each camera's frame pairs run on the pool (up to 2 x workers in flight,
-    more than the 3 pairs of a camera for 2 and 3 workers): numbers and camera order unchanged."""
+    """With workers > 1, 2 or 3 of the 3 cameras are scored at once and each camera's frame
+    pairs run on the shared pool (up to 2 x workers in flight, more than the 3 pairs of a
+    camera): numbers and camera order unchanged."""
     cams = ("cam0", "cam1", "cam2")
     gt, frames = moving_square_scene(tmp_path / "gt", cameras=cams)
     rng = np.random.default_rng(5)
