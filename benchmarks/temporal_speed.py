@@ -1,6 +1,7 @@
 """The temporal pass, worker scaling and SSIM against their floors, as ratios measured in one run.
 
-``python benchmarks/temporal_speed.py --job DIR [--parts pairs,workers,ssim] [--rounds N]``
+``python benchmarks/temporal_speed.py --job DIR [--parts pairs,workers,ssim] [--rounds N]
+[--before CHECKOUT]``
 
 On a shared machine absolute times say little (other jobs hold the cores), so every claim here is
 a *ratio* of two paths timed in the same process, alternating (A, B, A, B, ...), best of
@@ -19,6 +20,8 @@ a *ratio* of two paths timed in the same process, alternating (A, B, A, B, ...),
   (the five 11-tap separable Gaussian filters alone, on float32 planes: what any SSIM must
   filter) and against scikit-image on the same float32 input; the deviation from the float64
   reference (scikit-image on float64 input).
+* ``--before CHECKOUT``: the workers runs are also made in another checkout (its code), and its
+  ``structural.py`` is timed beside this one's SSIM, with a check that both give the same bits.
 
 The job (``--job DIR``, made when missing) is the bundled sample (2 cameras x 8 frames) upscaled
 to 1920x1080 with a fixed noise texture, so that the flow has detail to follow. Sections of
@@ -45,6 +48,9 @@ if not __package__:  # run as `python benchmarks/NAME.py`: make `benchmarks` imp
     sys.path.insert(0, str(__import__("pathlib").Path(__file__).resolve().parents[1]))
 
 COMMAND = "python benchmarks/temporal_speed.py"
+REPO = Path(__file__).resolve().parents[1]
+ONE_CORE = {"OPENCV_FOR_THREADS_NUM": "1"}
+"""Environment of a run on one core: OpenCV's thread pool (DIS) on one thread."""
 SIZE = (1080, 1920)
 
 
@@ -190,11 +196,22 @@ def _profile(fn: Callable[[], Any], top: int = 10) -> str:
     return "\n".join(lines)
 
 
-def _score(job: Path, workers: int, out: Path) -> None:
+def _score(job: Path, workers: int, out: Path, checkout: Path | None = None,
+           env: dict[str, str] | None = None) -> float:
+    """One whole run in a child process (in ``checkout``, which it then imports: ``-m`` puts
+    the working directory first on ``sys.path``; ``env``: more environment variables); returns
+    the child's CPU seconds."""
+    import os
+    import resource
+
     cmd = [sys.executable, "-m", "dynaeval", "score", str(job / "pred"), str(job / "gt"),
            "--focus", "motion", "--no-lpips", "-q", "--workers", str(workers), "-o", str(out),
            "--overwrite"]
-    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                   cwd=checkout or REPO, env={**os.environ, **(env or {})})
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
 def _numbers(path: Path) -> dict:
@@ -202,22 +219,57 @@ def _numbers(path: Path) -> dict:
     return {k: doc[k] for k in ("frames", "cameras", "summary", "warnings")}
 
 
-def bench_workers(job: Path, rounds: int, counts: tuple[int, ...] = (1, 2)) -> str:
-    """Markdown: whole runs with 1 and 2 workers, alternating; wall ratio; numbers equal."""
+def bench_workers(job: Path, rounds: int, counts: tuple[int, ...] = (1, 2),
+                  before: Path | None = None) -> str:
+    """Markdown: whole runs with 1 and 2 workers (and the ``before`` checkout's), alternating;
+    wall ratios, CPU seconds; numbers equal."""
+    runs = [("", n) for n in counts] + [("1core", 1)]
+    runs += [("before", n) for n in counts] if before else []
+    cpu: dict[str, float] = {}
     with tempfile.TemporaryDirectory() as tmp:
-        outs = {n: Path(tmp) / f"w{n}.json" for n in counts}
-        best = interleaved({str(n): (lambda n=n: _score(job, n, outs[n])) for n in counts}, rounds)
-        same = all(_numbers(outs[n]) == _numbers(outs[counts[0]]) for n in counts)
+        outs = {f"{tag}{n}": Path(tmp) / f"{tag}w{n}.json" for tag, n in runs}
+
+        def one(tag: str, n: int) -> None:
+            key = f"{tag}{n}"
+            cpu[key] = min(cpu.get(key, np.inf), _score(
+                job, n, outs[key], before if tag == "before" else None,
+                ONE_CORE if tag == "1core" else None))
+
+        best = interleaved({f"{tag}{n}": (lambda t=tag, n=n: one(t, n)) for tag, n in runs}, rounds)
+        same = all(_numbers(outs[k]) == _numbers(outs[str(counts[0])]) for k in outs)
     base = best[str(counts[0])]["wall"]
     lines = [f"`python -m dynaeval score {job}/pred {job}/gt --focus motion --no-lpips -q "
              "--workers N` in a child process (2 cameras x 8 frames, 1920x1080), worker counts "
-             f"alternating, best of {rounds} wall times each. Results equal for every count: "
-             f"{'yes' if same else 'NO'}.", "",
-             "| workers | wall s | speed-up over 1 worker |", "|---:|---:|---:|"]
-    for n in counts:
-        w = best[str(n)]["wall"]
-        lines.append(f"| {n} | {w:.1f} | {base / w:.2f} |")
+             f"{'and checkouts ' if before else ''}alternating, best of {rounds} wall times each "
+             f"(CPU: the child's user + system seconds, best of the rounds). Results equal for "
+             f"every count{' and checkout' if before else ''}: {'yes' if same else 'NO'}.", "",
+             "| code | workers | wall s | CPU s | speed-up over 1 worker (this code) |",
+             "|---|---:|---:|---:|---:|"]
+    for tag, n in runs:
+        key = f"{tag}{n}"
+        own = best[f"{'before' if tag == 'before' else ''}{counts[0]}"]["wall"]
+        w = best[key]["wall"]
+        label = {"": "this checkout", "1core": "this checkout, OpenCV on one thread (one core)",
+                 "before": f"before (`{_describe(before)}`)"}[tag]
+        lines.append(f"| {label} | {n} | {w:.1f} | {cpu[key]:.1f} | {own / w:.2f} |")
+    top = best[str(counts[-1])]["wall"]
+    lines += ["", f"2 workers against this checkout's 1: {base / top:.2f}x; against one core "
+              f"(`{' '.join(f'{k}={v}' for k, v in ONE_CORE.items())}`): "
+              f"{best['1core1']['wall'] / top:.2f}x. The two cores' floor, the 1-worker run's CPU "
+              f"seconds over 2: {cpu[str(counts[0])] / 2:.1f} s, which 2 workers reach within "
+              f"{100 * (top / (cpu[str(counts[0])] / 2) - 1):.0f} %; 1 worker already keeps "
+              f"{cpu[str(counts[0])] / base:.2f} cores busy (OpenCV's DIS runs on 2 threads), so "
+              f"no worker count can beat it by more than {2 * base / cpu[str(counts[0])]:.2f}x."]
     return "\n".join(lines)
+
+
+def _describe(checkout: Path | None) -> str:
+    """``<short commit>`` of a checkout (its path when it is not a git work tree)."""
+    if checkout is None:
+        return "this checkout"
+    got = subprocess.run(["git", "-C", str(checkout), "rev-parse", "--short", "HEAD"],
+                         capture_output=True, text=True)
+    return got.stdout.strip() or str(checkout)
 
 
 def _ssim_floor(planes: list[np.ndarray], outs: list[np.ndarray]) -> None:
@@ -233,8 +285,19 @@ def _ssim_floor(planes: list[np.ndarray], outs: list[np.ndarray]) -> None:
         cv2.sepFilter2D(plane, cv2.CV_32F, k, k, dst=out)
 
 
-def bench_ssim(rounds: int) -> str:
-    """Markdown: dynaeval SSIM of a 1080p pair against its floor and scikit-image."""
+def _module_of(checkout: Path, relpath: str, name: str) -> Any:
+    """A module of another checkout, loaded from its file (it imports this checkout's others)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(name, checkout / relpath)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)  # type: ignore[union-attr]
+    return mod
+
+
+def bench_ssim(rounds: int, before: Path | None = None) -> str:
+    """Markdown: dynaeval SSIM of a 1080p pair against its floor and scikit-image (and the
+    ``before`` checkout's ``dynaeval/metrics/structural.py``)."""
     import skimage.metrics as skm
 
     import dynaeval.metrics as M
@@ -250,19 +313,31 @@ def bench_ssim(rounds: int) -> str:
                                                      gaussian_weights=True, sigma=1.5,
                                                      use_sample_covariance=False),
     }
+    old = None
+    if before is not None:
+        old = _module_of(before, "dynaeval/metrics/structural.py", "structural_before")
+        paths["before"] = lambda: old.ssim(pred, gt, data_range=1.0)
     best = interleaved(paths, rounds)
     ref = skm.structural_similarity(pred.astype(np.float64), gt.astype(np.float64), data_range=1.0,
                                     channel_axis=2, gaussian_weights=True, sigma=1.5,
                                     use_sample_covariance=False)
-    dev = abs(float(M.ssim(pred, gt, data_range=1.0)) - ref)
+    got = float(M.ssim(pred, gt, data_range=1.0))
     floor = best["floor"]["cpu"]
     lines = [f"One {SIZE[1]}x{SIZE[0]} RGB float32 pair (`benchmarks.bench.sample_pair`), best of "
              f"{rounds} alternating rounds, CPU time. dynaeval's deviation from the float64 "
-             f"reference (scikit-image on float64 input): {dev:.1e}.", "",
-             "| path | CPU ms | / floor |", "|---|---:|---:|"]
-    for name, label in (("dynaeval", "dynaeval `ssim`"),
-                        ("floor", "floor: the 5 separable Gaussian filters alone, float32"),
-                        ("skimage", "scikit-image, float32 input")):
+             f"reference (scikit-image on float64 input): {abs(got - ref):.1e}."]
+    if old is not None:
+        same = (old.ssim(pred, gt, data_range=1.0) == got
+                and np.array_equal(old.ssim_map(pred, gt), M.ssim_map(pred, gt)))
+        lines[0] += (f" Before (`{_describe(before)}`) and now give the same bits (value and "
+                     f"map): {'yes' if same else 'NO'}.")
+    lines += ["", "| path | CPU ms | / floor |", "|---|---:|---:|"]
+    labels = [("dynaeval", "dynaeval `ssim`")]
+    if old is not None:
+        labels.append(("before", f"dynaeval `ssim` before (`{_describe(before)}`)"))
+    labels += [("floor", "floor: the 5 separable Gaussian filters alone, float32"),
+               ("skimage", "scikit-image, float32 input")]
+    for name, label in labels:
         c = best[name]["cpu"]
         lines.append(f"| {label} | {1e3 * c:.0f} | {c / floor:.2f} |")
     return "\n".join(lines)
@@ -283,13 +358,21 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--parts", default="pairs,workers,ssim", help="comma-separated: " + ",".join(SECTIONS))
     parser.add_argument("--rounds", type=int, default=3, help="alternating timed rounds (best kept)")
     parser.add_argument("--out", default="docs/benchmarks.md", help="markdown file ('-': print only)")
+    parser.add_argument("--before", type=Path, metavar="CHECKOUT",
+                        help="also time another checkout of dynaeval (workers, ssim): its runs and "
+                             "its SSIM, alternating with this one's")
     args = parser.parse_args(argv)
     command = command_line(COMMAND, argv)
     started = utc_stamp()
     job = make_job(args.job)
     for part in args.parts.split(","):
         name, title, fn = SECTIONS[part]
-        body = fn(args.rounds) if part == "ssim" else fn(job, args.rounds)
+        if part == "ssim":
+            body = fn(args.rounds, before=args.before)
+        elif part == "workers":
+            body = fn(job, args.rounds, before=args.before)
+        else:
+            body = fn(job, args.rounds)
         text = f"## {title}\n\nCommand: `{command}` — run {started}.\n\n{body}\n"
         publish(args.out, name, text)
     return 0
