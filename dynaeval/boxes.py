@@ -95,7 +95,11 @@ def _grow_1d(lo: int, hi: int, size: int, extent: int, after: bool) -> tuple[int
 
 
 def box_iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """IoU of float boxes ``a (M, 4)`` with ``b (N, 4)`` (xyxy) as ``(M, N)``; 0 where the union is 0."""
+    """IoU of boxes ``a (M, 4)`` with ``b (N, 4)`` (xyxy) as ``(M, N)``; 0 where the union is 0.
+
+    Float boxes are used in their own dtype; integer (or bool) boxes as float64."""
+    a, b = (x if np.issubdtype(x.dtype, np.floating) else x.astype(np.float64)
+            for x in (np.asarray(a), np.asarray(b)))
     iw = np.minimum(a[:, None, 2], b[None, :, 2]) - np.maximum(a[:, None, 0], b[None, :, 0])
     ih = np.minimum(a[:, None, 3], b[None, :, 3]) - np.maximum(a[:, None, 1], b[None, :, 1])
     inter = np.clip(iw, 0, None) * np.clip(ih, 0, None)

@@ -117,6 +117,10 @@ def test_box_iou_matrix():
     b = np.array([[1, 1, 3, 3], [0, 0, 2, 2], [5, 5, 6, 6]], float)
     iou = box_iou_matrix(a, b)
     np.testing.assert_allclose(iou, [[1 / 7, 1.0, 0.0], [0.0, 0.0, 0.0]])
+    # integer boxes (pixel coordinates from a boxes file) give the float64 answer, not a
+    # casting error; float32 boxes keep their dtype
+    np.testing.assert_array_equal(box_iou_matrix(a.astype(np.int64), b.astype(np.int32)), iou)
+    assert box_iou_matrix(a.astype(np.float32), b.astype(np.float32)).dtype == np.float32
 
 
 def test_batched_nms_of_nothing():
