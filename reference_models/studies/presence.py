@@ -25,6 +25,11 @@ Deterministic (fixed seeds, no timing); a few minutes:
 
     python -m reference_models.studies.presence            # prints the Markdown
     python -m reference_models.studies.presence --write    # also updates docs/presence.md
+    python -m reference_models.studies.presence --models-scene SCENE --positive NAME=PRED ...
+        [--context NAME=PRED ...] [--write]   # person thresholds again, model renders as shown
+
+The last form adds the players of model renders that keep them to the shown set (the issue-21
+recalibration; its block in docs/presence.md is written only by it).
 """
 
 from __future__ import annotations
@@ -187,10 +192,40 @@ def _visible(rows: list[dict], visibility_min: float) -> np.ndarray:
     return np.array([r["visibility"] is None or r["visibility"] >= visibility_min for r in rows])
 
 
-def choose_thresholds(rows: list[dict], cls: str, visibility_min: float = 0.5) -> dict:
+def model_rows(scene: Path, runs: dict[str, Path], camera: str = "eval00",
+               config: PresenceConfig | None = None) -> list[dict]:
+    """Per object of ``camera``'s frames in the generator folder ``scene`` (its ``images/`` and
+    ``boxes.json``), for each model run's renders (``name -> pred folder``, ``pred/<camera>/
+    NNNN.png``): rows like ``calibration_rows``' with ``kind`` ``model:<name>``."""
+    from dynaeval.io.images import read_image
+
+    cfg = config or PresenceConfig()
+    boxes = json.loads((scene / "boxes.json").read_text())
+    rows = []
+    for gt_path in sorted((scene / "images" / camera).glob("*.png")):
+        gt = read_image(gt_path)
+        h, w = gt.shape[:2]
+        key = f"{camera}/{gt_path.stem}"
+        for name, pred_dir in runs.items():
+            pred = read_image(pred_dir / camera / gt_path.name)
+            for obj in boxes.get(key, []):
+                if obj.get("visible", 1.0) < cfg.min_visible:
+                    continue
+                box = tight_box(obj["box"], h, w, cfg.margin)
+                ncc, psnr = crop_similarity(pred, gt, box, shift=cfg.shift, data_range=cfg.data_range)
+                vis = visibility(pred, gt, box, np.asarray(obj["box"]), data_range=cfg.data_range)
+                rows.append({"view": f"{scene.name}/{camera}", "frame": int(gt_path.stem),
+                             "class": obj["class"], "id": obj["id"], "kind": f"model:{name}",
+                             "ncc": ncc, "psnr": psnr, "visibility": vis})
+    return rows
+
+
+def choose_thresholds(rows: list[dict], cls: str, visibility_min: float = 0.5,
+                      present_kinds: tuple[str, ...] = PRESENT_KINDS) -> dict:
     """Thresholds of one class from calibration rows (rule in the module docstring); objects
-    below ``visibility_min`` count as flagged whatever the thresholds."""
-    pos = [r for r in rows if r["class"] == cls and r["kind"] in PRESENT_KINDS]
+    below ``visibility_min`` count as flagged whatever the thresholds; ``present_kinds``: the
+    kinds of the positive set."""
+    pos = [r for r in rows if r["class"] == cls and r["kind"] in present_kinds]
     neg = [r for r in rows if r["class"] == cls and r["kind"] == "erased"]
     if not pos or not neg:
         raise ValueError(f"no calibration objects of class {cls!r}")
@@ -238,13 +273,15 @@ def _widest_run(ok: np.ndarray) -> np.ndarray:
     return np.arange(best[0], best[1])
 
 
-def calibration_tables(rows: list[dict], chosen: list[dict], visibility_min: float = 0.5) -> str:
+def calibration_tables(rows: list[dict], chosen: list[dict], visibility_min: float = 0.5,
+                       present_kinds: tuple[str, ...] = PRESENT_KINDS,
+                       context_kinds: tuple[str, ...] = REPORTED_KINDS) -> str:
     th = {c["class"]: c for c in chosen}
     out = ["| class | prediction | objects | ncc min / median / max | psnr dB min / median / max | "
            "visibility 5 % / median / 95 % | present (calibrated) |",
            "|---|---|---|---|---|---|---|"]
     for cls in th:
-        for kind in (*PRESENT_KINDS, "erased", *REPORTED_KINDS):
+        for kind in (*present_kinds, "erased", *context_kinds):
             rs = [r for r in rows if r["class"] == cls and r["kind"] == kind]
             n = np.array([1.0 if r["ncc"] is None else r["ncc"] for r in rs])
             p = np.array([r["psnr"] for r in rs])
@@ -252,7 +289,9 @@ def calibration_tables(rows: list[dict], chosen: list[dict], visibility_min: flo
             ok = np.mean((n >= th[cls]["ncc_min"]) & (p >= th[cls]["psnr_min"])
                          & _visible(rs, visibility_min))
             vq = np.percentile(v, [5, 50, 95]) if len(v) else [np.nan] * 3
-            role = "shown" if kind in PRESENT_KINDS else ("erased" if kind == "erased" else "context")
+            if not rs:
+                continue
+            role = "shown" if kind in present_kinds else ("erased" if kind == "erased" else "context")
             out.append(f"| {cls} | {kind} ({role}) | {len(rs)} | {n.min():.2f} / {np.median(n):.2f} / "
                        f"{n.max():.2f} | {p.min():.1f} / {np.median(p):.1f} / {p.max():.1f} | "
                        f"{vq[0]:.2f} / {vq[1]:.2f} / {vq[2]:.2f} | {100 * ok:.0f} % |")
@@ -359,11 +398,60 @@ def validation_table(rows: list[dict]) -> str:
     return "\n".join(out)
 
 
+MODELS_BEGIN, MODELS_END = "<!-- BEGIN presence_models -->", "<!-- END presence_models -->"
+
+
+def _named_dirs(items: list[str]) -> dict[str, Path]:
+    """``NAME=DIR`` arguments as ``{name: Path(dir)}``."""
+    out = {}
+    for item in items:
+        name, sep, folder = item.partition("=")
+        if not sep or not name or not Path(folder).is_dir():
+            raise SystemExit(f"error: expected NAME=PRED_DIR with an existing folder, got {item!r}")
+        out[name] = Path(folder)
+    return out
+
+
+def models_calibration(scene: Path, positive: dict[str, Path], context: dict[str, Path],
+                       cfg: PresenceConfig) -> str:
+    """Markdown: the person thresholds chosen again with the players of model renders that keep
+    them (``positive``) added to the shown set; ``context`` runs reported, not used."""
+    cal = calibration_rows(config=cfg)
+    rows = cal + model_rows(scene, {**positive, **context}, config=cfg)
+    pos_kinds = (*PRESENT_KINDS, *(f"model:{n}" for n in positive))
+    ctx_kinds = (*REPORTED_KINDS, *(f"model:{n}" for n in context))
+    chosen = [choose_thresholds(rows, "person", cfg.visibility_min, pos_kinds)]
+    lib = cfg.thresholds["person"]
+    same = (lib.ncc_min, lib.psnr_min) == (chosen[0]["ncc_min"], chosen[0]["psnr_min"])
+    return "\n".join([
+        f"Person thresholds chosen again (the rule above) with the players of "
+        f"{', '.join(positive)} ({scene.name}/eval00, every frame) added to the shown set; "
+        f"{', '.join(context) or 'none'} reported for context.", "",
+        calibration_tables(rows, chosen, cfg.visibility_min, pos_kinds, ctx_kinds), "",
+        f"Library thresholds (person ncc_min {lib.ncc_min:.2f}, psnr_min {lib.psnr_min:.1f} dB): "
+        + ("the same as this calibration." if same else "**differ from this calibration.**"),
+    ])
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--write", action="store_true", help=f"replace the study block in docs/{DOC}")
+    parser.add_argument("--models-scene", type=Path, metavar="SCENE",
+                        help="generator folder the model runs were trained on: calibrate "
+                             "presence_person again with their renders (--positive) instead")
+    parser.add_argument("--positive", nargs="+", default=[], metavar="NAME=PRED",
+                        help="runs that keep the player (their pred/ folders): shown set")
+    parser.add_argument("--context", nargs="+", default=[], metavar="NAME=PRED",
+                        help="runs reported for context only")
     args = parser.parse_args()
     cfg = PresenceConfig()
+    if args.models_scene is not None:
+        md = models_calibration(args.models_scene, _named_dirs(args.positive),
+                                _named_dirs(args.context), cfg)
+        print(md)
+        if args.write:
+            replace_block(docs_dir() / DOC, MODELS_BEGIN, MODELS_END, md)
+        return
     cal = calibration_rows(config=cfg)
     chosen = [choose_thresholds(cal, c, cfg.visibility_min) for c in ("person", "ball")]
     lib = {c: (t.ncc_min, t.psnr_min) for c, t in cfg.thresholds.items()}

@@ -72,3 +72,35 @@ def test_render_frames_hides_the_ball():
     assert any(b["class"] == "ball" for b in frame.boxes)
     x0, y0, x1, y1 = next(b["box"] for b in frame.boxes if b["class"] == "ball")
     assert not np.allclose(frame.hidden["ball"][y0:y1, x0:x1], frame.gt[y0:y1, x0:x1])
+
+
+def test_model_runs_join_the_shown_set_only_when_named(rng):
+    """Model rows count as shown only under ``present_kinds``: a run whose players sit below the
+    degradations' psnr pulls psnr_min down when it is a positive, and changes nothing as context."""
+    rows = (_rows("person", "blur1", [0.9, 0.9], [26.0, 27.0])
+            + _rows("person", "erased", [0.9, 0.9], [15.0, 16.0])  # only psnr separates
+            + _rows("person", "model:a", [0.9, 0.9], [19.0, 20.0]))
+    alone = choose_thresholds(rows, "person")
+    with_model = choose_thresholds(rows, "person", present_kinds=("blur1", "model:a"))
+    assert alone["n_present"] == 2 and with_model["n_present"] == 4
+    assert with_model["missed"] == 0.0 and with_model["false"] == 0.0
+    assert 16.0 < with_model["psnr_min"] <= 19.0 < alone["psnr_min"]
+
+
+def test_model_rows_read_the_renders_and_the_boxes_file(tmp_path, rng):
+    import json
+
+    import cv2
+
+    from reference_models.studies.presence import model_rows
+
+    gt = (rng.random((40, 60, 3)) * 255).astype(np.uint8)
+    (tmp_path / "scene" / "images" / "eval00").mkdir(parents=True)
+    cv2.imwrite(str(tmp_path / "scene" / "images" / "eval00" / "0000.png"), gt)
+    (tmp_path / "scene" / "boxes.json").write_text(json.dumps(
+        {"eval00/0000": [{"box": [10, 5, 30, 35], "class": "person", "id": 1, "visible": 1.0}]}))
+    (tmp_path / "run" / "eval00").mkdir(parents=True)
+    cv2.imwrite(str(tmp_path / "run" / "eval00" / "0000.png"), gt)
+    rows = model_rows(tmp_path / "scene", {"same": tmp_path / "run"})
+    assert [(r["kind"], r["class"], r["frame"]) for r in rows] == [("model:same", "person", 0)]
+    assert rows[0]["psnr"] > 40 and rows[0]["ncc"] == pytest.approx(1.0, abs=1e-3)
