@@ -134,6 +134,7 @@ def prepare_run(config: ScoreConfig, masks: Any = None) -> Run:
         from dynaeval.metrics.temporal import TemporalConfig
 
         run.temporal = TemporalConfig(flow=FlowConfig(method=config.flow),
+                                      tlp="lpips" in built.fns,  # tLP is LPIPS over time
                                       lpips_net=config.lpips_net, lpips_device=device,
                                       lpips_backend=config.lpips_backend)
         settings["temporal"] = run.temporal.describe()

@@ -156,6 +156,18 @@ def _summaries(
     return cameras, summary, counts, camera_only
 
 
+def _without_disabled_tlp(warnings: list[dict], settings: dict[str, Any]) -> list[dict]:
+    """``warnings`` without those of tLP when the run switched it off (LPIPS not among the
+    metrics, ``settings.temporal.tlp`` false): its null values are what was asked for, and the
+    settings say so; a tLP that was on and came out null keeps its warnings."""
+    if (settings.get("temporal") or {}).get("tlp") is not False:
+        return warnings
+    from dynaeval.metrics.registry import SPECS
+
+    keys = set(SPECS["tlp"].keys())
+    return [w for w in warnings if w.get("metric") not in keys]
+
+
 NO_REGIONS = "no focus box in any of the"
 """How the headline warning of a run without any box begins (``merge`` recomputes it)."""
 
@@ -248,6 +260,7 @@ def build_results(
             if k not in FRAME_FIELDS and k not in names and (v is None or isinstance(v, float)):
                 names.append(k)
     cameras, summary, counts, camera_only = _summaries(rows, names, camera_values, warnings)
+    warnings = _without_disabled_tlp(warnings, settings)
     headline = no_regions_warning(regions)
     if headline is not None:
         warnings = [headline, *(w for w in warnings if not _explained_by_no_regions(w, regions))]

@@ -412,3 +412,16 @@ def test_bundled_detector_finding_nothing_names_the_coco_fix(tmp_path):
     head = [w["reason"] for w in res["warnings"] if w["reason"].startswith(NO_REGIONS)]
     assert len(head) == 1 and "the bundled synthetic-scene detector found none" in head[0]
     assert "dynaeval detector fetch retinanet" in head[0] and "--focus motion" in head[0]
+
+
+def test_without_lpips_tlp_is_recorded_as_off_without_warnings():
+    """LPIPS not among the metrics: tLP is switched off in the settings and says nothing else
+    (its null values are what was asked for); every other number is scored."""
+    from dynaeval.cli import sample_dir
+
+    root = sample_dir()
+    res = dynaeval.score(root / "pred", root / "gt", metrics=("psnr",), progress=False,
+                         focus=FocusConfig(source="boxes", boxes_file=str(root / "boxes.json")))
+    assert res["settings"]["temporal"]["tlp"] is False
+    assert res["summary"]["tlp"] is None and res["summary"]["warp_error"] is not None
+    assert not [w for w in res["warnings"] if "tlp" in w.get("metric", "")]
