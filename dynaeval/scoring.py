@@ -594,7 +594,7 @@ def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], run:
         config=tcfg,
         flow_cache=run.prepared.flow_cache() if run.prepared is not None else None,
         executor=run.pool,
-        window=2 * config.workers,
+        window=max(2, 2 * config.workers // run.lanes),  # pairs in flight, all cameras: 2 x workers
         on_pair=on_pair,
     )
     if small is not None:
