@@ -107,8 +107,9 @@ def _tiles(width: int, channels: int) -> list[tuple[int, int]]:
     OpenCV runs an elementwise step on a row with SIMD and the row's last values (its length
     modulo the SIMD width) with scalar code, which rounds differently (``addWeighted`` fuses a
     multiply-add only in SIMD). So every tile is a multiple of ``SIMD_SPAN`` values wide: no
-    value is rounded the scalar way, whatever the tiling, as none was when whole rows were run
-    ``SUB_ROWS`` = 8 at a time before. The last tile ends at the image's edge and may overlap the
+    value is rounded the scalar way, whatever the tiling (for 3-channel images none was in the
+    previous code either, which ran 8 whole rows at a time; docs/performance.md has the one case
+    that changed, grey images of some widths). The last tile ends at the image's edge and may overlap the
     one before it (it is written after it; overlapping columns are the same values). A row
     narrower than ``SIMD_SPAN`` values is one tile.
     """
