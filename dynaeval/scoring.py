@@ -399,7 +399,7 @@ def score_camera(camera: str, pairs: list[FramePair], run: Run, *,
     temporal = None
     if run.temporal is not None:
         # the camera's pairs run on the pool (flows dominate: 3 per pair); the frames are
-        # decoded here meanwhile, and the next camera starts when they are done
+        # decoded here meanwhile (and, with cameras at once, the other camera's work goes on)
         t0 = time.perf_counter()
         temporal, differ = _temporal_or_reason(camera, pairs, regions, run, cache, differ,
                                                on_pair)
