@@ -54,6 +54,9 @@ class StudyPreset:
     """``TrainConfig`` fields set for every model (e.g. a time budget)."""
     model_train: dict[str, dict[str, Any]] = field(default_factory=dict)
     """Model -> more ``TrainConfig`` fields for that model only."""
+    fallback_sizes: dict[str, str] = field(default_factory=dict)
+    """Model -> the preset trained instead where its ``model_sizes`` preset needs a moving region
+    and the scene's motion masks find none (``NothingMoves``); the run's ``train.json`` says so."""
     description: str = ""
     """One sentence for the report: what a run of this preset trains."""
 
@@ -76,10 +79,13 @@ PRESETS = {
         model_sizes={"kplanes": "small-dynbox-fine"},
         train={"minutes": 30.0, "clock": "cpu", "batch_rays": 1024, "importance_fraction": 0.5},
         model_train={"kplanes": {"static_warmup": 0.15}},
+        fallback_sizes={"kplanes": "small"},
         description="each run trains for 30 minutes of one core's CPU time (`--clock cpu`), "
                     "1,024 rays per step, half of each batch by importance under ISG; K-Planes "
-                    "is `small-dynbox-fine` with the first 15 % on the static scene, NeRFPlayer "
-                    "`small` (docs/reference-models.md, \"30-minute runs\")"),
+                    "is `small-dynbox-fine` with the first 15 % on the static scene (plain "
+                    "`small` where the motion masks find no moving region: the broadcast and "
+                    "stadium views at this size), NeRFPlayer `small` (docs/reference-models.md, "
+                    "\"30-minute runs\")"),
 }
 
 
@@ -120,16 +126,26 @@ def train_and_render(study: Path, scene: str, model: str, sampling: str, preset:
     """Train and render one run unless done; the run folder holds ``train.json`` and
     ``render.json`` (times) when each step finished."""
     from reference_models.common.train import render_run, train
+    from reference_models.kplanes.field import NothingMoves
 
     spec = _spec(model)
     run = study / "runs" / scene / f"{model}-{sampling}"
     if not (run / "train.json").is_file():
         resume = (run / "checkpoint.pt").is_file()
         t0 = time.perf_counter()
-        record = train(spec, data if not resume else None, run, size=preset.size_of(model),
-                       iters=preset.iters, sampling=sampling, resume=resume, progress=progress,
-                       overrides=preset.overrides_of(model) or None)
-        _write_json(run / "train.json", {"wall_s": time.perf_counter() - t0, **record})
+        size, note = preset.size_of(model), {}
+        kwargs = {"iters": preset.iters, "sampling": sampling, "resume": resume,
+                  "progress": progress, "overrides": preset.overrides_of(model) or None}
+        try:
+            record = train(spec, data if not resume else None, run, size=size, **kwargs)
+        except NothingMoves as err:
+            if model not in preset.fallback_sizes:
+                raise
+            size = preset.fallback_sizes[model]
+            note = {"fallback": f"{preset.size_of(model)} -> {size}: {err}"}
+            record = train(spec, data, run, size=size, **kwargs)
+        _write_json(run / "train.json", {"wall_s": time.perf_counter() - t0, "size": size,
+                                         **note, **record})
     if not (run / "render.json").is_file():
         import shutil
 

@@ -90,14 +90,19 @@ class DynamicBoxEncoding(nn.Module):
         return {**b, "tv": a["tv"] + b["tv"]}
 
 
+class NothingMoves(InputError):
+    """A ``dynamic_box`` preset on a scene whose training cameras' motion masks find no moving
+    region (far cameras at small sizes: the players are a few pixels); the plain preset fits it."""
+
+
 def find_moving_box(cfg: KPlanesConfig, data: Dataset) -> dict:
     """``scene`` entries for ``dynamic_box``: the moving box in metres (empty without it)."""
     if not cfg.dynamic_box:
         return {}
     found = moving_box(data.train, data.box)
     if found is None:
-        raise InputError("the motion masks of the training cameras found nothing that moves; "
-                         "train the plain model (without dynamic_box)", path=data.root)
+        raise NothingMoves("the motion masks of the training cameras found nothing that moves; "
+                           "train the plain model (without dynamic_box)", path=data.root)
     return {"moving_box": found.tolist()}
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import pytest
 
@@ -90,3 +91,34 @@ def test_a_preset_trains_each_model_with_its_own_size_and_settings(tmp_path, mon
     assert calls == [("kplanes", "small-dynbox-fine", 100_000, {**budget, "static_warmup": 0.15}),
                      ("nerfplayer", "small", 100_000, budget)]
     assert PRESETS["small"].overrides_of("kplanes") == {}
+
+
+def test_a_scene_without_a_moving_region_trains_the_fallback_size(tmp_path, monkeypatch):
+    """small-30min's K-Planes needs a moving region; where the motion masks find none (the
+    broadcast and stadium views at small size) the plain `small` is trained, and train.json
+    says so."""
+    import reference_models.common.train as train_mod
+    from reference_models.kplanes.field import NothingMoves
+    from reference_models.study import PRESETS, train_and_render
+
+    sizes = []
+
+    def fake_train(spec, data, out, size, iters, sampling, resume, progress, overrides):
+        sizes.append(size)
+        if size == "small-dynbox-fine":
+            raise NothingMoves("the motion masks of the training cameras found nothing that moves")
+        out.mkdir(parents=True, exist_ok=True)
+        return {"step": 0}
+
+    monkeypatch.setattr(train_mod, "train", fake_train)
+    monkeypatch.setattr(train_mod, "render_run", lambda spec, run, data, progress: [])
+    run = train_and_render(tmp_path, "players-stadium", "kplanes", "isg", PRESETS["small-30min"],
+                           tmp_path / "data", progress=False)
+    assert sizes == ["small-dynbox-fine", "small"]
+    record = json.loads((run / "train.json").read_text())
+    assert record["size"] == "small" and "nothing that moves" in record["fallback"]
+    with pytest.raises(NothingMoves):  # a preset without a fallback does not hide the error
+        sizes.clear()
+        train_and_render(tmp_path, "players-stadium", "nerfplayer", "isg",
+                         replace(PRESETS["small-30min"], model_sizes={"nerfplayer": "small-dynbox-fine"}),
+                         tmp_path / "data", progress=False)
