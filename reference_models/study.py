@@ -133,17 +133,19 @@ def train_and_render(study: Path, scene: str, model: str, sampling: str, preset:
     if not (run / "train.json").is_file():
         resume = (run / "checkpoint.pt").is_file()
         t0 = time.perf_counter()
-        size, note = preset.size_of(model), {}
         kwargs = {"iters": preset.iters, "sampling": sampling, "resume": resume,
                   "progress": progress, "overrides": preset.overrides_of(model) or None}
         try:
-            record = train(spec, data if not resume else None, run, size=size, **kwargs)
-        except NothingMoves as err:
+            record = train(spec, data if not resume else None, run, size=preset.size_of(model),
+                           **kwargs)
+        except NothingMoves:
             if model not in preset.fallback_sizes:
                 raise
-            size = preset.fallback_sizes[model]
-            note = {"fallback": f"{preset.size_of(model)} -> {size}: {err}"}
-            record = train(spec, data, run, size=size, **kwargs)
+            record = train(spec, data, run, size=preset.fallback_sizes[model], **kwargs)
+        size = json.loads((run / "config.json").read_text())["size"]  # a resumed run's own
+        note = {} if size == preset.size_of(model) else {"fallback": (
+            f"{preset.size_of(model)} -> {size}: the motion masks of the training cameras found "
+            "nothing that moves")}
         _write_json(run / "train.json", {"wall_s": time.perf_counter() - t0, "size": size,
                                          **note, **record})
     if not (run / "render.json").is_file():

@@ -80,6 +80,7 @@ def test_a_preset_trains_each_model_with_its_own_size_and_settings(tmp_path, mon
     def fake_train(spec, data, out, size, iters, sampling, resume, progress, overrides):
         calls.append((spec.name, size, iters, overrides))
         out.mkdir(parents=True, exist_ok=True)
+        (out / "config.json").write_text(json.dumps({"size": size}))  # as train() writes it
         return {"step": 0}
 
     monkeypatch.setattr(train_mod, "train", fake_train)
@@ -105,9 +106,12 @@ def test_a_scene_without_a_moving_region_trains_the_fallback_size(tmp_path, monk
 
     def fake_train(spec, data, out, size, iters, sampling, resume, progress, overrides):
         sizes.append(size)
+        if resume:  # train() continues the checkpoint's own config, whatever size is passed
+            return {"step": 1}
         if size == "small-dynbox-fine":
             raise NothingMoves("the motion masks of the training cameras found nothing that moves")
         out.mkdir(parents=True, exist_ok=True)
+        (out / "config.json").write_text(json.dumps({"size": size}))  # as train() writes it
         return {"step": 0}
 
     monkeypatch.setattr(train_mod, "train", fake_train)
@@ -117,6 +121,13 @@ def test_a_scene_without_a_moving_region_trains_the_fallback_size(tmp_path, monk
     assert sizes == ["small-dynbox-fine", "small"]
     record = json.loads((run / "train.json").read_text())
     assert record["size"] == "small" and "nothing that moves" in record["fallback"]
+    # resumed after an interruption: the run's own size is recorded, not the preset's first choice
+    (run / "train.json").unlink()
+    (run / "checkpoint.pt").write_bytes(b"")
+    record = json.loads((train_and_render(tmp_path, "players-stadium", "kplanes", "isg",
+                                          PRESETS["small-30min"], tmp_path / "data",
+                                          progress=False) / "train.json").read_text())
+    assert record["step"] == 1 and record["size"] == "small" and "nothing that moves" in record["fallback"]
     with pytest.raises(NothingMoves):  # a preset without a fallback does not hide the error
         sizes.clear()
         train_and_render(tmp_path, "players-stadium", "nerfplayer", "isg",
