@@ -108,7 +108,7 @@ def table(rows: list[dict]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from benchmarks.sections import command_line, put_section, utc_stamp
+    from benchmarks.sections import checkout_commit, command_line, put_section, utc_stamp
 
     p = argparse.ArgumentParser(prog=COMMAND, description=__doc__.split("\n")[0])
     p.add_argument("data", type=Path, help="dataset folder (the scene generator's output)")
@@ -133,21 +133,13 @@ def main(argv: list[str] | None = None) -> int:
             row[name] = measure(code, args.data, model, size, extra, args.steps, args.views,
                                 args.threads)
         rows.append(row)
-    text = (f"`{command_line(COMMAND, argv)}` ({utc_stamp()}; before = {_commit(args.before)}, after = {_commit(REPO)}; "
+    text = (f"`{command_line(COMMAND, argv)}` ({utc_stamp()}; before = {checkout_commit(args.before)}, after = {checkout_commit(REPO)}; "
             f"load average at the end {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores):\n\n"
             + table(rows) + "\n")
     print(text)
     if args.out:
         put_section(args.out, "models-speed", text)
     return 0
-
-
-def _commit(code: Path) -> str:
-    done = subprocess.run(["git", "-C", str(code), "rev-parse", "--short", "HEAD"],
-                          capture_output=True, text=True)
-    dirty = subprocess.run(["git", "-C", str(code), "status", "--porcelain", "--untracked-files=no"],
-                           capture_output=True, text=True).stdout.strip()
-    return (done.stdout.strip() or "?") + ("+changes" if dirty else "")
 
 
 if __name__ == "__main__":

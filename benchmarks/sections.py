@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import re
 import shlex
+import subprocess
 import sys
 from datetime import datetime, timezone
 from pathlib import Path
@@ -57,3 +58,13 @@ def publish(out: str, name: str, text: str) -> None:
     print(text)
     if out != "-":
         put_section(out, name, text)
+
+
+def checkout_commit(code: Path) -> str:
+    """The short commit of the git checkout ``code``, ``+changes`` when its tracked files differ
+    from it (``?`` outside git): which code a benchmark's other checkout was."""
+    done = subprocess.run(["git", "-C", str(code), "rev-parse", "--short", "HEAD"],
+                          capture_output=True, text=True)
+    dirty = subprocess.run(["git", "-C", str(code), "status", "--porcelain", "--untracked-files=no"],
+                           capture_output=True, text=True).stdout.strip()
+    return (done.stdout.strip() or "?") + ("+changes" if dirty else "")

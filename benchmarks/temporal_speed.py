@@ -223,6 +223,8 @@ def bench_workers(job: Path, rounds: int, counts: tuple[int, ...] = (1, 2),
                   before: Path | None = None) -> str:
     """Markdown: whole runs with 1 and 2 workers (and the ``before`` checkout's), alternating;
     wall ratios, CPU seconds; numbers equal."""
+    from benchmarks.sections import checkout_commit
+
     runs = [("", n) for n in counts] + [("1core", 1)]
     runs += [("before", n) for n in counts] if before else []
     cpu: dict[str, float] = {}
@@ -250,7 +252,7 @@ def bench_workers(job: Path, rounds: int, counts: tuple[int, ...] = (1, 2),
         own = best[f"{'before' if tag == 'before' else ''}{counts[0]}"]["wall"]
         w = best[key]["wall"]
         label = {"": "this checkout", "1core": "this checkout, OpenCV on one thread (one core)",
-                 "before": f"before (`{_describe(before)}`)"}[tag]
+                 "before": f"before (`{checkout_commit(before)}`)"}[tag]
         lines.append(f"| {label} | {n} | {w:.1f} | {cpu[key]:.1f} | {own / w:.2f} |")
     top = best[str(counts[-1])]["wall"]
     lines += ["", f"2 workers against this checkout's 1: {base / top:.2f}x; against one core "
@@ -261,15 +263,6 @@ def bench_workers(job: Path, rounds: int, counts: tuple[int, ...] = (1, 2),
               f"{cpu[str(counts[0])] / base:.2f} cores busy (OpenCV's DIS runs on 2 threads), so "
               f"no worker count can beat it by more than {2 * base / cpu[str(counts[0])]:.2f}x."]
     return "\n".join(lines)
-
-
-def _describe(checkout: Path | None) -> str:
-    """``<short commit>`` of a checkout (its path when it is not a git work tree)."""
-    if checkout is None:
-        return "this checkout"
-    got = subprocess.run(["git", "-C", str(checkout), "rev-parse", "--short", "HEAD"],
-                         capture_output=True, text=True)
-    return got.stdout.strip() or str(checkout)
 
 
 def _ssim_floor(planes: list[np.ndarray], outs: list[np.ndarray]) -> None:
@@ -302,6 +295,7 @@ def bench_ssim(rounds: int, before: Path | None = None) -> str:
 
     import dynaeval.metrics as M
     from benchmarks.bench import sample_pair
+    from benchmarks.sections import checkout_commit
 
     pred, gt, _ = sample_pair(*SIZE)
     planes = [pred, gt, pred * pred, gt * gt, pred * gt]
@@ -329,12 +323,12 @@ def bench_ssim(rounds: int, before: Path | None = None) -> str:
     if old is not None:
         same = (old.ssim(pred, gt, data_range=1.0) == got
                 and np.array_equal(old.ssim_map(pred, gt), M.ssim_map(pred, gt)))
-        lines[0] += (f" Before (`{_describe(before)}`) and now give the same bits (value and "
+        lines[0] += (f" Before (`{checkout_commit(before)}`) and now give the same bits (value and "
                      f"map): {'yes' if same else 'NO'}.")
     lines += ["", "| path | CPU ms | / floor |", "|---|---:|---:|"]
     labels = [("dynaeval", "dynaeval `ssim`")]
     if old is not None:
-        labels.append(("before", f"dynaeval `ssim` before (`{_describe(before)}`)"))
+        labels.append(("before", f"dynaeval `ssim` before (`{checkout_commit(before)}`)"))
     labels += [("floor", "floor: the 5 separable Gaussian filters alone, float32"),
                ("skimage", "scikit-image, float32 input")]
     for name, label in labels:

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
+import pytest
+
 from benchmarks.sections import blocks, keep_sections, put_section
 from benchmarks.temporal_speed import interleaved
 
@@ -49,3 +53,17 @@ def test_publish_prints_and_writes_unless_dash(tmp_path, capsys):
     assert capsys.readouterr().out == "body\n" and not list(tmp_path.iterdir())
     publish(str(tmp_path / "d.md"), "x", "body")
     assert "<!-- begin x -->\nbody\n<!-- end x -->" in (tmp_path / "d.md").read_text()
+
+
+def test_checkout_commit_names_the_commit_and_says_when_outside_git(tmp_path):
+    import subprocess
+
+    from benchmarks.sections import checkout_commit
+
+    repo = Path(__file__).resolve().parents[2]
+    head = subprocess.run(["git", "-C", str(repo), "rev-parse", "--short", "HEAD"],
+                          capture_output=True, text=True).stdout.strip()
+    if not head:
+        pytest.skip("not a git checkout")
+    assert checkout_commit(repo).split("+")[0] == head
+    assert checkout_commit(tmp_path) == "?"
