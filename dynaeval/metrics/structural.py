@@ -108,10 +108,10 @@ def _tiles(width: int, channels: int) -> list[tuple[int, int]]:
     modulo the SIMD width) with scalar code, which rounds differently (``addWeighted`` fuses a
     multiply-add only in SIMD). So every tile is a multiple of ``SIMD_SPAN`` values wide: no
     value is rounded the scalar way, whatever the tiling (for 3-channel images none was in the
-    previous code either, which ran 8 whole rows at a time; docs/performance.md has the one case
-    that changed, grey images of some widths). The last tile ends at the image's edge and may overlap the
-    one before it (it is written after it; overlapping columns are the same values). A row
-    narrower than ``SIMD_SPAN`` values is one tile.
+    previous code either, which ran 8 whole rows at a time; docs/performance.md has the one
+    case that changed, grey images of some widths). The last tile ends at the image's edge and
+    may overlap the one before it (it is written after it; overlapping columns are the same
+    values). A row narrower than ``SIMD_SPAN`` values is one tile.
     """
     span = SIMD_SPAN // math.gcd(SIMD_SPAN, channels)  # pixels per SIMD-clean step
     span *= -(-WIN_SIZE // span)  # a tile holds at least one window
