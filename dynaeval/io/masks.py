@@ -19,6 +19,7 @@ Rules (docs/protocols.md repeats them):
 
 from __future__ import annotations
 
+import json
 import re
 import struct
 from dataclasses import dataclass, replace
@@ -200,16 +201,28 @@ def find_masks(given: str | Path | None, gt_root: Path, gt_files: list[Path],
     return None
 
 
+def _instance_masks(parent: Path, name: str) -> bool:
+    """True when ``parent/transforms.json`` names ``parent/name`` as its frames'
+    ``instance_mask_path`` (the scene generator's per-object id maps, not weights to score)."""
+    try:
+        frames = json.loads((parent / "transforms.json").read_text()).get("frames", [])
+        return any(str(f.get("instance_mask_path", "")).startswith(f"{name}/") for f in frames)
+    except (OSError, ValueError, AttributeError):
+        return False
+
+
 def unused_mask_folders(used: MaskSet | None, folders: list[Path]) -> list[Path]:
     """Folders named like masks (``MASK_FOLDER_NAMES``) inside or beside ``folders`` that the
-    run does not use (warned about: NeRFBaselines and DyCheck would have used them)."""
+    run does not use (warned about: NeRFBaselines and DyCheck would have used them). A folder
+    that ``transforms.json`` beside it declares as instance masks (``instance_mask_path``, the
+    scene generator's layout) holds object ids, not weights, and is not listed."""
     seen: list[Path] = []
     for base in folders:
         dycheck = [base.parent.parent] if base.parent.name == "rgb" else []
         for parent in (base, base.parent, *dycheck):
             for name in MASK_FOLDER_NAMES:
                 cand = (parent / name).resolve()
-                if cand.is_dir() and cand not in seen:
+                if cand.is_dir() and cand not in seen and not _instance_masks(parent, name):
                     seen.append(cand)
     if used is None:
         return seen

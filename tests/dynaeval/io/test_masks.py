@@ -4,6 +4,8 @@ nerfbaselines`` (Pillow's high byte) against Pillow itself."""
 
 from __future__ import annotations
 
+import json
+
 import cv2
 import numpy as np
 import pytest
@@ -116,6 +118,19 @@ def test_unused_mask_folders(tmp_path):
     assert unused_mask_folders(None, [nb / "color", nb / "gt-color"]) == [(nb / "mask").resolve()]
     _, gt = dycheck_dataset(tmp_path / "dy")
     assert unused_mask_folders(None, [gt]) == [(gt.parent.parent / "covisible").resolve()]
+
+
+def test_generator_instance_masks_are_not_an_unused_mask_folder(tmp_path):
+    scene = tmp_path / "scene"
+    (scene / "images" / "cam00").mkdir(parents=True)
+    (scene / "masks" / "cam00").mkdir(parents=True)
+    frame = {"file_path": "images/cam00/0000.png", "instance_mask_path": "masks/cam00/0000.png"}
+    (scene / "transforms.json").write_text(json.dumps({"frames": [frame]}))
+    assert unused_mask_folders(None, [scene / "images", scene]) == []
+    (scene / "transforms.json").write_text(json.dumps({"frames": [{"file_path": "x.png"}]}))
+    assert unused_mask_folders(None, [scene / "images"]) == [(scene / "masks").resolve()]
+    (scene / "transforms.json").write_text("not json")
+    assert unused_mask_folders(None, [scene / "images"]) == [(scene / "masks").resolve()]
 
 
 def test_mask_hash_follows_content_not_folder(tmp_path):
