@@ -227,16 +227,14 @@ def _score_cameras(pairs: list[FramePair], run: Any, on_regions: RegionsCallback
         if lanes is None:
             scored = [_score_one_camera(c, p, run, regions_done, progress) for c, p in cams.items()]
         else:
-            futures = [lanes.submit(_score_one_camera, c, p, run, regions_done, progress)
-                       for c, p in cams.items()]
-            scored = [f.result() for f in futures]
+            scored = _cameras_at_once(lanes, cams, run, regions_done, progress)
         completed = True
     finally:
         if lanes is not None:
             lanes.shutdown(cancel_futures=True)
         progress.close(completed)
         if run.pool:
-            run.pool.shutdown()
+            run.pool.shutdown(cancel_futures=not completed)
         close_videos()
     rows: list[dict] = []
     warnings = list(run.warnings)
@@ -252,21 +250,50 @@ def _score_cameras(pairs: list[FramePair], run: Any, on_regions: RegionsCallback
     return rows, warnings, temporal, regions
 
 
+class _Stopped(Exception):
+    """Raised in a camera's thread when another camera has failed: the run stops."""
+
+
+def _cameras_at_once(lanes: Any, cams: dict[str, list[FramePair]], run: Any,
+                     regions_done: RegionsCallback, progress: Any) -> list:
+    """``_score_one_camera`` of every camera in the ``lanes`` pool, in camera order. The first
+    camera to fail stops the others at their next frame or pair, and its error is raised."""
+    import threading
+    from concurrent.futures import FIRST_EXCEPTION, wait
+
+    stop = threading.Event()
+    futures = [lanes.submit(_score_one_camera, c, p, run, regions_done, progress, stop)
+               for c, p in cams.items()]
+    done, _ = wait(futures, return_when=FIRST_EXCEPTION)
+    failed = [f.exception() for f in futures if f in done and f.exception() is not None]
+    if failed:
+        stop.set()
+        wait(futures)
+        raise failed[0]
+    return [f.result() for f in futures]
+
+
 def _score_one_camera(cam: str, cam_pairs: list[FramePair], run: Any, regions_done: RegionsCallback,
-                      progress: Any) -> Any:
+                      progress: Any, stop: Any = None) -> Any:
     """``score_camera`` with its progress: frames, pairs (those a camera could not score, no
-    sequence, count as done) and the camera's video step."""
+    sequence, count as done) and the camera's video step. ``stop``: a ``threading.Event``
+    checked at every frame and pair (``_Stopped`` is raised once it is set)."""
     from dynaeval.scoring import score_camera
 
     pairs_done = [0]
 
+    def tick(phase: str) -> None:
+        if stop is not None and stop.is_set():
+            raise _Stopped(f"camera {cam} stopped: another camera failed")
+        progress.advance(phase)
+
     def on_pair() -> None:
         pairs_done[0] += 1
-        progress.advance("pairs")
+        tick("pairs")
 
     progress.set_note(f"camera {cam}")
     scores = score_camera(cam, cam_pairs, run, on_regions=regions_done,
-                          on_frame=lambda: progress.advance("frames"), on_pair=on_pair)
+                          on_frame=lambda: tick("frames"), on_pair=on_pair)
     if run.config.temporal:
         progress.advance("pairs", len(cam_pairs) - 1 - pairs_done[0])
     progress.advance("video")

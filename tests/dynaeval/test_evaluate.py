@@ -425,3 +425,36 @@ def test_without_lpips_tlp_is_recorded_as_off_without_warnings():
     assert res["settings"]["temporal"]["tlp"] is False
     assert res["summary"]["tlp"] is None and res["summary"]["warp_error"] is not None
     assert not [w for w in res["warnings"] if "tlp" in w.get("metric", "")]
+
+
+def test_a_failing_camera_stops_the_others_and_its_error_is_raised(monkeypatch):
+    import time
+    from concurrent.futures import ThreadPoolExecutor
+    from types import SimpleNamespace
+
+    import dynaeval.scoring
+    from dynaeval.evaluate import _cameras_at_once
+    from dynaeval.progress import Progress
+
+    frames_of = {"a": 0, "b": 0}
+
+    def fake_score_camera(cam, cam_pairs, run, on_regions, on_frame, on_pair):
+        for _ in range(2 if cam == "a" else 400):
+            time.sleep(0.005)
+            frames_of[cam] += 1
+            on_frame()
+        if cam == "a" and run.fail:
+            raise InputError("frame 0002.png is broken")
+        return cam
+
+    monkeypatch.setattr(dynaeval.scoring, "score_camera", fake_score_camera)
+    cams = {"a": [None] * 3, "b": [None] * 3}
+    progress = Progress({"regions": 6, "frames": 800, "pairs": 4, "video": 2}, enabled=False)
+    run = SimpleNamespace(config=SimpleNamespace(temporal=False), fail=False)
+    with ThreadPoolExecutor(max_workers=2) as lanes:
+        assert _cameras_at_once(lanes, cams, run, None, progress) == ["a", "b"]
+    assert frames_of["b"] == 400
+    frames_of["b"], run.fail = 0, True
+    with ThreadPoolExecutor(max_workers=2) as lanes, pytest.raises(InputError, match="0002.png"):
+        _cameras_at_once(lanes, cams, run, None, progress)
+    assert frames_of["b"] < 100  # stopped at its next frame, not run to its end
