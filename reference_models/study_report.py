@@ -102,6 +102,15 @@ def crops_figure(docs: list[dict], data: Path, out: Path) -> tuple[str, str] | N
     return key, " · ".join(name for name, _ in tiles)
 
 
+def frames_better(base: dict, other: dict, key: str) -> tuple[int, int]:
+    """(frames where ``other``'s ``key`` is higher than ``base``'s, frames where both have one),
+    frames matched by camera and frame name: how consistent a difference of means is."""
+    before = {(f["camera"], f["frame"]): f.get(key) for f in base["frames"]}
+    pairs = [(before.get((f["camera"], f["frame"])), f.get(key)) for f in other["frames"]]
+    pairs = [(a, b) for a, b in pairs if a is not None and b is not None]
+    return sum(b > a for a, b in pairs), len(pairs)
+
+
 def findings(by_scene: dict[str, list[dict]]) -> list[str]:
     """Statements of the seed study, checked against these numbers."""
     out: list[str] = []
@@ -124,7 +133,9 @@ def findings(by_scene: dict[str, list[dict]]) -> list[str]:
                     parts.append(f"{k} {s(u, k):.3f} → {s(i, k):.3f} ({s(i, k) - s(u, k):+.3f})")
             for what, k in (("player", "tight_psnr_person"), ("ball", "tight_psnr_ball")):
                 if s(u, k) is not None and s(i, k) is not None:
-                    verdicts.append(f"{what} {'holds' if s(i, k) > s(u, k) else 'does not hold'}")
+                    better, n = frames_better(u, i, k)
+                    verdicts.append(f"{what} {'holds' if s(i, k) > s(u, k) else 'does not hold'}"
+                                    f" (IS better on {better} of {n} frames)")
             if parts:
                 out.append(f"- **IS helps the player and the ball** ({scene}, {model}): "
                            f"{', '.join(verdicts) or 'n/a'} — " + "; ".join(parts))

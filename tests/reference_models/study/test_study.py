@@ -133,3 +133,22 @@ def test_a_scene_without_a_moving_region_trains_the_fallback_size(tmp_path, monk
         train_and_render(tmp_path, "players-stadium", "nerfplayer", "isg",
                          replace(PRESETS["small-30min"], model_sizes={"nerfplayer": "small-dynbox-fine"}),
                          tmp_path / "data", progress=False)
+
+
+def test_findings_say_on_how_many_frames_importance_sampling_is_better():
+    from reference_models.study_report import findings, frames_better
+
+    def doc(method, person, ball):
+        frames = [{"camera": "eval00", "frame": f"{i:04d}", "tight_psnr_person": p,
+                   "tight_psnr_ball": b} for i, (p, b) in enumerate(zip(person, ball))]
+        mean = lambda v: sum(x for x in v if x is not None) / len([x for x in v if x is not None])  # noqa: E731
+        return {"method": method, "frames": frames, "summary": {
+            "tight_psnr_person": mean(person), "tight_psnr_ball": mean(ball)}}
+
+    uniform = doc("kplanes-uniform", [20.0, 21.0, 22.0, 23.0], [12.0, 12.0, None, 12.0])
+    isg = doc("kplanes-isg", [25.0, 20.0, 26.0, 24.0], [11.0, 11.5, 14.0, 11.0])
+    assert frames_better(uniform, isg, "tight_psnr_person") == (3, 4)
+    assert frames_better(uniform, isg, "tight_psnr_ball") == (0, 3)  # a frame without a ball
+    line = findings({"single-player-closeup": [uniform, isg]})[0]
+    assert "player holds (IS better on 3 of 4 frames)" in line
+    assert "ball does not hold (IS better on 0 of 3 frames)" in line
