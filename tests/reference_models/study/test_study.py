@@ -135,15 +135,19 @@ def test_a_scene_without_a_moving_region_trains_the_fallback_size(tmp_path, monk
                          tmp_path / "data", progress=False)
 
 
+def _mean(values):
+    kept = [v for v in values if v is not None]
+    return sum(kept) / len(kept)
+
+
 def test_findings_say_on_how_many_frames_importance_sampling_is_better():
     from reference_models.study_report import findings, frames_better
 
     def doc(method, person, ball):
         frames = [{"camera": "eval00", "frame": f"{i:04d}", "tight_psnr_person": p,
-                   "tight_psnr_ball": b} for i, (p, b) in enumerate(zip(person, ball))]
-        mean = lambda v: sum(x for x in v if x is not None) / len([x for x in v if x is not None])  # noqa: E731
+                   "tight_psnr_ball": b} for i, (p, b) in enumerate(zip(person, ball, strict=True))]
         return {"method": method, "frames": frames, "summary": {
-            "tight_psnr_person": mean(person), "tight_psnr_ball": mean(ball)}}
+            "tight_psnr_person": _mean(person), "tight_psnr_ball": _mean(ball)}}
 
     uniform = doc("kplanes-uniform", [20.0, 21.0, 22.0, 23.0], [12.0, 12.0, None, 12.0])
     isg = doc("kplanes-isg", [25.0, 20.0, 26.0, 24.0], [11.0, 11.5, 14.0, 11.0])
