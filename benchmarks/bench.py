@@ -741,6 +741,10 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--degrade", nargs=2, metavar=("SRC", "DST"),
                         help="only write blurred+noised stand-in predictions of the PNGs in SRC to "
                         "DST (for --score) and exit")
+    parser.add_argument("--make-job", metavar="DIR",
+                        help="first write benchmarks.temporal_speed.make_job's 1080p job (the bundled "
+                        "sample upscaled, 2 cameras x 8 frames) to DIR/{pred,gt} unless it is there, "
+                        "so --score DIR/pred DIR/gt runs on a fresh machine")
     parser.add_argument("--score-workers", default="1,2", help="worker counts for --score")
     parser.add_argument("--score-args", default="", help="extra arguments for --score (one string)")
     return parser
@@ -895,6 +899,10 @@ def main(argv: list[str] | None = None) -> int:
         n = degrade_folder(*args.degrade)
         print(f"{n} frames written to {args.degrade[1]}")
         return 0
+    if args.make_job:
+        from benchmarks.temporal_speed import make_job
+
+        make_job(args.make_job)
     if args.torch_threads > 0 and not args.no_lpips:
         import torch
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 
 from benchmarks import bench
@@ -97,3 +98,16 @@ def test_lpips_floor_table_divides_by_the_measured_rate(monkeypatch):
     assert "**100 GFLOP/s**" in text
     assert f"| 96x64 | {4 * _alexnet_macs(64, 96) / 1e9:.1f} | {floor:.0f} | dynaeval backend=onnxruntime | 10 |" in text
     assert f"| {20.0 / 10.0:.2f} | {20.0 / floor:.2f} |" in text
+
+
+def test_make_job_writes_the_1080p_job_once(tmp_path):
+    job = tmp_path / "job"
+    argv = ["--make-job", str(job), "--sizes", "64x48", "--repeats", "1", "--no-lpips",
+            "--no-sequence", "--peers", "skimage", "--out", "-"]
+    assert bench.main(argv) == 0
+    gts = sorted((job / "gt").rglob("*.png"))
+    assert len(gts) == 16 and len(sorted((job / "pred").rglob("*.png"))) == 16
+    assert cv2.imread(str(gts[0])).shape == (1080, 1920, 3)
+    stamp = gts[0].stat().st_mtime_ns
+    assert bench.main(argv) == 0
+    assert gts[0].stat().st_mtime_ns == stamp  # an existing job is kept
