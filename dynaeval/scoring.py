@@ -24,7 +24,14 @@ from dynaeval.errors import EmptyRegionError, InputError, UndefinedMetricError
 from dynaeval.io import FramePair
 from dynaeval.io.cache import FrameCache
 from dynaeval.metrics.flow import check_flow_size
-from dynaeval.metrics.registry import COVISIBLE_RULE, METRICS, REGION_RULES, FrameFn, temporal_keys
+from dynaeval.metrics.registry import (
+    COVISIBLE_RULE,
+    METRICS,
+    REGION_RULES,
+    FrameFn,
+    region_argument,
+    temporal_keys,
+)
 from dynaeval.regions.focus import FrameRegions
 from dynaeval.report.results import INFINITE_MARK
 
@@ -239,7 +246,7 @@ def _metric_values(pair: FramePair, pred: np.ndarray, gt: np.ndarray, regions: F
         if region == "masked" and regions.packed_mask is None:
             values.append((name, None, regions.mask_reason))
             continue
-        kw = _region_of(region, regions, run, name)
+        kw = region_argument(region, name, run.protocol, regions)
         if kw is None:
             values.append((name, None, "no covisibility mask for this frame"))
             continue
@@ -252,25 +259,6 @@ def _metric_values(pair: FramePair, pred: np.ndarray, gt: np.ndarray, regions: F
             raise InputError(f"{name}: {err}", path=str(pair.pred)) from err
         elapsed[name] = time.perf_counter() - t0
     return values
-
-
-def _region_of(region: str, regions: FrameRegions, run: Run, key: str) -> dict[str, Any] | None:
-    """The ``region`` argument of the metric function of result ``key``: ``{}`` (whole frame;
-    the given mask's ``weights`` when the protocol multiplies by it and the metric is one of the
-    protocol's, i.e. has its ``covisible`` variant), ``{"boxes": ...}``, ``{"mask": ...}``, or
-    ``{"weights": ...}`` for DyCheck's ``covisible`` variant (None without a mask)."""
-    if region == "focused":
-        return {"boxes": regions.boxes}
-    if region == "masked":
-        return {"mask": regions.mask}
-    if region == "covisible":
-        return None if regions.weights is None else {"weights": regions.weights}
-    from dynaeval.metrics.registry import spec
-
-    if (regions.weights is not None and run.protocol is not None
-            and run.protocol.masks == "multiply" and "covisible" in spec(key).regions):
-        return {"weights": regions.weights}
-    return {}
 
 
 def score_frame(pair: FramePair, regions: FrameRegions, run: Run,

@@ -504,3 +504,25 @@ def build_frame_metrics(
                 if every != 1:
                     out.every[s.key(region)] = every
     return out
+
+
+def region_argument(region: str, key: str, protocol: Any, frame: Any) -> dict[str, Any] | None:
+    """The ``region`` argument of result ``key``'s function (variant ``region``) on one frame.
+
+    ``{"boxes": ...}`` (focused), ``{"mask": ...}`` (masked), ``{"weights": ...}`` (DyCheck's
+    covisible variant; None when the frame has no weights), ``{}`` for the whole frame, or the
+    given mask's ``{"weights": ...}`` there when ``protocol`` multiplies by it (``Protocol.masks
+    == "multiply"``) and the metric is one of the protocol's (it has a ``covisible`` variant).
+    ``frame``: anything with ``boxes``, ``mask`` and ``weights`` (``FrameRegions``), each read
+    only when the variant needs it (a packed mask is not unpacked for whole-frame metrics).
+    """
+    if region == "focused":
+        return {"boxes": frame.boxes}
+    if region == "masked":
+        return {"mask": frame.mask}
+    if region == "covisible":
+        return None if frame.weights is None else {"weights": frame.weights}
+    if (frame.weights is not None and protocol is not None
+            and protocol.masks == "multiply" and "covisible" in spec(key).regions):
+        return {"weights": frame.weights}
+    return {}
