@@ -10,6 +10,10 @@ means of per-image values, never of a pooled error).
     for batch in loader:
         metrics.update(render(batch), batch["image"])   # (B, 3, H, W) tensors in [0, 1]
     print(metrics.compute())                             # {"psnr": ..., "ssim": ..., "lpips": ...}
+
+With ``masked=True`` every ``update`` takes one mask per image and the means gain the keys
+``dynaeval score --masks`` writes: ``masked_*`` and the protocol's own masked numbers (DyCheck's
+``mpsnr``, ``mssim``, ``mlpips``; NeRFBaselines' whole-frame metrics of the masked images).
 """
 
 from __future__ import annotations
@@ -20,9 +24,16 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.errors import InputError
-from dynaeval.metrics.registry import FrameContext, FrameFn, default_frame_metrics, frame_specs
-from dynaeval.validation import is_torch_tensor
+from dynaeval.errors import EmptyRegionError, InputError, UndefinedMetricError
+from dynaeval.metrics.registry import (
+    FrameContext,
+    FrameFn,
+    default_frame_metrics,
+    frame_specs,
+    region_argument,
+    spec,
+)
+from dynaeval.validation import check_finite_image, is_torch_tensor, to_numpy
 
 SUPPORTED = tuple(s.name for s in frame_specs())
 """Names ``ImageMetrics`` accepts: every per-frame metric of the registry."""
@@ -54,6 +65,45 @@ def _images(x: Any, name: str) -> list[np.ndarray]:
                      f"{arr.shape}")
 
 
+def _masks(x: Any, n: int, shape: tuple[int, int]) -> list[np.ndarray]:
+    """A batch's masks as ``n`` (H, W) float32 weights in [0, 1]: (B, H, W), (B, 1, H, W),
+    (H, W) or (1, H, W), bool, integer 0/1 or float, numpy or torch.
+
+    Raises:
+        InputError: another shape, size or count, NaN, or values outside [0, 1].
+    """
+    if x is None:
+        raise InputError("masked=True: update(pred, gt, mask) needs a mask per image")
+    arr = np.asarray(x.detach().cpu().numpy() if is_torch_tensor(x) else x)
+    arr = (arr.astype(np.float32) if arr.dtype == bool else
+           to_numpy(arr, "mask").astype(np.float32))
+    if arr.ndim == 4 and arr.shape[1] == 1:
+        arr = arr[:, 0]
+    if arr.ndim == 2:
+        arr = arr[None]
+    if arr.ndim != 3 or arr.shape[0] != n or arr.shape[1:] != shape:
+        raise InputError(f"mask: expected {n} mask(s) of the images' size (B, H, W) = "
+                         f"({n}, {shape[0]}, {shape[1]}), got shape {np.shape(x)}")
+    check_finite_image(arr, "mask")
+    if arr.size and (arr.min() < 0 or arr.max() > 1):
+        raise InputError(f"mask: weights must be in [0, 1], got values in "
+                         f"[{arr.min():.4g}, {arr.max():.4g}]")
+    return list(arr)
+
+
+class _Regions:
+    """One image's regions for ``region_argument``: the mask's weights and, from them,
+    dynaeval's masked region (weight > ``dynaeval.io.masks.THRESHOLD``)."""
+
+    boxes = None
+
+    def __init__(self, weights: np.ndarray | None) -> None:
+        from dynaeval.io.masks import THRESHOLD
+
+        self.weights = weights
+        self.mask = None if weights is None else weights > THRESHOLD
+
+
 class ImageMetrics:
     """Per-image values of per-frame metrics over many ``update`` calls; ``compute`` gives means.
 
@@ -67,6 +117,12 @@ class ImageMetrics:
         protocol: ``dynaeval`` (default) or another of ``PROTOCOL_NAMES``: whose whole-frame
             PSNR/SSIM and 8-bit step to use (``dynaeval.metrics.protocols``).
         pretrained_backbone: False only in tests (LPIPS with a random backbone, see ``load_lpips``).
+        masked: every ``update`` takes a mask per image (weights in [0, 1]), and the keys
+            ``dynaeval score --masks`` adds are kept: ``masked_<metric>`` over the pixels of
+            weight > 0.5, and the protocol's: ``m<metric>`` under ``dycheck`` (its covisible
+            reduction over the weights), the whole-frame keys of the mask-multiplied images
+            under ``nerfbaselines``. An image whose mask holds no pixel above 0.5 has no
+            ``masked_*`` value (left out of the mean, as ``dynaeval score`` does).
 
     Raises:
         InputError: unknown metric, net or protocol, or a protocol/net mismatch.
@@ -80,6 +136,7 @@ class ImageMetrics:
         device: Any = None,
         protocol: str = "dynaeval",
         pretrained_backbone: bool = True,
+        masked: bool = False,
     ) -> None:
         from dynaeval.metrics.protocols import check_lpips_net, get_protocol, run_metrics
         from dynaeval.validation import check_data_range
@@ -99,21 +156,30 @@ class ImageMetrics:
         self.lpips_net = lpips_net or self.protocol.lpips_net
         check_lpips_net(self.protocol, self.lpips_net)
         self.pretrained_backbone = pretrained_backbone
+        self.masked = bool(masked)
+        regions = (("whole", "masked", *(("covisible",) if self.protocol.masks == "covisible"
+                                         else ())) if self.masked else ("whole",))
+        self.keys: tuple[tuple[str, str, str], ...] = tuple(
+            (spec(m).key(r), m, r) for r in regions for m in self.metrics if r in spec(m).regions)
+        """(result key, metric, region variant) of every value kept, in report order."""
         self._fns: dict[str, FrameFn] | None = None
-        self._values: dict[str, list[float]] = {m: [] for m in self.metrics}
+        self._values: dict[str, list[float | None]] = {k: [] for k, _, _ in self.keys}
+        self._count = 0
 
     def reset(self) -> None:
         """Forget every value seen so far."""
-        self._values = {m: [] for m in self.metrics}
+        self._values = {k: [] for k, _, _ in self.keys}
+        self._count = 0
 
     def __len__(self) -> int:
         """Number of images scored since the last ``reset``."""
-        return len(self._values[self.metrics[0]])
+        return self._count
 
     @property
-    def values(self) -> dict[str, list[float]]:
-        """Per-image values so far, per metric (copies)."""
-        return {m: list(v) for m, v in self._values.items()}
+    def values(self) -> dict[str, list[float | None]]:
+        """Per-image values so far, per result key (copies; None where a masked value is
+        undefined)."""
+        return {k: list(v) for k, v in self._values.items()}
 
     def _functions(self, device: Any) -> dict[str, FrameFn]:
         """The registry's functions, built on first use (LPIPS needs the device of the data)."""
@@ -126,19 +192,22 @@ class ImageMetrics:
             self._fns = {s.name: s.load("build")(ctx) for s in frame_specs(self.metrics)}
         return self._fns
 
-    def update(self, pred: Any, gt: Any) -> dict[str, list[float]]:
+    def update(self, pred: Any, gt: Any, mask: Any = None) -> dict[str, list[float | None]]:
         """Score every image of a batch and keep the values.
 
         Args:
             pred, gt: torch tensors (B, C, H, W) / (C, H, W) on any device, or numpy arrays
                 (B, H, W, C) / (H, W, C) / (H, W); float in [0, data_range]; equal shapes.
+            mask: with ``masked=True`` only (and then required): one mask per image, (B, H, W),
+                (B, 1, H, W) or (H, W), bool or weights in [0, 1], numpy or torch.
 
         Returns:
-            This batch's per-image values, per metric.
+            This batch's per-image values, per result key.
 
         Raises:
             InputError: shapes differ or are not images, NaN/Inf pixels, LPIPS input outside
-                [0, 1]. Nothing is kept from a batch that raised.
+                [0, 1], a mask missing, given without ``masked=True``, or not of the images'
+                size. Nothing is kept from a batch that raised.
             WeightsUnavailableError: LPIPS asked for and its backbone weights are absent.
         """
         from dynaeval.metrics.pixel import quantize
@@ -146,27 +215,52 @@ class ImageMetrics:
         preds, gts = _images(pred, "pred"), _images(gt, "gt")
         if len(preds) != len(gts):
             raise InputError(f"pred has {len(preds)} images but gt has {len(gts)}")
+        if mask is not None and not self.masked:
+            raise InputError("a mask was given to an ImageMetrics made without masked=True")
+        weights = (_masks(mask, len(gts), gts[0].shape[:2]) if self.masked
+                   else [None] * len(gts))
         device = self.device
         if device is None and is_torch_tensor(pred):
             device = pred.device
         fns = self._functions(device)
-        batch: dict[str, list[float]] = {m: [] for m in self.metrics}
-        for p, g in zip(preds, gts, strict=True):
+        batch: dict[str, list[float | None]] = {k: [] for k, _, _ in self.keys}
+        for p, g, w in zip(preds, gts, weights, strict=True):
             if self.protocol.quantize != "none":
                 p, g = quantize(p, self.protocol.quantize), quantize(g, self.protocol.quantize)
-            for m in self.metrics:
-                batch[m].append(float(fns[m](p, g, {})))
-        for m, vals in batch.items():
-            self._values[m].extend(vals)
+            regions = _Regions(w)
+            for key, m, region in self.keys:
+                batch[key].append(self._value(fns[m], p, g, region_argument(
+                    region, key, self.protocol, regions), region))
+        for k, vals in batch.items():
+            self._values[k].extend(vals)
+        self._count += len(gts)
         return batch
 
-    def compute(self) -> dict[str, float]:
-        """Mean of the per-image values of each metric (``math.inf`` for PSNR when an image
-        equals its ground truth, as the mean is then infinite).
+    @staticmethod
+    def _value(fn: FrameFn, p: np.ndarray, g: np.ndarray, region: dict | None,
+               variant: str) -> float | None:
+        """One value; None where ``dynaeval score`` writes null for a mask (no pixel in it)."""
+        if variant == "whole":
+            return float(fn(p, g, region or {}))
+        if variant == "masked" and not region["mask"].any():
+            return None
+        try:
+            return float(fn(p, g, region))
+        except (EmptyRegionError, UndefinedMetricError):
+            return None
+
+    def compute(self) -> dict[str, float | None]:
+        """Mean of the per-image values of each result key (``math.inf`` for PSNR when an image
+        equals its ground truth, as the mean is then infinite); a masked key's mean is over the
+        images where it is defined (None when it is nowhere).
 
         Raises:
             InputError: ``update`` was never called (since the last ``reset``).
         """
         if len(self) == 0:
             raise InputError("no image scored yet: call update(pred, gt) before compute()")
-        return {m: math.fsum(v) / len(v) for m, v in self._values.items()}
+        out: dict[str, float | None] = {}
+        for k, v in self._values.items():
+            kept = [x for x in v if x is not None]
+            out[k] = math.fsum(kept) / len(kept) if kept else None
+        return out

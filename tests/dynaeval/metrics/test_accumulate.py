@@ -102,3 +102,60 @@ def test_reset_single_image_and_errors(rng):
     with pytest.raises(InputError, match="LPIPS expects pred in"):
         ImageMetrics(("lpips",), pretrained_backbone=False).update(np.full((32, 32, 3), 2.0), np.zeros((32, 32, 3)))
     assert len(acc) == 0  # nothing kept from batches that raised
+
+
+@pytest.mark.parametrize("protocol", ["dycheck", "nerfbaselines", "dynaeval"])
+def test_masked_image_metrics_equal_score_with_masks(tmp_path, random_lpips, protocol):
+    """``masked=True``: masked_* and the protocol's masked numbers (DyCheck's m*, NeRFBaselines'
+    mask-multiplied whole frame) equal ``dynaeval score`` with the same masks, frame by frame."""
+    from dynaeval.io.masks import read_mask
+    from dynaeval.metrics.protocols import get_protocol
+    from tests.dynaeval.mask_layouts import dycheck_dataset, nerfbaselines_folder
+
+    if protocol == "dycheck":
+        pred_dir, gt_dir = dycheck_dataset(tmp_path)
+        mask_dir = gt_dir.parent.parent / "covisible" / "2x" / "val"
+    else:
+        run = nerfbaselines_folder(tmp_path / "run")
+        pred_dir, gt_dir, mask_dir = run / "color", run / "gt-color", run / "mask"
+    decode = get_protocol(protocol).decode
+    res = dynaeval.score(pred_dir, gt_dir, protocol=protocol, masks=str(mask_dir),
+                         metrics=("psnr", "ssim", "lpips"), temporal=False, progress=False,
+                         focus=FocusConfig("none"))
+    im = ImageMetrics(("psnr", "ssim", "lpips"), protocol=protocol, masked=True,
+                      pretrained_backbone=False)
+    for row in res["frames"]:
+        name = f"{row['frame']}.png"
+        p, g = (read_image(d / name, decode=decode) for d in (pred_dir, gt_dir))
+        got = im.update(p, g, read_mask(mask_dir / name, decode))
+        for key, values in got.items():
+            assert values[0] == pytest.approx(row[key], abs=1e-9), key
+    assert sorted(im.compute()) == sorted(k for k in res["summary"]
+                                          if k in {key for key, _, _ in im.keys})
+    expected = {"dycheck": {"mpsnr", "mssim", "mlpips"}, "nerfbaselines": set(), "dynaeval": set()}
+    assert {k for k, _, _ in im.keys} == {"psnr", "ssim", "lpips", "masked_psnr", "masked_ssim",
+                                          "masked_lpips"} | expected[protocol]
+    for key, mean in im.compute().items():
+        assert mean == pytest.approx(res["summary"][key], abs=1e-9), key
+
+
+def test_masked_image_metrics_need_masks_of_the_images_size():
+    rng = np.random.default_rng(0)
+    p, g = rng.random((2, 20, 30, 3)), rng.random((2, 20, 30, 3))  # numpy: channel last
+    im = ImageMetrics(("psnr",), masked=True)
+    with pytest.raises(InputError, match="needs a mask per image"):
+        im.update(p, g)
+    with pytest.raises(InputError, match=r"expected 2 mask\(s\) .* got shape \(20, 31\)"):
+        im.update(p, g, np.ones((20, 31)))
+    with pytest.raises(InputError, match=r"weights must be in \[0, 1\]"):
+        im.update(p, g, np.full((2, 20, 30), 255, np.uint8))
+    with pytest.raises(InputError, match="without masked=True"):
+        ImageMetrics(("psnr",)).update(p, g, np.ones((2, 20, 30), bool))
+    assert len(im) == 0  # nothing kept from the batches that raised
+    m = np.zeros((2, 1, 20, 30), bool)
+    m[0, :, 5:15, 5:25] = True  # the second image's mask is empty: no masked value there
+    tp, tg = (torch.from_numpy(x).permute(0, 3, 1, 2) for x in (p, g))  # torch: channel first
+    got = im.update(tp, tg, torch.from_numpy(m))
+    assert got["masked_psnr"][1] is None and got["masked_psnr"][0] == pytest.approx(
+        M.psnr(p[0], g[0], mask=m[0, 0]), abs=1e-6)
+    assert im.compute()["masked_psnr"] == got["masked_psnr"][0] and len(im) == 2
