@@ -50,15 +50,22 @@ def _fmt(name: str, v: Any) -> str:
     return f"{v:.4f}" if abs(v) >= 1e-3 or v == 0 else f"{v:.1e}"
 
 
+def _train_cpu_min(train: dict) -> float:
+    """A run's training time in CPU minutes (``train_cpu_seconds``; what ``--clock cpu``
+    budgets, and unlike the wall time not cut short by a resume); wall minutes for a run
+    that did not record it."""
+    return train.get("train_cpu_seconds", train["wall_s"]) / 60
+
+
 def scene_table(docs: list[dict]) -> str:
     cols = [(k, label) for k, label in TABLE_METRICS if any(k in d["summary"] for d in docs)]
-    head = "| run | " + " | ".join(label for _, label in cols) + " | train min | steps | render s |"
+    head = "| run | " + " | ".join(label for _, label in cols) + " | train CPU min | steps | render s |"
     sep = "|---" * (len(cols) + 4) + "|"
     rows = []
     for d in docs:
         cells = [_fmt(k, d["summary"].get(k)) for k, _ in cols]
         rows.append(f"| {d['method']} | " + " | ".join(cells)
-                    + f" | {d['_train']['wall_s'] / 60:.1f} | {d['_train'].get('step', 'n/a')} "
+                    + f" | {_train_cpu_min(d['_train']):.1f} | {d['_train'].get('step', 'n/a')} "
                     f"| {d['_render']['wall_s']:.1f} |")
     return "\n".join([head, sep, *rows])
 
