@@ -33,7 +33,7 @@ from dynaeval.metrics.registry import (
     region_argument,
     spec,
 )
-from dynaeval.validation import check_finite_image, is_torch_tensor, to_numpy
+from dynaeval.validation import check_finite_image, check_unit_range, is_torch_tensor, to_numpy
 
 SUPPORTED = tuple(s.name for s in frame_specs())
 """Names ``ImageMetrics`` accepts: every per-frame metric of the registry."""
@@ -75,8 +75,7 @@ def _masks(x: Any, n: int, shape: tuple[int, int]) -> list[np.ndarray]:
     if x is None:
         raise InputError("masked=True: update(pred, gt, mask) needs a mask per image")
     arr = np.asarray(x.detach().cpu().numpy() if is_torch_tensor(x) else x)
-    arr = (arr.astype(np.float32) if arr.dtype == bool else
-           to_numpy(arr, "mask").astype(np.float32))
+    arr = (arr if arr.dtype == bool else to_numpy(arr, "mask")).astype(np.float32)
     if arr.ndim == 4 and arr.shape[1] == 1:
         arr = arr[:, 0]
     if arr.ndim == 2:
@@ -85,9 +84,7 @@ def _masks(x: Any, n: int, shape: tuple[int, int]) -> list[np.ndarray]:
         raise InputError(f"mask: expected {n} mask(s) of the images' size (B, H, W) = "
                          f"({n}, {shape[0]}, {shape[1]}), got shape {np.shape(x)}")
     check_finite_image(arr, "mask")
-    if arr.size and (arr.min() < 0 or arr.max() > 1):
-        raise InputError(f"mask: weights must be in [0, 1], got values in "
-                         f"[{arr.min():.4g}, {arr.max():.4g}]")
+    check_unit_range(arr, "mask")
     return list(arr)
 
 
@@ -241,7 +238,7 @@ class ImageMetrics:
                variant: str) -> float | None:
         """One value; None where ``dynaeval score`` writes null for a mask (no pixel in it)."""
         if variant == "whole":
-            return float(fn(p, g, region or {}))
+            return float(fn(p, g, region))
         if variant == "masked" and not region["mask"].any():
             return None
         try:

@@ -147,7 +147,7 @@ def test_masked_image_metrics_need_masks_of_the_images_size():
         im.update(p, g)
     with pytest.raises(InputError, match=r"expected 2 mask\(s\) .* got shape \(20, 31\)"):
         im.update(p, g, np.ones((20, 31)))
-    with pytest.raises(InputError, match=r"weights must be in \[0, 1\]"):
+    with pytest.raises(InputError, match=r"mask: float values must be in \[0, 1\], got values in \[255, 255\]"):
         im.update(p, g, np.full((2, 20, 30), 255, np.uint8))
     with pytest.raises(InputError, match="without masked=True"):
         ImageMetrics(("psnr",)).update(p, g, np.ones((2, 20, 30), bool))
