@@ -72,7 +72,8 @@ class ScoreConfig:
     """Optical flow for the temporal terms: ``dis``, ``farneback`` or ``tvl1``."""
     workers: int = 1
     """Threads scoring frames and temporal pairs; with several cameras, also how many cameras
-    are scored at a time. Never changes a number."""
+    are scored at a time. With more than one, OpenCV runs on one thread in each
+    (``dynaeval.runtime.opencv_threads``). Never changes a number."""
     device: str = "cpu"
     """Torch device for LPIPS: ``cpu``, ``cuda[:i]`` or ``auto`` (``dynaeval.runtime``)."""
     progress: bool = True

@@ -32,6 +32,7 @@ from dynaeval.config import ScoreConfig
 from dynaeval.io import FramePair, pair_frames
 from dynaeval.io.frames import pairs_by_camera
 from dynaeval.regions.focus import FrameRegions
+from dynaeval.runtime import opencv_threads
 
 __all__ = ["DynaevalWarning", "Results", "ScoreConfig", "score"]
 
@@ -224,10 +225,12 @@ def _score_cameras(pairs: list[FramePair], run: Any, on_regions: RegionsCallback
 
     completed = False
     try:
-        if lanes is None:
-            scored = [_score_one_camera(c, p, run, regions_done, progress) for c, p in cams.items()]
-        else:
-            scored = _cameras_at_once(lanes, cams, run, regions_done, progress)
+        with opencv_threads(1 if workers > 1 else None):
+            if lanes is None:
+                scored = [_score_one_camera(c, p, run, regions_done, progress)
+                          for c, p in cams.items()]
+            else:
+                scored = _cameras_at_once(lanes, cams, run, regions_done, progress)
         completed = True
     finally:
         if lanes is not None:

@@ -1,4 +1,5 @@
-"""Runtime plumbing shared by every layer: devices, onnxruntime providers and sessions, file hashes.
+"""Runtime plumbing shared by every layer: devices, onnxruntime providers and sessions, OpenCV's
+threads, file hashes.
 
 **One meaning of** ``device="auto"``: *the GPU when the engine that will run can use one, else
 the CPU* — never an error. For torch that is ``"cuda"`` when ``torch.cuda.is_available()`` (and
@@ -6,13 +7,15 @@ the CPU* — never an error. For torch that is ``"cuda"`` when ``torch.cuda.is_a
 installed onnxruntime offers it (``onnxruntime-gpu``). An explicit ``"cuda"`` that cannot be
 honoured is an :class:`~dynaeval.errors.InputError` naming the fix.
 
-Ground floor: numpy-free even; torch and onnxruntime are imported inside the functions.
+Ground floor: numpy-free even; torch, onnxruntime and cv2 are imported inside the functions.
 """
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -114,6 +117,30 @@ def load_session(path: str | Path, providers: tuple[str, ...] = CPU_PROVIDERS) -
     p = Path(path).resolve()
     st = p.stat()
     return _cached_session(str(p), st.st_mtime_ns, st.st_size, tuple(providers))
+
+
+@contextlib.contextmanager
+def opencv_threads(threads: int | None) -> Iterator[None]:
+    """OpenCV's thread count (``cv2.setNumThreads``) set to ``threads`` inside the block and
+    restored after it; None leaves it as it is.
+
+    Process-wide: every thread's OpenCV calls see it while the block runs. A scoring run with
+    ``workers`` > 1 sets 1, so each worker's OpenCV calls (DIS flow above all) run on that worker's
+    thread: OpenCV's own threads on top of the workers' contend for the same cores and cost CPU
+    time in their hand-offs (docs/benchmarks.md, "Two workers on a 1080p job", measures it).
+    Every OpenCV function dynaeval calls gives the same bits on any thread count (tested for DIS).
+    """
+    if threads is None:
+        yield
+        return
+    import cv2
+
+    before = cv2.getNumThreads()
+    cv2.setNumThreads(max(1, int(threads)))
+    try:
+        yield
+    finally:
+        cv2.setNumThreads(before)
 
 
 def file_sha256(path: str | Path) -> str:

@@ -18,6 +18,7 @@ from dynaeval.runtime import (
     load_session,
     new_session,
     onnx_providers,
+    opencv_threads,
     resolve_device,
 )
 
@@ -130,3 +131,16 @@ def test_file_sha256_streams_large_files(tmp_path):
     p = tmp_path / "blob.bin"
     p.write_bytes(data)
     assert file_sha256(p) == hashlib.sha256(data).hexdigest()
+
+
+def test_opencv_threads_sets_the_count_inside_the_block_and_restores_it():
+    cv2 = pytest.importorskip("cv2")
+    before = cv2.getNumThreads()
+    with opencv_threads(1):
+        assert cv2.getNumThreads() == 1
+    assert cv2.getNumThreads() == before
+    with pytest.raises(RuntimeError), opencv_threads(1):
+        raise RuntimeError("a failing run")
+    assert cv2.getNumThreads() == before
+    with opencv_threads(None):
+        assert cv2.getNumThreads() == before
