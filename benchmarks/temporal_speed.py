@@ -82,21 +82,33 @@ def make_job(dst: str | Path, size: tuple[int, int] = SIZE, seed: int = 0) -> Pa
     return dst
 
 
-def interleaved(paths: dict[str, Callable[[], Any]], rounds: int) -> dict[str, dict[str, float]]:
+def interleaved(paths: dict[str, Callable[[], Any]], rounds: int) -> dict[str, dict[str, Any]]:
     """Run each path once per round, in turn (A, B, ..., A, B, ...), after one warm-up round.
 
-    Returns ``{name: {"wall": best wall s, "cpu": best CPU s of this process}}``.
+    Returns ``{name: {"wall": best wall s, "cpu": best CPU s of this process, "wall_rounds",
+    "cpu_rounds": the seconds of each round}}``: a ratio of two paths per round cancels a machine
+    that speeds up or slows down between rounds.
     """
     for fn in paths.values():
         fn()
-    best = {k: {"wall": np.inf, "cpu": np.inf} for k in paths}
+    best: dict[str, dict[str, Any]] = {
+        k: {"wall": np.inf, "cpu": np.inf, "wall_rounds": [], "cpu_rounds": []} for k in paths}
     for _ in range(rounds):
         for name, fn in paths.items():
             w0, c0 = time.perf_counter(), time.process_time()
             fn()
-            best[name]["wall"] = min(best[name]["wall"], time.perf_counter() - w0)
-            best[name]["cpu"] = min(best[name]["cpu"], time.process_time() - c0)
+            wall, cpu = time.perf_counter() - w0, time.process_time() - c0
+            best[name]["wall"] = min(best[name]["wall"], wall)
+            best[name]["cpu"] = min(best[name]["cpu"], cpu)
+            best[name]["wall_rounds"].append(wall)
+            best[name]["cpu_rounds"].append(cpu)
     return best
+
+
+def round_ratios(best: dict[str, dict[str, Any]], num: str, den: str, kind: str = "cpu") -> np.ndarray:
+    """``kind`` (``"cpu"`` or ``"wall"``) time of path ``num`` over path ``den`` in each round of
+    ``interleaved``."""
+    return np.asarray(best[num][f"{kind}_rounds"]) / np.asarray(best[den][f"{kind}_rounds"])
 
 
 def load_camera(job: Path, camera: str) -> tuple[list[np.ndarray], list[np.ndarray]]:
@@ -256,13 +268,16 @@ def bench_workers(job: Path, rounds: int, counts: tuple[int, ...] = (1, 2),
         lines.append(f"| {label} | {n} | {w:.1f} | {cpu[key]:.1f} | {own / w:.2f} |")
     top = best[str(counts[-1])]["wall"]
     one_core = cpu["1core1"]
+    per = round_ratios(best, str(counts[0]), str(counts[-1]), "wall")
     lines += ["", f"2 workers against this checkout's 1: **{base / top:.2f}x** (issue 20: >= 1.7x); "
               f"against one core (`{' '.join(f'{k}={v}' for k, v in ONE_CORE.items())}`): "
               f"{best['1core1']['wall'] / top:.2f}x. 1 worker keeps {cpu[str(counts[0])] / base:.2f} "
               "cores busy (OpenCV's DIS runs on 2 threads). With more workers OpenCV runs on one "
               "thread in each (`dynaeval.runtime.opencv_threads`), so their work is the one-core "
               f"run's: its CPU seconds over 2, {one_core / 2:.1f} s, are the two cores' floor, "
-              f"which 2 workers reach within {100 * (top / (one_core / 2) - 1):.0f} %."]
+              f"which 2 workers reach within {100 * (top / (one_core / 2) - 1):.0f} %. The "
+              f"speed-up in each of the {rounds} rounds (1 worker's wall over 2 workers' of the "
+              f"same round): median {np.median(per):.2f}, {per.min():.2f} to {per.max():.2f}."]
     return "\n".join(lines)
 
 
@@ -335,6 +350,10 @@ def bench_ssim(rounds: int, before: Path | None = None) -> str:
     for name, label in labels:
         c = best[name]["cpu"]
         lines.append(f"| {label} | {1e3 * c:.0f} | {c / floor:.2f} |")
+    per = round_ratios(best, "dynaeval", "floor")
+    lines += ["", f"dynaeval `ssim` / floor in each of the {rounds} rounds: median "
+              f"**{np.median(per):.2f}**, {per.min():.2f} to {per.max():.2f}; at most 1.3 in "
+              f"{int((per <= 1.3).sum())} of {rounds} (issue 20: within 1.3x)."]
     return "\n".join(lines)
 
 

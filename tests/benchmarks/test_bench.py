@@ -53,10 +53,14 @@ def test_score_throughput_runs_score_in_a_child(tmp_path):
     import dynaeval
 
     sample = Path(dynaeval.__file__).parent / "data" / "sample"
-    rows = bench.score_throughput(str(sample / "pred"), str(sample / "gt"), (1,),
-                                  ["--no-lpips", "--no-temporal", "--focus", "none", "--no-masked"])
-    assert rows[0]["workers"] == 1 and rows[0]["frames"] == 16
+    rows = bench.score_throughput(str(sample / "pred"), str(sample / "gt"), (1, 2),
+                                  ["--no-lpips", "--no-temporal", "--focus", "none", "--no-masked"],
+                                  rounds=2)
+    assert [r["workers"] for r in rows] == [1, 2] and rows[0]["frames"] == 16
+    assert all(r["rounds"] == 2 and r["wall_max_s"] >= r["wall_s"] > 0 for r in rows)
     assert rows[0]["max_rss_mb"] > 10 and rows[0]["cpu_s"] > 0 and rows[0]["fps"] > 0
+    table = bench._throughput_table(rows).splitlines()
+    assert table[2].split(" | ")[3] == "1.00"  # the first count's speed-up over itself
 
 
 def test_degrade_writes_one_frame_per_png(tmp_path):

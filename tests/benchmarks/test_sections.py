@@ -34,6 +34,17 @@ def test_interleaved_runs_every_path_each_round_and_keeps_the_best():
     best = interleaved({"a": lambda: calls.append("a"), "b": lambda: calls.append("b")}, 2)
     assert calls == ["a", "b"] * 3  # warm-up round, then 2 alternating rounds
     assert set(best) == {"a", "b"} and all(v["wall"] >= 0 for v in best.values())
+    assert all(len(v["cpu_rounds"]) == len(v["wall_rounds"]) == 2 for v in best.values())
+    assert all(v["cpu"] == min(v["cpu_rounds"]) for v in best.values())
+
+
+def test_round_ratios_divide_round_by_round():
+    from benchmarks.temporal_speed import round_ratios
+
+    best = {"a": {"cpu_rounds": [2.0, 6.0], "wall_rounds": [1.0, 1.0]},
+            "b": {"cpu_rounds": [1.0, 2.0], "wall_rounds": [4.0, 2.0]}}
+    assert round_ratios(best, "a", "b").tolist() == [2.0, 3.0]
+    assert round_ratios(best, "b", "a", "wall").tolist() == [4.0, 2.0]
 
 
 def test_command_line_and_stamp():
