@@ -277,8 +277,9 @@ def bench_workers(job: Path, rounds: int, counts: tuple[int, ...] = (1, 2),
               f"{best['1core1']['wall'] / top:.2f}x. 1 worker keeps {cpu[str(counts[0])] / base:.2f} "
               "cores busy (OpenCV's DIS runs on 2 threads). With more workers OpenCV runs on one "
               "thread in each (`dynaeval.runtime.opencv_threads`), so their work is the one-core "
-              f"run's: its CPU seconds over 2, {one_core / 2:.1f} s, are the two cores' floor, "
-              f"which 2 workers reach within {100 * (top / (one_core / 2) - 1):.0f} %. The "
+              f"run's: its CPU seconds over 2, {one_core / 2:.1f} s, are the two cores' floor "
+              f"(2 workers: {100 * (top / (one_core / 2) - 1):+.0f} %; below 0 when the floor's "
+              "best round fell in a slower spell of the machine than theirs). The "
               f"speed-up in each of the {rounds} rounds (1 worker's wall over 2 workers' of the "
               f"same round): median {np.median(per):.2f}, {per.min():.2f} to {per.max():.2f}."]
     return "\n".join(lines)
