@@ -32,7 +32,7 @@ from dynaeval.config import ScoreConfig
 from dynaeval.io import FramePair, pair_frames
 from dynaeval.io.frames import pairs_by_camera
 from dynaeval.regions.focus import FrameRegions
-from dynaeval.runtime import opencv_threads
+from dynaeval.runtime import worker_opencv_threads
 
 __all__ = ["DynaevalWarning", "Results", "ScoreConfig", "score"]
 
@@ -225,7 +225,7 @@ def _score_cameras(pairs: list[FramePair], run: Any, on_regions: RegionsCallback
 
     completed = False
     try:
-        with opencv_threads(1 if workers > 1 else None):
+        with worker_opencv_threads(workers):
             if lanes is None:
                 scored = [_score_one_camera(c, p, run, regions_done, progress)
                           for c, p in cams.items()]

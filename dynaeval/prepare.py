@@ -40,7 +40,7 @@ from dynaeval.io.frames import FrameRef, pairs_by_camera
 from dynaeval.io.prepared import FORMAT_VERSION, MANIFEST, file_digest, manifest_id, read_manifest
 from dynaeval.regions.focus import FrameRegions
 from dynaeval.regions.packed import PackedMask
-from dynaeval.runtime import opencv_threads
+from dynaeval.runtime import worker_opencv_threads
 
 __all__ = ["PreparedGT", "open_prepared", "prepare", "prepared_settings"]
 
@@ -135,7 +135,7 @@ def prepare(gt_dir: str | Path, out: str | Path, config: ScoreConfig | None = No
     run.pool = ThreadPoolExecutor(config.workers) if config.workers > 1 else None
     completed = False
     try:
-        with opencv_threads(1 if config.workers > 1 else None):
+        with worker_opencv_threads(config.workers):
             write_folder_atomic(out, fill, overwrite=overwrite, what="prepared folder")
         completed = True
     finally:

@@ -20,6 +20,7 @@ from dynaeval.runtime import (
     onnx_providers,
     opencv_threads,
     resolve_device,
+    worker_opencv_threads,
 )
 
 ort = pytest.importorskip("onnxruntime")
@@ -144,3 +145,8 @@ def test_opencv_threads_sets_the_count_inside_the_block_and_restores_it():
     assert cv2.getNumThreads() == before
     with opencv_threads(None):
         assert cv2.getNumThreads() == before
+    with worker_opencv_threads(1):  # one worker keeps OpenCV's threads, several get one each
+        assert cv2.getNumThreads() == before
+    with worker_opencv_threads(3):
+        assert cv2.getNumThreads() == 1
+    assert cv2.getNumThreads() == before
