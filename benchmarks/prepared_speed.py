@@ -23,6 +23,8 @@ import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
+
 if not __package__:  # run as `python benchmarks/NAME.py`: make `benchmarks` importable
     sys.path.insert(0, str(__import__("pathlib").Path(__file__).resolve().parents[1]))
 
@@ -63,12 +65,12 @@ def bench_prepared(job: Path, rounds: int) -> str:
             return _run(["score", str(job / "pred"), str(job / "gt"), *SCORE_ARGS, *extra[name],
                          "-o", str(outs[name]), "--overwrite"])
 
-        for name in outs:  # warm-up (page cache, imports)
-            score(name)
-        best = dict.fromkeys(outs, float("inf"))
-        for _ in range(rounds):
-            for name in outs:
-                best[name] = min(best[name], score(name))
+        from benchmarks.temporal_speed import interleaved, round_ratios
+
+        # a warm-up round (page cache, imports), then the two alternating: wall times of the child
+        runs = interleaved({name: (lambda n=name: score(n)) for name in outs}, rounds)
+        best = {name: runs[name]["wall"] for name in outs}
+        per = round_ratios(runs, "first", "prepared", "wall")
         same = _comparable(outs["first"]) == _comparable(outs["prepared"])
         timing = json.loads(outs["first"].read_text())["timing"]
         timing_p = json.loads(outs["prepared"].read_text())["timing"]
@@ -89,7 +91,9 @@ def bench_prepared(job: Path, rounds: int) -> str:
         f"| scoring with `--prepared PREP` | {best['prepared']:.1f} | "
         f"{timing_p.get('regions', 0):.1f} | {timing_p.get('temporal', 0):.1f} |", "",
         f"Speed-up of a method scored against the prepared ground truth: **{ratio:.2f}x** "
-        "(target >= 1.6x). Regions and temporal seconds: the `timing` of each path's last run "
+        f"(target >= 1.6x); in each of the {rounds} rounds (the two runs of the round): median "
+        f"{float(np.median(per)):.2f}, {per.min():.2f} to {per.max():.2f}. Regions and temporal "
+        "seconds: the `timing` of each path's last run "
         "(sums of phases, not of the best run).", "",
         f"Size of PREP: {n_flows} flows, {flows_mb:.1f} MB ({flows_mb / max(n_frames, 1):.1f} MB per "
         f"frame: 2 float32 flows of {flows_mb / max(n_flows, 1):.1f} MB per consecutive pair), regions {regions_mb:.2f} MB "
