@@ -91,18 +91,15 @@ def interleaved(paths: dict[str, Callable[[], Any]], rounds: int) -> dict[str, d
     """
     for fn in paths.values():
         fn()
-    best: dict[str, dict[str, Any]] = {
-        k: {"wall": np.inf, "cpu": np.inf, "wall_rounds": [], "cpu_rounds": []} for k in paths}
+    times: dict[str, dict[str, list[float]]] = {k: {"wall": [], "cpu": []} for k in paths}
     for _ in range(rounds):
         for name, fn in paths.items():
             w0, c0 = time.perf_counter(), time.process_time()
             fn()
-            wall, cpu = time.perf_counter() - w0, time.process_time() - c0
-            best[name]["wall"] = min(best[name]["wall"], wall)
-            best[name]["cpu"] = min(best[name]["cpu"], cpu)
-            best[name]["wall_rounds"].append(wall)
-            best[name]["cpu_rounds"].append(cpu)
-    return best
+            times[name]["wall"].append(time.perf_counter() - w0)
+            times[name]["cpu"].append(time.process_time() - c0)
+    return {name: {"wall": min(t["wall"], default=np.inf), "cpu": min(t["cpu"], default=np.inf),
+                   "wall_rounds": t["wall"], "cpu_rounds": t["cpu"]} for name, t in times.items()}
 
 
 def round_ratios(best: dict[str, dict[str, Any]], num: str, den: str, kind: str = "cpu") -> np.ndarray:
