@@ -14,7 +14,8 @@ Definition (per channel, data scaled to L = data_range):
 The fast path (``ssim``/``ssim_map``) filters float32 data centred at 0.5 (``x / L - 0.5``; the
 variances are shift invariant and the centring halves the magnitude of ``w * x^2``, cutting the
 cancellation in ``w * x^2 - mu^2``) with OpenCV's separable filter, band by band of rows in
-reused buffers, and reduces in float64 (optionally over ``threads`` threads; same numbers).
+reused buffers, combines the moments in one compiled loop (``structural_kernels``), and reduces
+in float64 (optionally over ``threads`` threads; same numbers).
 ``ssim_reference`` is the slow, readable float64 version the tests hold it to.
 """
 
@@ -41,6 +42,8 @@ WIN_SIZE = 2 * RADIUS + 1
 K1 = 0.01
 K2 = 0.03
 REGION_MODES = ("crop", "map")
+_C1 = np.float32(K1 * K1)
+_C2 = np.float32(K2 * K2)
 
 
 def gaussian_window(sigma: float = SIGMA, truncate: float = TRUNCATE) -> np.ndarray:
@@ -81,7 +84,7 @@ class _Workspace:
     """Float32 buffers for one band, reused band after band.
 
     ``x, y, d, xy`` hold a tile's centred data and products and are filtered in place into its
-    moments; ``t1, t2`` are the SSIM step's scratch; ``q`` collects the band's SSIM, all columns.
+    moments; ``q`` collects the band's SSIM, all columns.
     Fresh temporaries on every band are page-faulted in again and again (measured: ~15 % of the
     SSIM time at 1080p); one workspace per thread keeps them warm.
     """
@@ -92,7 +95,6 @@ class _Workspace:
         self.tiles = _tiles(width, channels)
         tile_shape = (rows_in, max(t1 - t0 for t0, t1 in self.tiles) * channels)
         self.x, self.y, self.d, self.xy = (np.empty(tile_shape, np.float32) for _ in range(4))
-        self.t1, self.t2 = (np.empty(tile_shape, np.float32) for _ in range(2))
         self.q = np.empty((rows_in - 2 * RADIUS, width * channels), np.float32)
 
 
@@ -160,11 +162,14 @@ def _band(xb: np.ndarray, yb: np.ndarray, inv: float, ws: _Workspace) -> np.ndar
     output); every value depends only on its own window, so the tiling changes no bit (tested).
     Fused moments: 4 filtered images instead of 5, data centred at 0.5 (``x = p / L - 0.5``), and
     with ``d = x - y``: ``mu_x^2 + mu_y^2 = 2 mu_x mu_y + (mu_x - mu_y)^2`` and
-    ``sigma_x^2 + sigma_y^2 = 2 sigma_xy + var(d)``, ``var(d) = w * d^2 - (w * d)^2``. Elementwise
-    steps are fused where OpenCV offers it (``addWeighted`` = a * alpha + b * beta + gamma) and
-    write into the workspace.
+    ``sigma_x^2 + sigma_y^2 = 2 sigma_xy + var(d)``, ``var(d) = w * d^2 - (w * d)^2``. The
+    products and the SSIM of the windows are single compiled loops
+    (``dynaeval.metrics.structural_kernels``), the centring one OpenCV ``addWeighted`` per input,
+    all writing into the workspace.
     """
     import cv2
+
+    from dynaeval.metrics.structural_kernels import products, ssim_windows
 
     n = xb.shape[0]
     rows = n - 2 * RADIUS
@@ -175,46 +180,14 @@ def _band(xb: np.ndarray, yb: np.ndarray, inv: float, ws: _Workspace) -> np.ndar
         x, y, d, xy = (b[:n, :m] for b in (ws.x, ws.y, ws.d, ws.xy))
         cv2.addWeighted(xb[:, cols], inv, xb[:, cols], 0.0, -0.5, dst=x, dtype=cv2.CV_32F)
         cv2.addWeighted(yb[:, cols], inv, yb[:, cols], 0.0, -0.5, dst=y, dtype=cv2.CV_32F)
-        np.subtract(x, y, out=d)
-        np.multiply(d, d, out=d)
-        np.multiply(x, y, out=xy)
+        products(ws.x, ws.y, ws.d, ws.xy, n, m)
         for buf in (x, y, xy, d):  # in place: separable, 11 taps; the reflected border only
             cv2.sepFilter2D(  # reaches rows and columns dropped below
                 buf.reshape(n, -1, c), cv2.CV_32F, ws.kernel, ws.kernel,
                 dst=buf.reshape(n, -1, c), borderType=cv2.BORDER_REFLECT,
             )
-        moments = (b[RADIUS : RADIUS + rows] for b in (x, y, xy, d))
-        out = ws.t1[:rows, :m]
-        _ssim_rows(*moments, out, ws.t2[:rows, :m])
-        ws.q[:rows, (t0 + RADIUS) * c : (t1 - RADIUS) * c] = out[:, RADIUS * c : m - RADIUS * c]
+        ssim_windows(ws.x, ws.y, ws.xy, ws.d, ws.q, rows, m, RADIUS, c, (t0 + RADIUS) * c, _C1, _C2)
     return ws.q[:rows]
-
-
-def _ssim_rows(a: np.ndarray, b: np.ndarray, exy: np.ndarray, ed2: np.ndarray, ab: np.ndarray,
-               e2: np.ndarray) -> None:
-    """SSIM of some rows of windows into ``ab`` from their filtered moments ``a = mu_x - 0.5``,
-    ``b = mu_y - 0.5``, ``exy = w * (x y)``, ``ed2 = w * d^2`` (all overwritten; ``e2`` scratch).
-
-    Each difference is taken before a constant is added: C1, C2 are small against the centred
-    moments, and rounding them in first would cost ~1e-5 in flat windows.
-    """
-    import cv2
-
-    np.multiply(a, b, out=ab)
-    np.subtract(exy, ab, out=exy)  # sigma_xy
-    cv2.addWeighted(exy, 2.0, exy, 0.0, K2 * K2, dst=exy)  # num2 = 2 sigma_xy + C2
-    np.subtract(a, b, out=e2)
-    np.multiply(e2, e2, out=e2)  # (mu_x - mu_y)^2
-    np.subtract(ed2, e2, out=ed2)  # var(d)
-    np.add(ed2, exy, out=ed2)  # den2 = sigma_x^2 + sigma_y^2 + C2
-    np.add(a, np.float32(0.5), out=a)  # mu_x
-    np.add(b, np.float32(0.5), out=b)  # mu_y
-    cv2.multiply(a, b, dst=ab, scale=2.0)  # 2 mu_x mu_y
-    cv2.addWeighted(ab, 1.0, e2, 1.0, K1 * K1, dst=e2)  # den1 = mu_x^2 + mu_y^2 + C1
-    np.add(ab, np.float32(K1 * K1), out=ab)  # num1 = 2 mu_x mu_y + C1
-    np.multiply(ab, exy, out=ab)
-    np.multiply(e2, ed2, out=e2)
-    np.divide(ab, e2, out=ab)
 
 
 def _bands(h: int) -> list[tuple[int, int]]:
