@@ -1,9 +1,10 @@
 """Ground truth prepared once: ``dynaeval prepare GT -o PREP``, then ``score ... --prepared PREP``.
 
 What a scoring run computes from the ground truth alone is the same for every method scored on
-one scene: the regions of every frame (detector boxes, motion masks, the camera's motion check)
-and the ground-truth optical flows of every consecutive pair (forward and backward, the two of
-the three flows a temporal pair needs). :func:`prepare` computes them once, with the same code
+one scene: the regions of every frame (detector boxes, motion masks, the camera's motion check),
+the ground-truth optical flows of every consecutive pair (forward and backward, the two of
+the three flows a temporal pair needs) and the ground truth's temporal std on the static pixels
+(flicker). :func:`prepare` computes them once, with the same code
 and settings a run uses, and writes them into a folder (``dynaeval.io.prepared``):
 
 * ``manifest.json``: format version, dynaeval version, the settings that change these numbers
@@ -13,7 +14,10 @@ and settings a run uses, and writes them into a folder (``dynaeval.io.prepared``
   and per camera its frames, the JSON part of its regions and the keys of its flows;
 * ``regions/<i>.npz`` (compressed): camera ``i``'s boxes and bit-packed motion masks;
 * ``flows/<key>.npy``: float32 ``(H, W, 2)`` flows (16.6 MB at 1920x1080), named by the flow
-  cache's content key (``FlowCache.key``: both gray frames' hashes and the flow settings).
+  cache's content key (``FlowCache.key``: both gray frames' hashes and the flow settings);
+* ``static_std/<i>.npy``: float64 ``(N, C)``, the ground truth's temporal std on camera ``i``'s
+  N static pixels (the ground-truth half of the flicker terms; 46 MB for a mostly static 1080p
+  camera), keyed by the digest of its static mask (``--masks`` that change it: computed again).
 
 :func:`open_prepared` checks a folder against a run before any frame is scored: other settings,
 another dynaeval version or format, a ground-truth file that changed or is not in the folder:
@@ -155,11 +159,14 @@ def _prepare_camera(i: int, cam: str, pairs: list[FramePair], run: Any, gt_dir: 
     regions = camera_regions_of(cam, pairs, run, cache)
     progress.advance("regions", len(pairs))
     entry: dict[str, Any] = {"frames": [[p.frame, _rel(p.gt, gt_dir)] for p in pairs],
-                             "regions": None, "flows": None}
+                             "regions": None, "flows": None, "static_std": None}
     if regions and regions[0].not_video is None:  # no video: computed again when scored
         entry["regions"] = _save_regions(regions, tmp / "regions" / f"{i}.npz")
         if run.config.temporal:
             entry["flows"] = _save_flows(pairs, run, cache, tmp / "flows", progress)
+            if entry["flows"] is not None:  # a sequence the temporal pass scores
+                entry["static_std"] = _save_static_std(pairs, regions, run, cache,
+                                                       tmp / "static_std" / f"{i}.npy")
     if run.config.temporal:
         progress.advance("pairs", max(len(pairs) - 1, 0) - len(entry["flows"] or ()))
     return entry
@@ -224,6 +231,45 @@ def _save_flows(pairs: list[FramePair], run: Any, cache: Any, folder: Path,
     return list(run.pool.map(pair, ks)) if run.pool else [pair(k) for k in ks]
 
 
+def static_digest(static: np.ndarray) -> str:
+    """blake2b of a ``(H, W)`` bool mask (its shape and bits): the key of a prepared std."""
+    import hashlib
+
+    h = hashlib.blake2b(digest_size=16)
+    h.update(repr(static.shape).encode())
+    h.update(np.packbits(static).tobytes())
+    return h.hexdigest()
+
+
+def _save_static_std(pairs: list[FramePair], regions: list[FrameRegions], run: Any, cache: Any,
+                     path: Path) -> dict[str, str] | None:
+    """The ground truth's temporal std on the camera's static pixels (``(N, C)`` float64, what
+    the flicker terms accumulate of it: ``SequenceFlicker``) as ``path``; its entry (path
+    relative to the folder, digest of the static mask it follows), or None when the camera has
+    no static pixels to follow."""
+    from dynaeval.metrics.static_flicker import TemporalStd, check_static
+    from dynaeval.scoring import load_gt, static_pixels
+    from dynaeval.validation import as_image
+
+    static = static_pixels(regions, run.config)
+    if static is None:
+        return None
+    acc, shape = None, None
+    for p in pairs:
+        frame = as_image(load_gt(p, run.config, cache))
+        if acc is None:
+            shape = frame.shape
+            if static.shape != shape[:2]:
+                return None
+            acc = TemporalStd(check_static(static, shape[:2]))
+        elif frame.shape != shape:  # frames of several sizes: the temporal terms are null
+            return None
+        acc.update(frame)
+    path.parent.mkdir(exist_ok=True)
+    np.save(path, acc.std())
+    return {"file": f"{path.parent.name}/{path.name}", "static": static_digest(static)}
+
+
 # --------------------------------------------------------------------------------------------
 # Reading
 
@@ -254,6 +300,15 @@ class PreparedGT:
                     mask_reason=f["mask_reason"], raw_boxes=got["raw_boxes"], records=f["records"],
                     size=None if f["size"] is None else tuple(f["size"]), camera_motion=motion))
         return out
+
+    def gt_static_std(self, camera: str, static: np.ndarray) -> np.ndarray | None:
+        """The ground truth's temporal std on ``camera``'s static pixels ``static`` (``(N, C)``
+        float64, ``SequenceFlicker``'s ``gt_std``), or None when it is computed again: frames
+        that differ from the prepared ones, other static pixels (``--masks``), none prepared."""
+        entry = (self.manifest["cameras"].get(camera) or {}).get("static_std")
+        if not self.reuse.get(camera) or not entry or entry["static"] != static_digest(static):
+            return None
+        return np.load(self.path / entry["file"])
 
     def flow_cache(self) -> Any:
         """A flow cache (64 MiB in memory, as the run's own) that reads the prepared flows."""

@@ -549,6 +549,17 @@ def _small_for_tlp(run: Run, h: int, w: int) -> str | None:
             f"got {w}x{h}")
 
 
+def static_pixels(regions: list[FrameRegions], config: ScoreConfig) -> np.ndarray | None:
+    """The camera's static pixels, ``(H, W)`` bool: never moving in any frame's motion mask
+    (None: no masked metrics, or no frame has a mask)."""
+    from dynaeval.regions.packed import union
+
+    if not config.focus.masked:
+        return None
+    moving = union(r.packed_mask for r in regions if r.packed_mask is not None)
+    return None if moving is None else ~moving
+
+
 def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], run: Run,
                        cache: FrameCache, shape: tuple[int, ...],
                        on_pair: Callable[[], None] | None = None) -> dict[str, dict]:
@@ -558,16 +569,12 @@ def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], run:
     from dynaeval.metrics.registry import SPECS
     from dynaeval.metrics.temporal import temporal_metrics
     from dynaeval.regions.focus import same_shape
-    from dynaeval.regions.packed import union
 
     config = run.config
     if not consecutive(pairs):
         reason = "frames are not consecutive (some were skipped): temporal terms need a sequence"
         return {n: {"value": None, "reason": reason} for n in temporal_keys()}
-    static = None
-    if config.focus.masked:  # static: never moving in any frame (None: no frame has a mask)
-        moving = union(r.packed_mask for r in regions if r.packed_mask is not None)
-        static = None if moving is None else ~moving
+    static = static_pixels(regions, config)
     region_masks = None  # a frame without boxes: None, the pairs with it have no focused value
     if config.focus.source != "none":
         region_masks = [r.boxes for r in regions]
@@ -584,6 +591,8 @@ def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], run:
         executor=run.pool,
         window=max(2, 2 * config.workers // run.lanes),  # pairs in flight, all cameras: 2 x workers
         on_pair=on_pair,
+        gt_static_std=None if static is None or run.prepared is None
+        else run.prepared.gt_static_std(pairs[0].camera, static),
     )
     if small is not None:
         out.update({k: {"value": None, "reason": small, "per_pair": []} for k in SPECS["tlp"].keys()})

@@ -82,17 +82,31 @@ def check_static(static_mask: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
 
 class SequenceFlicker:
     """Flicker of one sequence, streamed: the temporal std of prediction and ground truth on the
-    pixels ``pixels`` (``(H, W)`` bool, checked), one frame pair at a time."""
+    pixels ``pixels`` (``(H, W)`` bool, checked), one frame pair at a time.
 
-    def __init__(self, pixels: np.ndarray) -> None:
+    ``gt_std``: the ground truth's temporal std on these pixels computed beforehand (``(N, C)``
+    float64, ``TemporalStd(pixels).std()`` of the same frames: ``dynaeval prepare``); the ground
+    truth is then not accumulated again.
+    """
+
+    def __init__(self, pixels: np.ndarray, gt_std: np.ndarray | None = None) -> None:
         self.pixels = pixels
         self.pred = TemporalStd(pixels)
-        self.gt = TemporalStd(pixels)
+        self.gt = TemporalStd(pixels) if gt_std is None else None
+        if gt_std is not None and (gt_std.ndim != 2 or gt_std.shape[0] != np.count_nonzero(pixels)):
+            raise InputError(f"the ground truth's temporal std must be (N, C) for the N = "
+                             f"{np.count_nonzero(pixels)} static pixels, got {gt_std.shape}")
+        self._gt_std = gt_std
 
     def update(self, pred: np.ndarray, gt: np.ndarray) -> None:
         """Add frame t of the prediction and of the ground truth (``(H, W, C)`` float)."""
         self.pred.update(pred)
-        self.gt.update(gt)
+        if self.gt is not None:
+            self.gt.update(gt)
+
+    def gt_std(self) -> np.ndarray:
+        """``(N, C)`` temporal std of the ground truth on the followed pixels."""
+        return self.gt.std() if self.gt is not None else self._gt_std
 
     def terms(self, region: np.ndarray | None = None) -> dict[str, float] | None:
         """``{"value": |S(pred) - S(gt)|, "signed": S(pred) - S(gt), "pred": S(pred), "gt": S(gt)}``
@@ -101,7 +115,7 @@ class SequenceFlicker:
         keep = self.pixels if region is None else self.pixels & region
         if not keep.any():
             return None
-        std_pred, std_gt = self.pred.std(), self.gt.std()
+        std_pred, std_gt = self.pred.std(), self.gt_std()
         if region is not None:
             sel = keep[self.pixels]  # the followed pixels, in the accumulators' order
             std_pred, std_gt = std_pred[sel], std_gt[sel]

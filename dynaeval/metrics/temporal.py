@@ -214,8 +214,9 @@ class _CameraTerms:
     """The per-camera terms of a sequence (``flicker``): the temporal std of its static pixels,
     and the union of every frame's region for ``focused_flicker``."""
 
-    def __init__(self, static_mask: np.ndarray | None) -> None:
+    def __init__(self, static_mask: np.ndarray | None, gt_static_std: np.ndarray | None) -> None:
         self.static_mask = static_mask
+        self.gt_static_std = gt_static_std
         self.flicker: SequenceFlicker | None = None  # None: no static mask (or no frame yet)
         self.region_union: np.ndarray | None = None
 
@@ -225,7 +226,8 @@ class _CameraTerms:
             self.region_union = cur.region.copy() if union is None else union | cur.region
         if self.static_mask is not None:
             if self.flicker is None:
-                self.flicker = SequenceFlicker(check_static(self.static_mask, cur.pred.shape[:2]))
+                self.flicker = SequenceFlicker(check_static(self.static_mask, cur.pred.shape[:2]),
+                                               self.gt_static_std)
             self.flicker.update(cur.pred, cur.gt)
 
     def entry(self, focused: bool, n_frames: int, has_regions: bool) -> dict:
@@ -266,6 +268,7 @@ def temporal_metrics(
     executor: Executor | None = None,
     window: int = 4,
     on_pair: Callable[[], None] | None = None,
+    gt_static_std: np.ndarray | None = None,
 ) -> dict[str, dict]:
     """All temporal metrics of one camera's sequence, streaming over consecutive pairs.
 
@@ -284,6 +287,9 @@ def temporal_metrics(
     the torch default) gets each frame's whole-frame features computed once for tLP and kept
     while a pair in flight needs them (86 MB per frame and side at 1080p with AlexNet).
     ``on_pair()``: called as each pair's terms are folded, in order (progress).
+    ``gt_static_std``: the ground truth's per-pixel temporal std on the static pixels of these
+    very frames, computed beforehand (``(N, C)`` float64, ``N`` static pixels in row-major
+    order: ``dynaeval prepare``); flicker then accumulates the prediction only.
 
     Returns ``{key: {"value": float | None, "reason": str | None, "per_pair": [float | None]}}``
     for the keys ``temporal_keys()``: ``warp_error, tof, tlp, flicker`` and their
@@ -302,7 +308,7 @@ def temporal_metrics(
     lpips_fn, lpips_reason = _lpips_for_run(config, lpips_fn)
     memo = FeatureMemo(lpips_fn) if hasattr(lpips_fn, "features") else None
     pairs = _PairFold(executor, window, memo, lpips_reason, on_pair)
-    camera = _CameraTerms(static_mask)
+    camera = _CameraTerms(static_mask, gt_static_std)
     prev: Frames | None = None
     n_frames = 0
     regionless: list[int] = []  # frames whose region item was None

@@ -233,3 +233,44 @@ def test_given_masks_apply_on_top_of_prepared_regions(tmp_path, prepared_motion)
     assert _comparable(fast) == _comparable(plain)
     unmasked = score(SAMPLE / "pred", SAMPLE / "gt", focus=FocusConfig(source="motion"), **FAST)
     assert fast["summary"]["masked_psnr"] != unmasked["summary"]["masked_psnr"]
+
+
+def _count_std_updates(monkeypatch) -> list:
+    from dynaeval.metrics import static_flicker
+
+    calls = []
+    real = static_flicker.TemporalStd.update
+    monkeypatch.setattr(static_flicker.TemporalStd, "update",
+                        lambda self, frame: calls.append(1) or real(self, frame))
+    return calls
+
+
+def test_prepared_static_std_is_read_not_accumulated(prepared_motion, monkeypatch):
+    """Flicker accumulates the predictions only: the ground truth's temporal std is prepared."""
+    manifest = json.loads((prepared_motion / "manifest.json").read_text())
+    assert all(c["static_std"] for c in manifest["cameras"].values())
+    calls = _count_std_updates(monkeypatch)
+    score(SAMPLE / "pred", SAMPLE / "gt", focus=FocusConfig(source="motion"),
+          prepared=str(prepared_motion), **FAST)
+    assert len(calls) == 16  # 2 cameras x 8 prediction frames
+    calls.clear()
+    score(SAMPLE / "pred", SAMPLE / "gt", focus=FocusConfig(source="motion"), **FAST)
+    assert len(calls) == 32
+
+
+def test_given_masks_change_the_static_pixels_so_their_std_is_computed_again(
+        tmp_path, prepared_motion, monkeypatch):
+    import cv2
+
+    masks = tmp_path / "masks"
+    for f in sorted((SAMPLE / "gt").rglob("*.png")):
+        m = np.zeros(cv2.imread(str(f), cv2.IMREAD_GRAYSCALE).shape, np.uint8)
+        m[:20, :20] = 255
+        (masks / f.relative_to(SAMPLE / "gt")).parent.mkdir(parents=True, exist_ok=True)
+        cv2.imwrite(str(masks / f.relative_to(SAMPLE / "gt")), m)
+    calls = _count_std_updates(monkeypatch)
+    kw = {"focus": FocusConfig(source="motion"), "masks": str(masks), **FAST}
+    fast = score(SAMPLE / "pred", SAMPLE / "gt", prepared=str(prepared_motion), **kw)
+    assert len(calls) == 32
+    assert fast["summary"]["flicker"] is not None
+    assert _comparable(fast) == _comparable(score(SAMPLE / "pred", SAMPLE / "gt", **kw))

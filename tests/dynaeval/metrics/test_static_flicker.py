@@ -67,3 +67,20 @@ def test_sequence_flicker_over_a_region_equals_following_only_the_region(rng):
     assert every.terms(np.zeros((H, W), bool)) is None
     with pytest.raises(InputError, match="bool mask of shape"):
         flicker(pred, gt, static, region[1:])
+
+
+def test_a_given_ground_truth_std_gives_the_accumulated_terms_bit_for_bit(rng):
+    pixels = rng.random((24, 32)) > 0.3
+    preds = [rng.random((24, 32, 3), dtype=np.float32) for _ in range(5)]
+    gts = [rng.random((24, 32, 3), dtype=np.float32) for _ in range(5)]
+    gt_std = TemporalStd(pixels)
+    for g in gts:
+        gt_std.update(g)
+    both, given = SequenceFlicker(pixels), SequenceFlicker(pixels, gt_std.std())
+    for p, g in zip(preds, gts, strict=True):
+        both.update(p, g)
+        given.update(p, None)  # the ground truth is not looked at
+    region = rng.random((24, 32)) > 0.5
+    assert given.terms() == both.terms() and given.terms(region) == both.terms(region)
+    with pytest.raises(InputError, match="static pixels"):
+        SequenceFlicker(pixels, gt_std.std()[1:])
