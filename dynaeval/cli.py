@@ -566,7 +566,10 @@ def _run_leaderboard(args: argparse.Namespace) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``dynaeval`` command; returns the exit code."""
+    from dynaeval.runtime import keep_freed_memory
+
     args = build_parser().parse_args(argv)
+    keep_freed_memory()
     try:
         if args.command == "score":
             return _run_score(args.pred, args.gt, args, overwrite=args.overwrite)

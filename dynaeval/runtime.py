@@ -150,6 +150,44 @@ def worker_opencv_threads(workers: int) -> contextlib.AbstractContextManager[Non
     return opencv_threads(1 if workers > 1 else None)
 
 
+MMAP_THRESHOLD = 32 << 20
+"""Allocations up to this many bytes (a 1080p float32 RGB frame is 24.9 MB) come from the heap,
+not from a fresh ``mmap`` each (glibc's upper limit for the setting)."""
+TRIM_THRESHOLD = 1 << 30
+"""Free memory at the top of the heap that glibc keeps for the next allocations instead of
+returning it to the system."""
+_MALLOC_ENV = ("MALLOC_MMAP_THRESHOLD_", "MALLOC_TRIM_THRESHOLD_", "GLIBC_TUNABLES")
+
+
+def keep_freed_memory() -> bool:
+    """Let glibc reuse the memory of freed frame-sized arrays instead of unmapping it; True when
+    set. The ``dynaeval`` command calls it once at start.
+
+    A run allocates and frees arrays of 6-50 MB per frame (decoded images, float32 frames,
+    flows). glibc serves such sizes with ``mmap`` and returns them on ``free``, so every frame
+    page-faults its memory in afresh: on a VM, a third of a 1080p run's CPU time went to the
+    kernel (docs/performance.md, "Allocator"). Here the two thresholds are set
+    (``mallopt``): freed arrays stay in the heap and the next frame reuses them. Process-wide,
+    so the library never calls it on its own (it would change its host's allocator); a host
+    program may. Nothing is done where the C library is not glibc or where the user chose
+    (``MALLOC_MMAP_THRESHOLD_``, ``MALLOC_TRIM_THRESHOLD_`` or ``GLIBC_TUNABLES`` set).
+    """
+    import ctypes
+    import os
+    import sys
+
+    if not sys.platform.startswith("linux") or any(k in os.environ for k in _MALLOC_ENV):
+        return False
+    try:
+        libc = ctypes.CDLL("libc.so.6")
+        mallopt = libc.mallopt
+    except (OSError, AttributeError):  # not glibc (musl, ...)
+        return False
+    m_trim_threshold, m_mmap_threshold = -1, -3  # glibc's <malloc.h>
+    return bool(mallopt(m_mmap_threshold, MMAP_THRESHOLD)) and bool(
+        mallopt(m_trim_threshold, TRIM_THRESHOLD))
+
+
 def file_sha256(path: str | Path) -> str:
     """SHA-256 hex digest of a file's bytes, read in 1 MiB chunks (recorded in results so a number
     names its model or boxes file)."""

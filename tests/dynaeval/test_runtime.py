@@ -150,3 +150,35 @@ def test_opencv_threads_sets_the_count_inside_the_block_and_restores_it():
     with worker_opencv_threads(3):
         assert cv2.getNumThreads() == 1
     assert cv2.getNumThreads() == before
+
+
+_FAULTS = """
+import resource, sys
+import numpy as np
+from dynaeval.runtime import keep_freed_memory
+kept = keep_freed_memory() if sys.argv[1] == "keep" else False
+before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+for _ in range(10):  # a frame's arrays (25 MB: a 1080p float32 RGB frame), then all freed
+    frames = [np.ones(25 << 18, np.float32) for _ in range(4)]
+    del frames
+print(kept, resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before)
+"""
+
+
+def _faults(mode: str, **env: str) -> tuple[bool, int]:
+    import subprocess
+
+    out = subprocess.run([sys.executable, "-c", _FAULTS, mode], capture_output=True, text=True,
+                         check=True, env={**os.environ, **env}).stdout.split()
+    return out[0] == "True", int(out[1])
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux") or
+                    __import__("platform").libc_ver()[0] != "glibc", reason="glibc's mallopt")
+def test_keep_freed_memory_reuses_frame_sized_arrays_instead_of_faulting_them_in_again():
+    kept, faults = _faults("keep")
+    plain_kept, plain = _faults("plain")
+    assert kept and not plain_kept
+    assert faults * 4 < plain  # 10 x 4 x 6,100 pages of 4 KiB without, 4 x 6,100 with
+    chosen, _ = _faults("keep", MALLOC_TRIM_THRESHOLD_="131072")  # the user's setting is kept
+    assert not chosen
