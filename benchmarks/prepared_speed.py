@@ -75,8 +75,9 @@ def bench_prepared(job: Path, rounds: int) -> str:
         timing = json.loads(outs["first"].read_text())["timing"]
         timing_p = json.loads(outs["prepared"].read_text())["timing"]
         n_frames = len(json.loads(outs["first"].read_text())["frames"])
-        flows_mb, regions_mb = _size_mb(prep, "*.npy"), _size_mb(prep, "*.npz")
-        n_flows = len(list(prep.rglob("*.npy")))
+        flows_mb, regions_mb = _size_mb(prep / "flows", "*.npy"), _size_mb(prep, "*.npz")
+        std_mb = _size_mb(prep / "static_std", "*.npy")
+        n_flows = len(list((prep / "flows").glob("*.npy")))
     ratio = best["first"] / best["prepared"]
     return "\n".join([
         f"`python -m dynaeval score {job}/pred {job}/gt {' '.join(SCORE_ARGS)} [--prepared PREP]` "
@@ -97,7 +98,8 @@ def bench_prepared(job: Path, rounds: int) -> str:
         "(sums of phases, not of the best run).", "",
         f"Size of PREP: {n_flows} flows, {flows_mb:.1f} MB ({flows_mb / max(n_frames, 1):.1f} MB per "
         f"frame: 2 float32 flows of {flows_mb / max(n_flows, 1):.1f} MB per consecutive pair), regions {regions_mb:.2f} MB "
-        "(compressed npz, motion masks bit-packed).",
+        f"(compressed npz, motion masks bit-packed), the ground truth's temporal std on the "
+        f"static pixels {std_mb:.1f} MB (float64, one array per camera).",
     ])
 
 
