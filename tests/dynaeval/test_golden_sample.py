@@ -1,5 +1,6 @@
 """The bundled sample scores exactly as before the issue-15 refactor (registry, ground floor,
-library = CLI): every per-frame, per-camera and summary number, count, warning and setting.
+library = CLI): every per-frame, per-camera and summary number, count, warning and setting
+(the optical-flow terms and presence's visibility within a tolerance: ``CPU_DEPENDENT``).
 
 Golden file: ``data/sample-results-68408d8.json``, written by dynaeval at commit 68408d8 (its
 ``provenance`` field has the command). LPIPS is off because its backbone weights cannot be had
@@ -29,6 +30,43 @@ def _comparable(doc: dict) -> dict:
     return out
 
 
+CPU_DEPENDENT = {"tof": 1e-3, "focused_tof": 1e-3, "warp_error": 1e-3,
+                 "focused_warp_error": 1e-3, "visibility": 1e-12}
+"""Numbers whose last bits depend on the CPU the test runs on, and the relative tolerance they
+are held to; every other number, count, string and setting is compared exactly. DIS optical flow
+(tof, warp error) runs the SIMD code OpenCV picks for the CPU: on an AVX-512 machine (AMD EPYC,
+2 Dec 2026) the prediction flows of 2 of the sample's 14 pairs differ from those of the machine
+the golden file was written on, tof by up to 4e-4 relative (warp error, from the ground-truth
+flows, not at all). Presence's visibility is a BLAS dot product: 1e-16 there."""
+
+
+def _split(node, tol: float | None = None, path: str = ""):  # noqa: ANN001, ANN202
+    """(``node`` with every number under a ``CPU_DEPENDENT`` key replaced by a marker,
+    ``{path: (value, tolerance)}`` of those numbers)."""
+    if isinstance(node, dict):
+        pairs = [(k, _split(v, CPU_DEPENDENT.get(k, tol), f"{path}.{k}")) for k, v in node.items()]
+        return {k: v for k, (v, _) in pairs}, {p: x for _, (_, d) in pairs for p, x in d.items()}
+    if isinstance(node, list):
+        parts = [_split(v, tol, f"{path}[{i}]") for i, v in enumerate(node)]
+        return [v for v, _ in parts], {p: x for _, d in parts for p, x in d.items()}
+    if tol is not None and isinstance(node, float):
+        return "<cpu-dependent>", {path: (node, tol)}
+    return node, {}
+
+
+def _assert_as_golden(got: dict, golden: dict) -> None:
+    """``got`` equals ``golden``: exactly, but for the CPU-dependent numbers (``CPU_DEPENDENT``)."""
+    (exact_got, loose_got), (exact_gold, loose_gold) = _split(got), _split(golden)
+    assert list(got["summary"]) == list(golden["summary"])  # the order of the tables
+    assert list(got["metrics"]) == list(golden["metrics"])
+    for section in exact_gold:
+        assert exact_got[section] == exact_gold[section], section
+    assert set(got) == set(golden)
+    assert set(loose_got) == set(loose_gold)
+    for where, (want, tol) in loose_gold.items():
+        assert abs(loose_got[where][0] - want) <= tol * abs(want), where
+
+
 def _golden() -> dict:
     """The golden document with the one deliberate change since it was written, no number
     among it: with LPIPS off, tLP is recorded as switched off (``settings.temporal.tlp``
@@ -43,12 +81,7 @@ def test_library_scores_the_sample_as_before():
     root = sample_dir()
     res = dynaeval.score(root / "pred", root / "gt", metrics=("psnr", "ssim"), progress=False,
                          focus=FocusConfig(source="boxes", boxes_file=str(root / "boxes.json")))
-    golden, got = _golden(), _comparable(res)
-    assert list(got["summary"]) == list(golden["summary"])  # the order of the tables
-    assert list(got["metrics"]) == list(golden["metrics"])
-    for section in golden:
-        assert got[section] == golden[section], section
-    assert set(got) == set(golden)
+    _assert_as_golden(_comparable(res), _golden())
 
 
 def test_cli_scores_the_sample_as_before(tmp_path):
@@ -57,7 +90,7 @@ def test_cli_scores_the_sample_as_before(tmp_path):
     code = main(["score", str(root / "pred"), str(root / "gt"), "--focus",
                  f"boxes:{root / 'boxes.json'}", "--no-lpips", "-q", "-o", str(out)])
     assert code == 0
-    assert _comparable(json.loads(out.read_text())) == _golden()
+    _assert_as_golden(_comparable(json.loads(out.read_text())), _golden())
 
 
 def test_library_default_equals_cli_default(tmp_path):
