@@ -31,6 +31,22 @@ UNIT_SCALE = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}
 """Integer dtypes read as ``x / dtype max`` when an image is wanted in [0, 1]."""
 
 
+_U8_UNIT = np.arange(256, dtype=np.float32) / np.float32(255.0)
+"""``v / 255`` in float32 for every uint8 value ``v``: the division done once per value."""
+
+
+def unit_u8(arr: np.ndarray) -> np.ndarray:
+    """uint8 ``arr`` of any shape as float32 ``arr / 255`` (the float32 division, bit for bit),
+    by table lookup: one pass and one new float32 array, where ``astype`` then ``/`` made two
+    of each (1.2 against 2.0 ms for a 1080p RGB frame in warm memory; the new arrays' page faults
+    come on top)."""
+    import cv2
+
+    if arr.ndim in (2, 3) and (arr.ndim == 2 or arr.shape[2] <= 4) and arr.flags.c_contiguous:
+        return cv2.LUT(arr, _U8_UNIT).reshape(arr.shape)  # OpenCV drops a trailing 1 channel
+    return _U8_UNIT[arr]
+
+
 def is_torch_tensor(x: object) -> bool:
     """True when ``x`` is a torch tensor (checked without importing torch)."""
     return type(x).__module__.startswith("torch") and hasattr(x, "detach")
@@ -89,8 +105,8 @@ def as_image(
         what = "an (H, W, 3) RGB image" if channels == 3 else f"(H, W, {channels})"
         raise InputError(f"{name} must be {what}, got shape {arr.shape}", path=path)
     scale = UNIT_SCALE.get(arr.dtype) if to_unit else None
-    if scale is not None:
-        return arr.astype(np.float32) / np.float32(scale)  # integers: finite and in range
+    if scale is not None:  # integers: finite and in range
+        return unit_u8(arr) if arr.dtype == np.uint8 else arr.astype(np.float32) / np.float32(scale)
     if arr.dtype != np.float32 and not (keep_float64 and arr.dtype == np.float64):
         arr = arr.astype(np.float32)
     if finite:

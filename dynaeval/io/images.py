@@ -195,10 +195,8 @@ def read_image(path: str | Path, *, background: str | float = "white",
             raise InputError("cannot decode image (corrupt, truncated or not an image)", path=path)
         if decode == "pil" and data.startswith(_PNG_MAGIC):
             image = pil_png_bytes(image, path)
-        if image.ndim == 3 and image.shape[2] == 3:
-            image = image[..., ::-1]
-        elif image.ndim == 3 and image.shape[2] == 4:
-            image = image[..., [2, 1, 0, 3]]
+        if image.ndim == 3 and image.shape[2] in (3, 4):  # BGR(A) -> RGB(A), a new contiguous array
+            image = cv2.cvtColor(image, cv2.COLOR_BGR2RGB if image.shape[2] == 3 else cv2.COLOR_BGRA2RGBA)
     stored_float = np.issubdtype(image.dtype, np.floating)
     image = to_float(np.ascontiguousarray(image), path=path)
     if image.ndim == 2:

@@ -116,3 +116,16 @@ def test_grey_to_rgb_replicates_grey_and_refuses_other_channel_counts():
     assert grey_to_rgb(rgb, "pred", "LPIPS") is rgb
     with pytest.raises(InputError, match=r"FLIP needs RGB .* got gt with 4 channels"):
         grey_to_rgb(np.zeros((2, 3, 4)), "gt", "FLIP")
+
+
+@pytest.mark.parametrize("shape", [(256,), (16, 16), (8, 32, 1), (8, 32, 3), (8, 32, 4), (4, 8, 5)])
+@pytest.mark.parametrize("strided", [False, True])
+def test_unit_u8_is_the_float32_division_bit_for_bit(shape, strided):
+    from dynaeval.validation import unit_u8
+
+    arr = (np.arange(int(np.prod(shape))) % 256).astype(np.uint8).reshape(shape)
+    arr = arr[..., ::-1] if strided else arr  # a view OpenCV cannot take: the numpy lookup
+    want = arr.astype(np.float32) / np.float32(255)
+    got = unit_u8(arr)
+    assert got.dtype == np.float32 and got.shape == arr.shape
+    assert np.array_equal(got.view(np.uint32), want.view(np.uint32))
