@@ -255,7 +255,7 @@ class FlowCache:
         path = None if self.directory is None else self.directory / f"{k}.npy"
         stored = self.known.get(k, path)
         if stored is not None and stored.exists():
-            flow = np.load(stored)
+            flow = np.load(stored, mmap_mode="r")  # mapped from the page cache, not copied
             hit = True
         else:
             flow = _flow_from_gray(ga, gb, config)
