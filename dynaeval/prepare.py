@@ -15,6 +15,9 @@ and settings a run uses, and writes them into a folder (``dynaeval.io.prepared``
 * ``regions/<i>.npz`` (compressed): camera ``i``'s boxes and bit-packed motion masks;
 * ``flows/<key>.npy``: float32 ``(H, W, 2)`` flows (16.6 MB at 1920x1080), named by the flow
   cache's content key (``FlowCache.key``: both gray frames' hashes and the flow settings);
+* ``frames/<digest>.npy``: each 8-bit ground-truth image decoded (uint8, as OpenCV returns it:
+  6.2 MB at 1080p RGB), named by the file's blake2b, so scoring reads it instead of decoding the
+  file (whose digest it still checks);
 * ``static_std/<i>.npy``: float64 ``(N, C)``, the ground truth's temporal std on camera ``i``'s
   N static pixels (the ground-truth half of the flicker terms; 46 MB for a mostly static 1080p
   camera), keyed by the digest of its static mask (``--masks`` that change it: computed again).
@@ -118,16 +121,21 @@ def prepare(gt_dir: str | Path, out: str | Path, config: ScoreConfig | None = No
     manifest: dict[str, Any] = {
         "format_version": FORMAT_VERSION, "dynaeval_version": __version__,
         "gt": str(gt_dir.resolve()), "settings": prepared_settings(config, sources),
-        "files": {}, "cameras": {},
+        "files": {}, "decoded": {}, "cameras": {},
     }
 
     def fill(tmp: Path) -> None:
         (tmp / "regions").mkdir()
         (tmp / "flows").mkdir()
+        (tmp / "frames").mkdir()
         for p in pairing.pairs:  # a video file once, not once per frame
             rel = _rel(p.gt, gt_dir).split("#")[0]
             if rel not in manifest["files"]:
                 manifest["files"][rel] = file_digest(p.gt.path)
+                if p.gt.index is None:
+                    manifest["decoded"][rel] = _save_decoded(p.gt.path, manifest["files"][rel],
+                                                             tmp / "frames")
+        manifest["decoded"] = {k: v for k, v in manifest["decoded"].items() if v is not None}
         for i, (cam, pairs) in enumerate(cams.items()):
             progress.set_note(f"camera {cam}")
             manifest["cameras"][cam] = _prepare_camera(i, cam, pairs, run, gt_dir, tmp, progress)
@@ -147,6 +155,21 @@ def prepare(gt_dir: str | Path, out: str | Path, config: ScoreConfig | None = No
         if run.pool:
             run.pool.shutdown()
     return manifest
+
+
+def _save_decoded(path: Path, digest: str, folder: Path) -> str | None:
+    """An 8-bit image file's decoding (``dynaeval.io.images.decode_file``: uint8, as OpenCV
+    returns it) as ``folder/<digest>.npy``, so that scoring skips its decoding; its path relative
+    to the prepared folder, or None for files of other depths (16-bit, float, EXR)."""
+    from dynaeval.io.images import decode_file
+
+    image, kind = decode_file(path)
+    if kind == "exr" or image.dtype != np.uint8:
+        return None
+    target = folder / f"{digest}.npy"
+    if not target.exists():  # files of equal content share one
+        np.save(target, image)
+    return f"{folder.name}/{target.name}"
 
 
 def _prepare_camera(i: int, cam: str, pairs: list[FramePair], run: Any, gt_dir: Path,
@@ -282,6 +305,14 @@ class PreparedGT:
     manifest: dict[str, Any]
     reuse: dict[str, bool] = field(default_factory=dict)
     """Camera -> its prepared regions match the run's frames (else computed again)."""
+    decoded_files: dict[str, Path] = field(default_factory=dict)
+    """Resolved ground-truth image path -> its prepared uint8 decoding (``frames/<digest>.npy``)."""
+
+    def decoded(self, path: Path) -> np.ndarray | None:
+        """The prepared decoding of the ground-truth image ``path`` (``FrameCache``'s
+        ``decoded``: memory-mapped, read-only), or None: a prediction, or not prepared."""
+        stored = self.decoded_files.get(str(Path(path).resolve()))
+        return None if stored is None else np.load(stored, mmap_mode="r")
 
     def regions(self, camera: str) -> list[FrameRegions] | None:
         """The prepared regions of ``camera``, or None when they are computed again."""
@@ -364,6 +395,9 @@ def open_prepared(path: str | Path, gt_root: Path, pairs: list[FramePair],
             raise InputError(f"ground-truth file changed since it was prepared in {path}: run "
                              "'dynaeval prepare' again", path=p.gt.path)
     prepared = PreparedGT(path, manifest)
+    for rel, stored in manifest.get("decoded", {}).items():  # only files checked just above
+        if rel in digests:
+            prepared.decoded_files[str((gt_root / rel).resolve())] = path / stored
     for cam, cam_pairs in pairs_by_camera(pairs).items():
         entry = manifest["cameras"].get(cam)
         frames = [[p.frame, _rel(p.gt, gt_root)] for p in cam_pairs]

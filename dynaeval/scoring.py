@@ -368,7 +368,8 @@ def score_camera(camera: str, pairs: list[FramePair], run: Run, *,
     after each frame and ``on_pair()`` after each temporal pair (progress). Cameras may be
     scored at the same time on one ``run`` (its pool is shared; nothing here depends on order).
     """
-    cache = FrameCache(run.config.cache_mb * 2**20 // max(1, run.lanes))  # dropped at the end
+    cache = FrameCache(run.config.cache_mb * 2**20 // max(1, run.lanes),  # dropped at the end
+                       decoded=run.prepared.decoded if run.prepared is not None else None)
     regions = camera_regions_of(camera, pairs, run, cache)
     if on_regions is not None:
         on_regions(camera, pairs, regions)

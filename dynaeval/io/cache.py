@@ -10,6 +10,8 @@ more frames than fit degrades to the uncached cost instead of thrashing as an LR
 from __future__ import annotations
 
 import threading
+from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 
@@ -17,10 +19,16 @@ from dynaeval.io.frames import FrameRef
 
 
 class FrameCache:
-    """Thread-safe store of decoded frames (read-only arrays), up to ``max_bytes``."""
+    """Thread-safe store of decoded frames (read-only arrays), up to ``max_bytes``.
 
-    def __init__(self, max_bytes: int) -> None:
+    ``decoded``: where image files decoded beforehand come from (``path -> uint8 array or
+    None``: a prepared ground truth); a miss on such a file skips reading and decoding it.
+    """
+
+    def __init__(self, max_bytes: int,
+                 decoded: Callable[[Path], np.ndarray | None] | None = None) -> None:
         self.max_bytes = int(max_bytes)
+        self.decoded = decoded
         self.bytes = 0
         self.hits = 0
         self.misses = 0
@@ -40,7 +48,11 @@ class FrameCache:
                 self.hits += 1
                 return frame
             self.misses += 1
-        frame = ref.read(background, decode)
+        raw = None
+        if self.decoded is not None and type(ref) is FrameRef and ref.index is None:
+            raw = self.decoded(ref.path)  # an image file (not a video frame, not a stack part)
+        frame = ref.read(background, decode, decoded=raw) if raw is not None else ref.read(
+            background, decode)
         frame.flags.writeable = False
         with self._lock:
             if key not in self._frames and self.bytes + frame.nbytes <= self.max_bytes:

@@ -51,11 +51,13 @@ class FrameRef:
     index: int | None = None
     """0-based frame number inside a video file; None for an image file."""
 
-    def read(self, background: str | float = "white", decode: str = "dynaeval") -> np.ndarray:
+    def read(self, background: str | float = "white", decode: str = "dynaeval",
+             decoded: np.ndarray | None = None) -> np.ndarray:
         """The frame as (H, W, C) float32, C in {1, 3}, in [0, 1] (float files as stored);
-        ``decode``: the 16-bit PNG rule of ``dynaeval.io.images.read_image``."""
+        ``decode``: the 16-bit PNG rule of ``dynaeval.io.images.read_image``; ``decoded``: an
+        image file's uint8 decoding made beforehand (``read_image``)."""
         if self.index is None:
-            return read_image(self.path, background=background, decode=decode)
+            return read_image(self.path, background=background, decode=decode, decoded=decoded)
         from dynaeval.io.images import to_float
 
         return to_float(read_video_frame(self.path, self.index), path=self.path)

@@ -154,8 +154,38 @@ def pil_png_bytes(image: np.ndarray, path: str | Path | None = None) -> np.ndarr
     return (image >> 8).astype(np.uint8)
 
 
+def decode_file(path: str | Path) -> tuple[np.ndarray, str]:
+    """An image file decoded as stored, and its kind by content (``"exr"``, ``"png"`` or
+    ``"image"``): OpenCV's channel order (BGR/BGRA) and dtype (uint8, uint16, float), or an
+    EXR's float RGB data; the checks of :func:`read_image` that need the file.
+
+    Raises:
+        InputError: missing, unreadable, truncated JPEG, unsupported extension, not an image.
+    """
+    import cv2
+
+    path = Path(path)
+    if not path.is_file():
+        raise InputError("file not found", path=path)
+    ext = path.suffix.lower()
+    if ext not in IMAGE_EXTENSIONS:
+        raise InputError(
+            f"unsupported image extension {ext!r}; expected one of {sorted(IMAGE_EXTENSIONS)}",
+            path=path,
+        )
+    data = _read_bytes(path)
+    if data.startswith(_EXR_MAGIC):
+        return _read_exr(path), "exr"
+    if data.startswith(_JPEG_MAGIC) and not _jpeg_complete(data):
+        raise InputError("truncated JPEG (no end-of-image marker)", path=path)
+    image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED) if data else None
+    if image is None:
+        raise InputError("cannot decode image (corrupt, truncated or not an image)", path=path)
+    return image, "png" if data.startswith(_PNG_MAGIC) else "image"
+
+
 def read_image(path: str | Path, *, background: str | float = "white",
-               decode: str = "dynaeval") -> np.ndarray:
+               decode: str = "dynaeval", decoded: np.ndarray | None = None) -> np.ndarray:
     """Read one image file as float32 in [0, 1] (float files: as stored).
 
     Args:
@@ -163,6 +193,9 @@ def read_image(path: str | Path, *, background: str | float = "white",
         background: colour that RGBA images are composited over (``composite_alpha``); images
             without alpha are unaffected.
         decode: ``"dynaeval"`` or ``"pil"``: how a 16-bit PNG maps to [0, 1] (module docstring).
+        decoded: the file's :func:`decode_file` array when it is uint8 and not EXR, decoded
+            beforehand (a prepared ground truth, ``dynaeval prepare``): the file is then not
+            read again.
 
     Returns:
         (H, W, 3) or (H, W, 1) float32 array in [0, 1], RGB order. Grey+alpha gives (H, W, 1).
@@ -176,32 +209,20 @@ def read_image(path: str | Path, *, background: str | float = "white",
     if decode not in DECODES:
         raise InputError(f"decode must be one of {', '.join(DECODES)}, got {decode!r}")
     path = Path(path)
-    if not path.is_file():
-        raise InputError("file not found", path=path)
-    ext = path.suffix.lower()
-    if ext not in IMAGE_EXTENSIONS:
-        raise InputError(
-            f"unsupported image extension {ext!r}; expected one of {sorted(IMAGE_EXTENSIONS)}",
-            path=path,
-        )
-    data = _read_bytes(path)
-    if data.startswith(_EXR_MAGIC):
-        image = _read_exr(path)
-    else:
-        if data.startswith(_JPEG_MAGIC) and not _jpeg_complete(data):
-            raise InputError("truncated JPEG (no end-of-image marker)", path=path)
-        image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED) if data else None
-        if image is None:
-            raise InputError("cannot decode image (corrupt, truncated or not an image)", path=path)
-        if decode == "pil" and data.startswith(_PNG_MAGIC):
+    if decoded is not None and decoded.dtype != np.uint8:
+        raise InputError(f"a decoded image given for it must be uint8, got {decoded.dtype}", path=path)
+    image, kind = (decoded, "image") if decoded is not None else decode_file(path)
+    if kind != "exr":  # OpenCV's decoding (pil_png_bytes changes 16-bit PNGs only)
+        if decode == "pil" and kind == "png":
             image = pil_png_bytes(image, path)
-        if image.ndim == 3 and image.shape[2] in (3, 4):  # BGR(A) -> RGB(A), a new contiguous array
-            image = cv2.cvtColor(image, cv2.COLOR_BGR2RGB if image.shape[2] == 3 else cv2.COLOR_BGRA2RGBA)
+        if image.ndim == 3 and image.shape[2] in (3, 4):  # BGR(A) -> RGB(A), contiguous
+            image = cv2.cvtColor(image, cv2.COLOR_BGR2RGB if image.shape[2] == 3
+                                 else cv2.COLOR_BGRA2RGBA)
     stored_float = np.issubdtype(image.dtype, np.floating)
     image = to_float(np.ascontiguousarray(image), path=path)
     if image.ndim == 2:
         image = image[..., None]
-    if not np.all(np.isfinite(image)):
+    if stored_float and not np.all(np.isfinite(image)):  # integers divided by their maximum: finite
         bad = int(np.count_nonzero(~np.isfinite(image)))
         raise InputError(f"{bad} pixel values are NaN or Inf", path=path)
     if stored_float:  # integers divided by their maximum are in [0, 1] already

@@ -274,3 +274,19 @@ def test_given_masks_change_the_static_pixels_so_their_std_is_computed_again(
     assert len(calls) == 32
     assert fast["summary"]["flicker"] is not None
     assert _comparable(fast) == _comparable(score(SAMPLE / "pred", SAMPLE / "gt", **kw))
+
+
+def test_prepared_ground_truth_images_are_not_decoded_again(prepared_motion, monkeypatch):
+    """8-bit ground-truth images are read from their prepared decoding (their digests are still
+    checked): a prepared run decodes the predictions only."""
+    from dynaeval.io import images
+
+    decoded = []
+    real = images.decode_file
+    monkeypatch.setattr(images, "decode_file", lambda path: decoded.append(Path(path)) or real(path))
+    manifest = json.loads((prepared_motion / "manifest.json").read_text())
+    assert len(manifest["decoded"]) == 16
+    score(SAMPLE / "pred", SAMPLE / "gt", focus=FocusConfig(source="motion"),
+          prepared=str(prepared_motion), **FAST)
+    assert decoded and all((SAMPLE / "pred") in p.parents for p in decoded)
+    assert len(set(decoded)) == 16
