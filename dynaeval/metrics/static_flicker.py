@@ -24,13 +24,10 @@ class TemporalStd:
     ``pixels``: ``(H, W)`` bool, the pixels to follow. ``update(frame)`` with ``(H, W, C)`` or
     ``(H, W)`` float frames; ``std()`` gives ``(N, C)`` population std (ddof=0) of the N pixels.
 
-    The update runs over blocks of ``BLOCK`` pixels gathered by index (the boolean mask is
-    resolved once), so its float64 temporaries stay in the cache; every value is the one the
-    whole-array Welford step gives (the same elementwise operations).
+    The boolean mask is resolved to indices once; each update is one compiled loop over them
+    (``flicker_kernels.welford_update``: the float64 Welford step per value, the bits of the
+    numpy steps it replaced, tested).
     """
-
-    BLOCK = 1 << 13
-    """Pixels per block of an update."""
 
     def __init__(self, pixels: np.ndarray) -> None:
         self.pixels = np.asarray(pixels, dtype=bool)
@@ -38,36 +35,28 @@ class TemporalStd:
         self.count = 0
         self._mean: np.ndarray | None = None
         self._m2: np.ndarray | None = None
+        self._tail: tuple[int, ...] = ()  # the frames' channel axis, () for (H, W) frames
 
     def update(self, frame: np.ndarray) -> None:
-        arr = np.asarray(frame)
-        rows = arr.reshape(-1, *arr.shape[2:])
+        from dynaeval.metrics.flicker_kernels import welford_update
+
+        arr = np.ascontiguousarray(frame)
+        rows = arr.reshape(arr.shape[0] * arr.shape[1], -1)
         if self._mean is None:
-            self._mean = np.zeros((self._index.size, *arr.shape[2:]), np.float64)
+            self._tail = arr.shape[2:]
+            self._mean = np.zeros((self._index.size, rows.shape[1]), np.float64)
             self._m2 = np.zeros_like(self._mean)
         self.count += 1
-        n = np.float64(self.count)
-        block = min(self.BLOCK, self._index.size)
-        got = np.empty((block, *arr.shape[2:]), arr.dtype)
-        x, delta, step = (np.empty((block, *arr.shape[2:]), np.float64) for _ in range(3))
-        for lo in range(0, self._index.size, self.BLOCK):
-            hi = min(lo + self.BLOCK, self._index.size)
-            k = hi - lo
-            np.take(rows, self._index[lo:hi], axis=0, out=got[:k])
-            mean, m2 = self._mean[lo:hi], self._m2[lo:hi]
-            xb, db, sb = x[:k], delta[:k], step[:k]
-            xb[...] = got[:k]  # float64, exact
-            np.subtract(xb, mean, out=db)  # delta = x - mean
-            np.divide(db, n, out=sb)
-            mean += sb  # mean += delta / n
-            xb -= mean
-            xb *= db
-            m2 += xb  # m2 += delta * (x - mean)
+        welford_update(rows, self._index, self._mean, self._m2, np.float64(self.count))
 
     def std(self) -> np.ndarray:
+        from dynaeval.metrics.flicker_kernels import population_std
+
         if self.count == 0 or self._m2 is None:
             raise InputError("temporal std needs at least one frame")
-        return np.sqrt(self._m2 / self.count)
+        out = np.empty_like(self._m2)
+        population_std(self._m2, np.float64(self.count), out)
+        return out.reshape(self._index.size, *self._tail)
 
 
 def check_static(static_mask: np.ndarray, shape: tuple[int, int]) -> np.ndarray:

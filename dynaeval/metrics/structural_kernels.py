@@ -17,23 +17,12 @@ are used (a tile may be narrower than its buffers).
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
-
-def _compiled(fn):  # noqa: ANN001, ANN202
-    """``fn`` compiled for the CPU, IEEE semantics (a division by 0 gives inf/NaN as in numpy,
-    which also lets the loops vectorise), the GIL released; kept in numba's on-disk cache
-    (compiling takes ~1 s, loading ~0.05 s) where a cache folder is writable, else compiled
-    once per process."""
-    options = {"nogil": True, "error_model": "numpy"}
-    try:
-        return numba.njit(cache=True, **options)(fn)
-    except RuntimeError:  # numba: "cannot cache function ...: no locator available"
-        return numba.njit(**options)(fn)
+from dynaeval.runtime import compiled
 
 
-@_compiled
+@compiled
 def products(x: np.ndarray, y: np.ndarray, d2: np.ndarray, xy: np.ndarray, n: int, m: int) -> None:
     """``d2 = (x - y)^2`` and ``xy = x y`` over the first ``n`` rows, ``m`` values of each."""
     for i in range(n):
@@ -45,7 +34,7 @@ def products(x: np.ndarray, y: np.ndarray, d2: np.ndarray, xy: np.ndarray, n: in
             xy[i, j] = a * b
 
 
-@_compiled
+@compiled
 def ssim_windows(a: np.ndarray, b: np.ndarray, exy: np.ndarray, ed2: np.ndarray, q: np.ndarray,
                  rows: int, m: int, r: int, channels: int, q0: int, c1: np.float32,
                  c2: np.float32) -> None:

@@ -182,3 +182,21 @@ def test_keep_freed_memory_reuses_frame_sized_arrays_instead_of_faulting_them_in
     assert faults * 4 < plain  # 10 x 4 x 6,100 pages of 4 KiB without, 4 x 6,100 with
     chosen, _ = _faults("keep", MALLOC_TRIM_THRESHOLD_="131072")  # the user's setting is kept
     assert not chosen
+
+
+def test_without_a_writable_cache_the_loops_are_compiled_per_process(monkeypatch):
+    import numba
+
+    real = numba.njit
+
+    def njit(*args, cache=False, **kw):
+        if cache:
+            raise RuntimeError("cannot cache function 'f': no locator available for file 'f.py'")
+        return real(*args, **kw)
+
+    monkeypatch.setattr(numba, "njit", njit)
+
+    def double(x):
+        return 2 * x
+
+    assert runtime.compiled(double)(21) == 42

@@ -75,19 +75,3 @@ def test_a_zero_denominator_gives_ieee_values_not_an_exception():
     q = np.empty((1, 1), np.float32)
     K.ssim_windows(a, a, z, z, q, 1, 2 * RADIUS + 1, RADIUS, 1, 0, np.float32(0), np.float32(0))
     assert np.isnan(q[0, 0])
-
-
-def test_without_a_writable_cache_the_loops_are_compiled_per_process(monkeypatch):
-    real = K.numba.njit
-
-    def njit(*args, cache=False, **kw):
-        if cache:
-            raise RuntimeError("cannot cache function 'f': no locator available for file 'f.py'")
-        return real(*args, **kw)
-
-    monkeypatch.setattr(K.numba, "njit", njit)
-
-    def double(x):
-        return 2 * x
-
-    assert K._compiled(double)(21) == 42
