@@ -569,7 +569,7 @@ def main(argv: list[str] | None = None) -> int:
     from dynaeval.runtime import keep_freed_memory
 
     args = build_parser().parse_args(argv)
-    keep_freed_memory()
+    keep_freed_memory(getattr(args, "workers", 1) or 1)
     try:
         if args.command == "score":
             return _run_score(args.pred, args.gt, args, overwrite=args.overwrite)

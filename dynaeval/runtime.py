@@ -172,21 +172,26 @@ not from a fresh ``mmap`` each (glibc's upper limit for the setting)."""
 TRIM_THRESHOLD = 1 << 30
 """Free memory at the top of the heap that glibc keeps for the next allocations instead of
 returning it to the system."""
-_MALLOC_ENV = ("MALLOC_MMAP_THRESHOLD_", "MALLOC_TRIM_THRESHOLD_", "GLIBC_TUNABLES")
+_MALLOC_ENV = ("MALLOC_MMAP_THRESHOLD_", "MALLOC_TRIM_THRESHOLD_", "MALLOC_ARENA_MAX",
+               "GLIBC_TUNABLES")
 
 
-def keep_freed_memory() -> bool:
+def keep_freed_memory(workers: int = 1) -> bool:
     """Let glibc reuse the memory of freed frame-sized arrays instead of unmapping it; True when
-    set. The ``dynaeval`` command calls it once at start.
+    set. The ``dynaeval`` command calls it once at start, before any thread.
 
     A run allocates and frees arrays of 6-50 MB per frame (decoded images, float32 frames,
     flows). glibc serves such sizes with ``mmap`` and returns them on ``free``, so every frame
     page-faults its memory in afresh: on a VM, a third of a 1080p run's CPU time went to the
     kernel (docs/performance.md, "Allocator"). Here the two thresholds are set
-    (``mallopt``): freed arrays stay in the heap and the next frame reuses them. Process-wide,
-    so the library never calls it on its own (it would change its host's allocator); a host
-    program may. Nothing is done where the C library is not glibc or where the user chose
-    (``MALLOC_MMAP_THRESHOLD_``, ``MALLOC_TRIM_THRESHOLD_`` or ``GLIBC_TUNABLES`` set).
+    (``mallopt``): freed arrays stay in the heap and the next frame reuses them. The heap is
+    the main arena's: other threads' arenas grow in 64 MB heaps that frame-sized arrays
+    fragment, so with ``workers`` > 1 every thread allocates from the main one (measured: with
+    the thresholds alone, 2 workers faulted ~5x more than one). One worker keeps its arenas
+    (OpenCV's own threads allocate in parallel there). Process-wide, so the library never calls
+    it on its own (it would change its host's allocator); a host program may. Nothing is done
+    where the C library is not glibc or where the user chose (``MALLOC_MMAP_THRESHOLD_``,
+    ``MALLOC_TRIM_THRESHOLD_``, ``MALLOC_ARENA_MAX`` or ``GLIBC_TUNABLES`` set).
     """
     import ctypes
     import os
@@ -199,9 +204,10 @@ def keep_freed_memory() -> bool:
         mallopt = libc.mallopt
     except (OSError, AttributeError):  # not glibc (musl, ...)
         return False
-    m_trim_threshold, m_mmap_threshold = -1, -3  # glibc's <malloc.h>
-    return bool(mallopt(m_mmap_threshold, MMAP_THRESHOLD)) and bool(
+    m_trim_threshold, m_mmap_threshold, m_arena_max = -1, -3, -8  # glibc's <malloc.h>
+    ok = bool(mallopt(m_mmap_threshold, MMAP_THRESHOLD)) and bool(
         mallopt(m_trim_threshold, TRIM_THRESHOLD))
+    return ok and (workers <= 1 or bool(mallopt(m_arena_max, 1)))
 
 
 def file_sha256(path: str | Path) -> str:

@@ -182,6 +182,12 @@ def test_keep_freed_memory_reuses_frame_sized_arrays_instead_of_faulting_them_in
     assert faults * 4 < plain  # 10 x 4 x 6,100 pages of 4 KiB without, 4 x 6,100 with
     chosen, _ = _faults("keep", MALLOC_TRIM_THRESHOLD_="131072")  # the user's setting is kept
     assert not chosen
+    import subprocess
+
+    several = subprocess.run([sys.executable, "-c", "from dynaeval.runtime import keep_freed_memory"
+                              " as k; print(k(workers=3))"], capture_output=True, text=True,
+                             check=True).stdout.strip()
+    assert several == "True"  # and one arena for the workers' threads
 
 
 def test_without_a_writable_cache_the_loops_are_compiled_per_process(monkeypatch):
