@@ -41,6 +41,10 @@ class TemporalStd:
         from dynaeval.metrics.flicker_kernels import welford_update
 
         arr = np.ascontiguousarray(frame)
+        if arr.shape[:2] != self.pixels.shape or (self._mean is not None
+                                                  and arr.shape[2:] != self._tail):
+            raise InputError(f"frame of shape {arr.shape}: the followed pixels are "
+                             f"{self.pixels.shape} and the frames so far {self.pixels.shape + self._tail}")
         rows = arr.reshape(arr.shape[0] * arr.shape[1], -1)
         if self._mean is None:
             self._tail = arr.shape[2:]

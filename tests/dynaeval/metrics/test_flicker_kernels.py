@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from dynaeval.errors import InputError
 from dynaeval.metrics.static_flicker import TemporalStd
 
 
@@ -44,3 +45,11 @@ def test_strided_frames_are_read_as_their_values(rng):
         a.update(f[:, ::2])
         b.update(np.ascontiguousarray(f[:, ::2]))
     assert np.array_equal(a.std(), b.std())
+
+
+def test_a_frame_of_another_shape_is_refused_not_read_out_of_bounds(rng):
+    acc = TemporalStd(np.ones((10, 12), bool))
+    acc.update(rng.random((10, 12, 3)))
+    for bad in (rng.random((10, 13, 3)), rng.random((10, 12, 4)), rng.random((10, 12))):
+        with pytest.raises(InputError, match="followed pixels"):
+            acc.update(bad)
