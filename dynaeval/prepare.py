@@ -19,7 +19,7 @@ and settings a run uses, and writes them into a folder (``dynaeval.io.prepared``
   6.2 MB at 1080p RGB), named by the file's blake2b, so scoring reads it instead of decoding the
   file (whose digest it still checks);
 * ``static_std/<i>.npy``: float64 ``(N, C)``, the ground truth's temporal std on camera ``i``'s
-  N static pixels (the ground-truth half of the flicker terms; 46 MB for a mostly static 1080p
+  N static pixels (the ground-truth half of the flicker terms; 44 MB for a mostly static 1080p
   camera), keyed by the digest of its static mask (``--masks`` that change it: computed again).
 
 :func:`open_prepared` checks a folder against a run before any frame is scored: other settings,
