@@ -131,11 +131,11 @@ def prepare(gt_dir: str | Path, out: str | Path, config: ScoreConfig | None = No
         for p in pairing.pairs:  # a video file once, not once per frame
             rel = _rel(p.gt, gt_dir).split("#")[0]
             if rel not in manifest["files"]:
-                manifest["files"][rel] = file_digest(p.gt.path)
-                if p.gt.index is None:
-                    manifest["decoded"][rel] = _save_decoded(p.gt.path, manifest["files"][rel],
-                                                             tmp / "frames")
-        manifest["decoded"] = {k: v for k, v in manifest["decoded"].items() if v is not None}
+                digest = manifest["files"][rel] = file_digest(p.gt.path)
+                stored = None if p.gt.index is not None else _save_decoded(p.gt.path, digest,
+                                                                           tmp / "frames")
+                if stored is not None:  # an 8-bit image (videos, 16-bit, float: decoded as usual)
+                    manifest["decoded"][rel] = stored
         for i, (cam, pairs) in enumerate(cams.items()):
             progress.set_note(f"camera {cam}")
             manifest["cameras"][cam] = _prepare_camera(i, cam, pairs, run, gt_dir, tmp, progress)
