@@ -16,7 +16,10 @@ a *ratio* of two paths timed in the same process, alternating (A, B, A, B, ...),
   (``warping_error`` x4, ``tof`` x2, ``valid_warp_mask``, ``optical_flow`` x3: what the engine
   cost before it shared its per-pair work), and a cProfile of the engine: where the time goes.
 * ``workers``: whole ``dynaeval score JOB/pred JOB/gt --focus motion --no-lpips`` runs in child
-  processes, 1 and 2 workers alternating: wall-time ratio, and the results equal bit for bit.
+  processes, 1 and 2 workers alternating with a one-core run (OpenCV on one thread) and 2 shard
+  processes at once (the cameras in processes instead of threads): wall-time ratio, the ceiling
+  of 2 workers over 1 (1 worker's wall over half the one-core run's CPU), and the results equal
+  bit for bit.
 * ``ssim``: ``dynaeval.metrics.ssim`` of one 1080p pair against its arithmetic and memory floor,
   OpenCV on one thread
   (the five 11-tap separable Gaussian filters alone, on float32 planes: what any SSIM must
@@ -212,77 +215,127 @@ def _profile(fn: Callable[[], Any], top: int = 10) -> str:
     return "\n".join(lines)
 
 
-def _score(job: Path, workers: int, out: Path, checkout: Path | None = None,
-           env: dict[str, str] | None = None) -> float:
-    """One whole run in a child process (in ``checkout``, which it then imports: ``-m`` puts
-    the working directory first on ``sys.path``; ``env``: more environment variables); returns
-    the child's CPU seconds."""
+def _score_command(job: Path, workers: int, out: Path) -> list[str]:
+    return [sys.executable, "-m", "dynaeval", "score", str(job / "pred"), str(job / "gt"),
+            "--focus", "motion", "--no-lpips", "-q", "--workers", str(workers), "-o", str(out),
+            "--overwrite"]
+
+
+def _children(cmds: list[list[str]], checkout: Path | None = None,
+              env: dict[str, str] | None = None) -> tuple[float, float]:
+    """Run the commands as child processes at once (in ``checkout``, which they then import:
+    ``-m`` puts the working directory first on ``sys.path``; ``env``: more environment
+    variables) and wait for all; returns their user and system CPU seconds, summed."""
     import os
     import resource
 
-    cmd = [sys.executable, "-m", "dynaeval", "score", str(job / "pred"), str(job / "gt"),
-           "--focus", "motion", "--no-lpips", "-q", "--workers", str(workers), "-o", str(out),
-           "--overwrite"]
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                   cwd=checkout or REPO, env={**os.environ, **(env or {})})
+    procs = [subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                              cwd=checkout or REPO, env={**os.environ, **(env or {})})
+             for cmd in cmds]
+    codes = [proc.wait() for proc in procs]
+    if any(codes):
+        raise subprocess.CalledProcessError(max(codes), cmds[codes.index(max(codes))])
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return after.ru_utime - before.ru_utime, after.ru_stime - before.ru_stime
 
 
-def _numbers(path: Path) -> dict:
-    doc = json.loads(path.read_text())
+def _score(job: Path, workers: int, out: Path, checkout: Path | None = None,
+           env: dict[str, str] | None = None) -> tuple[float, float]:
+    """One whole run in a child process; returns its user and system seconds (``_children``)."""
+    return _children([_score_command(job, workers, out)], checkout, env)
+
+
+def _score_shards(job: Path, count: int, outs: list[Path]) -> tuple[float, float]:
+    """``count`` one-worker runs at once, ``--shard i/count`` each, OpenCV on one thread in
+    each (``ONE_CORE``): the cameras in processes instead of threads. Returns their user and
+    system seconds, summed."""
+    cmds = [[*_score_command(job, 1, out), "--shard", f"{i}/{count}"]
+            for i, out in enumerate(outs, start=1)]
+    return _children(cmds, env=ONE_CORE)
+
+
+def _numbers(path: Path | list[Path]) -> dict:
+    """The numbers of a results file (of its shards' files, merged), warnings included."""
+    if isinstance(path, list):
+        from dynaeval.report.merge import merge_results
+
+        doc = merge_results(path)
+    else:
+        doc = json.loads(path.read_text())
     return {k: doc[k] for k in ("frames", "cameras", "summary", "warnings")}
 
 
 def bench_workers(job: Path, rounds: int, counts: tuple[int, ...] = (1, 2),
                   before: Path | None = None) -> str:
-    """Markdown: whole runs with 1 and 2 workers (and the ``before`` checkout's), alternating;
-    wall ratios, CPU seconds; numbers equal."""
+    """Markdown: whole runs with 1 and 2 workers, on one core, as 2 shard processes at once (and
+    the ``before`` checkout's), alternating; wall ratios, CPU seconds, the ceiling of 2 workers
+    over 1 that the one-core run's CPU sets; numbers equal."""
     from benchmarks.sections import checkout_commit
 
-    runs = [("", n) for n in counts] + [("1core", 1)]
+    top_n = counts[-1]
+    runs = [("", n) for n in counts] + [("1core", 1), ("shards", top_n)]
     runs += [("before", n) for n in counts] if before else []
-    cpu: dict[str, float] = {}
+    cpu: dict[str, float] = {}  # best user + system seconds of each run
+    system: dict[str, float] = {}  # the system seconds of that round
     with tempfile.TemporaryDirectory() as tmp:
-        outs = {f"{tag}{n}": Path(tmp) / f"{tag}w{n}.json" for tag, n in runs}
+        outs: dict[str, Path | list[Path]] = {
+            f"{tag}{n}": Path(tmp) / f"{tag}w{n}.json" for tag, n in runs if tag != "shards"}
+        outs[f"shards{top_n}"] = [Path(tmp) / f"shard{i}.json" for i in range(1, top_n + 1)]
 
         def one(tag: str, n: int) -> None:
             key = f"{tag}{n}"
-            cpu[key] = min(cpu.get(key, np.inf), _score(
+            user, sys_s = (_score_shards(job, n, outs[key]) if tag == "shards" else _score(
                 job, n, outs[key], before if tag == "before" else None,
                 ONE_CORE if tag == "1core" else None))
+            if user + sys_s < cpu.get(key, np.inf):
+                cpu[key], system[key] = user + sys_s, sys_s
 
         best = interleaved({f"{tag}{n}": (lambda t=tag, n=n: one(t, n)) for tag, n in runs}, rounds)
         same = all(_numbers(outs[k]) == _numbers(outs[str(counts[0])]) for k in outs)
     base = best[str(counts[0])]["wall"]
     lines = [f"`python -m dynaeval score {job}/pred {job}/gt --focus motion --no-lpips -q "
-             "--workers N` in a child process (2 cameras x 8 frames, 1920x1080), worker counts "
-             f"{'and checkouts ' if before else ''}alternating, best of {rounds} wall times each "
-             f"(CPU: the child's user + system seconds, best of the rounds). Results equal for "
-             f"every count{' and checkout' if before else ''}: {'yes' if same else 'NO'}.", "",
-             "| code | workers | wall s | CPU s | speed-up over 1 worker (this code) |",
-             "|---|---:|---:|---:|---:|"]
+             "--workers N` in a child process (2 cameras x 8 frames, 1920x1080), "
+             f"{'checkouts and ' if before else ''}runs alternating, best of {rounds} wall times "
+             f"each (CPU: the children's user + system seconds, best of the rounds). Results equal "
+             f"for every run{' and checkout' if before else ''} (the shards merged): "
+             f"{'yes' if same else 'NO'}.", "",
+             "| code | workers | wall s | CPU s | of which system s | speed-up over 1 worker "
+             "(this code) |", "|---|---:|---:|---:|---:|---:|"]
     for tag, n in runs:
         key = f"{tag}{n}"
         own = best[f"{'before' if tag == 'before' else ''}{counts[0]}"]["wall"]
         w = best[key]["wall"]
         label = {"": "this checkout", "1core": "this checkout, OpenCV on one thread (one core)",
+                 "shards": f"this checkout, {n} processes at once (`--shard i/{n}`, one worker "
+                           "and one OpenCV thread each)",
                  "before": f"before (`{checkout_commit(before)}`)"}[tag]
-        lines.append(f"| {label} | {n} | {w:.1f} | {cpu[key]:.1f} | {own / w:.2f} |")
-    top = best[str(counts[-1])]["wall"]
-    one_core = cpu["1core1"]
-    per = round_ratios(best, str(counts[0]), str(counts[-1]), "wall")
-    lines += ["", f"2 workers against this checkout's 1: **{base / top:.2f}x** (issue 20: >= 1.7x); "
-              f"against one core (`{' '.join(f'{k}={v}' for k, v in ONE_CORE.items())}`): "
-              f"{best['1core1']['wall'] / top:.2f}x. 1 worker keeps {cpu[str(counts[0])] / base:.2f} "
-              "cores busy (OpenCV's DIS runs on 2 threads). With more workers OpenCV runs on one "
-              "thread in each (`dynaeval.runtime.opencv_threads`), so their work is the one-core "
-              f"run's: its CPU seconds over 2, {one_core / 2:.1f} s, are the two cores' floor "
-              f"(2 workers: {100 * (top / (one_core / 2) - 1):+.0f} %; below 0 when the floor's "
-              "best round fell in a slower spell of the machine than theirs). The "
-              f"speed-up in each of the {rounds} rounds (1 worker's wall over 2 workers' of the "
-              f"same round): median {np.median(per):.2f}, {per.min():.2f} to {per.max():.2f}."]
+        lines.append(f"| {label} | {n} | {w:.1f} | {cpu[key]:.1f} | {system[key]:.1f} | "
+                     f"{own / w:.2f} |")
+    top = best[str(top_n)]["wall"]
+    floor = cpu["1core1"] / top_n
+    per = round_ratios(best, str(counts[0]), str(top_n), "wall")
+    lines += ["", f"{top_n} workers against this checkout's 1: **{base / top:.2f}x** (issue 20: "
+              f">= 1.7x); against one core (`{' '.join(f'{k}={v}' for k, v in ONE_CORE.items())}`): "
+              f"{best['1core1']['wall'] / top:.2f}x. The speed-up in each of the {rounds} rounds "
+              f"(1 worker's wall over {top_n} workers' of the same round): median "
+              f"{np.median(per):.2f}, {per.min():.2f} to {per.max():.2f}.", "",
+              f"**The ceiling.** 1 worker keeps {cpu[str(counts[0])] / base:.2f} cores busy "
+              "(OpenCV's DIS runs on its 2 threads). With more workers OpenCV runs on one thread "
+              "in each (`dynaeval.runtime.opencv_threads`), so their work is the one-core run's, "
+              f"and its CPU seconds over {top_n}, **{floor:.1f} s**, are the {top_n} cores' floor: "
+              f"{top_n} workers are {100 * (top / floor - 1):+.0f} % above it (below 0 when the "
+              "floor's best round fell in a slower spell of the machine than theirs). So no "
+              f"scheduling of this work can make {top_n} workers more than 1 worker's wall over "
+              f"that floor, **{base / floor:.2f}x**, faster than 1 worker: the faster one worker's "
+              "own threads make it, the lower this ceiling. Above the floor: the "
+              f"{top_n} worker threads spend {cpu[str(top_n)]:.1f} CPU s, of which "
+              f"{system[str(top_n)]:.1f} system, against the one-core run's {cpu['1core1']:.1f} "
+              f"and {system['1core1']:.1f}; the shards, processes that share no address space "
+              f"and no GIL, spend {cpu[f'shards{top_n}']:.1f}, of which "
+              f"{system[f'shards{top_n}']:.1f} system, and take "
+              f"{best[f'shards{top_n}']['wall']:.1f} s against the threads' {top:.1f} s. Work "
+              "on both cores at once costs more CPU, in threads or in processes."]
     return "\n".join(lines)
 
 

@@ -78,3 +78,28 @@ def test_checkout_commit_names_the_commit_and_says_when_outside_git(tmp_path):
         pytest.skip("not a git checkout")
     assert checkout_commit(repo).split("+")[0] == head
     assert checkout_commit(tmp_path) == "?"
+
+
+def test_workers_section_on_a_tiny_job_merges_the_shards_and_states_the_ceiling(tmp_path):
+    """The workers benchmark end to end (children, shards at once, merge) on 96x64 frames."""
+    from benchmarks.temporal_speed import bench_workers, make_job
+
+    job = make_job(tmp_path / "job", size=(64, 96))
+    text = bench_workers(job, rounds=1)
+    assert "(the shards merged): yes." in text
+    assert "2 processes at once (`--shard i/2`" in text
+    assert "**The ceiling.**" in text and "faster than 1 worker" in text
+
+
+def test_children_name_the_failing_command(tmp_path):
+    import subprocess
+    import sys
+
+    from benchmarks.temporal_speed import _children
+
+    ok = [sys.executable, "-c", "pass"]
+    bad = [sys.executable, "-c", "raise SystemExit(3)"]
+    user, system = _children([ok, ok])
+    assert user > 0 and system >= 0  # two interpreters started: some user time
+    with pytest.raises(subprocess.CalledProcessError, match="returned non-zero exit status 3"):
+        _children([ok, bad])
