@@ -106,6 +106,26 @@ def _jpeg_complete(raw: bytes) -> bool:
     return b"\xff\xd9" in raw[-64:]
 
 
+_PNG_END = b"\x00\x00\x00\x00IEND\xaeB`\x82"
+"""A PNG's last chunk: IEND, no data, so always these 12 bytes (length, type, CRC)."""
+
+
+def check_complete(raw: bytes, path: Path) -> None:
+    """Refuse JPEG and PNG bytes cut short, before a decoder sees them.
+
+    A JPEG must end with its end-of-image marker (OpenCV fills a truncated one with grey); a PNG
+    must hold its IEND chunk (libpng refuses one without it, but first prints "PNG input buffer
+    is incomplete" on stderr, beside dynaeval's own message).
+
+    Raises:
+        InputError: truncated JPEG or PNG, naming ``path``.
+    """
+    if raw.startswith(_JPEG_MAGIC) and not _jpeg_complete(raw):
+        raise InputError("truncated JPEG (no end-of-image marker)", path=path)
+    if raw.startswith(_PNG_MAGIC) and raw.rfind(_PNG_END) < 0:
+        raise InputError("truncated PNG (no IEND chunk)", path=path)
+
+
 def _read_bytes(path: Path) -> bytes:
     try:
         return path.read_bytes()
@@ -160,7 +180,8 @@ def decode_file(path: str | Path) -> tuple[np.ndarray, str]:
     EXR's float RGB data; the checks of :func:`read_image` that need the file.
 
     Raises:
-        InputError: missing, unreadable, truncated JPEG, unsupported extension, not an image.
+        InputError: missing, unreadable, truncated JPEG or PNG, unsupported extension, not an
+            image.
     """
     import cv2
 
@@ -176,8 +197,7 @@ def decode_file(path: str | Path) -> tuple[np.ndarray, str]:
     data = _read_bytes(path)
     if data.startswith(_EXR_MAGIC):
         return _read_exr(path), "exr"
-    if data.startswith(_JPEG_MAGIC) and not _jpeg_complete(data):
-        raise InputError("truncated JPEG (no end-of-image marker)", path=path)
+    check_complete(data, path)
     image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED) if data else None
     if image is None:
         raise InputError("cannot decode image (corrupt, truncated or not an image)", path=path)

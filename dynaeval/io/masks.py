@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from dynaeval.errors import InputError
-from dynaeval.io.images import IMAGE_EXTENSIONS
+from dynaeval.io.images import IMAGE_EXTENSIONS, check_complete
 
 THRESHOLD = 0.5
 """Weights above this are the pixels of dynaeval's ``masked_*`` region."""
@@ -98,15 +98,17 @@ def read_mask(path: str | Path, decode: str = "dynaeval") -> np.ndarray:
             there (a 16-bit one multiplies by the raw value, an RGB one fails to broadcast).
 
     Raises:
-        InputError: unreadable file, colour mask, or a mask NeRFBaselines cannot use.
+        InputError: unreadable or truncated file, colour mask, or a mask NeRFBaselines cannot
+            use.
     """
     import cv2
 
     path = Path(path)
-    data = np.frombuffer(path.read_bytes(), np.uint8) if path.is_file() else None
-    if data is None:
+    if not path.is_file():
         raise InputError("mask file not found", path=path)
-    m = cv2.imdecode(data, cv2.IMREAD_UNCHANGED) if data.size else None
+    raw = path.read_bytes()
+    check_complete(raw, path)
+    m = cv2.imdecode(np.frombuffer(raw, np.uint8), cv2.IMREAD_UNCHANGED) if raw else None
     if m is None or m.dtype not in (np.uint8, np.uint16, np.bool_):
         raise InputError("cannot decode mask (corrupt or not an 8/16-bit image)", path=path)
     if m.ndim == 3:

@@ -117,12 +117,25 @@ def test_missing_file(tmp_path):
         read_image(tmp_path / "nope.png")
 
 
-def test_truncated_png(tmp_path, rgb8):
+@pytest.mark.parametrize("cut", [0.5, "IEND"])
+def test_truncated_png_is_named_before_libpng_prints(tmp_path, rgb8, capfd, cut):
+    """libpng refuses a PNG without its IEND chunk, but first writes "PNG input buffer is
+    incomplete" to stderr; the check comes first, so the user sees one message."""
     cv2.imwrite(str(tmp_path / "a.png"), rgb8)
     data = (tmp_path / "a.png").read_bytes()
-    (tmp_path / "t.png").write_bytes(data[: len(data) // 2])
-    with pytest.raises(InputError, match=r"t\.png: cannot decode image"):
+    end = len(data) // 2 if cut == 0.5 else len(data) - 6  # half, or inside the IEND chunk
+    (tmp_path / "t.png").write_bytes(data[:end])
+    assert cv2.imdecode(np.frombuffer(data[:end], np.uint8), cv2.IMREAD_UNCHANGED) is None
+    capfd.readouterr()
+    with pytest.raises(InputError, match=r"t\.png: truncated PNG \(no IEND chunk\)"):
         read_image(tmp_path / "t.png")
+    assert "libpng" not in capfd.readouterr().err
+
+
+def test_png_with_bytes_after_iend_still_reads(tmp_path, rgb8):
+    cv2.imwrite(str(tmp_path / "a.png"), rgb8)
+    (tmp_path / "b.png").write_bytes((tmp_path / "a.png").read_bytes() + b"trailing bytes")
+    np.testing.assert_array_equal(read_image(tmp_path / "b.png"), read_image(tmp_path / "a.png"))
 
 
 def test_truncated_jpeg_is_not_silently_grey(tmp_path, rgb8):

@@ -64,6 +64,10 @@ def test_read_mask_rules(tmp_path):
         read_mask(tmp_path / "m16.png", decode="pil")
     with pytest.raises(InputError, match="mask file not found"):
         read_mask(tmp_path / "nope.png")
+    data = (tmp_path / "m.png").read_bytes()
+    (tmp_path / "cut.png").write_bytes(data[:-6])
+    with pytest.raises(InputError, match=r"cut\.png: truncated PNG \(no IEND chunk\)"):
+        read_mask(tmp_path / "cut.png")
 
 
 def test_found_in_nerfbaselines_and_dycheck_layouts(tmp_path):
