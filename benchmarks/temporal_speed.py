@@ -216,6 +216,7 @@ def _profile(fn: Callable[[], Any], top: int = 10) -> str:
 
 
 def _score_command(job: Path, workers: int, out: Path) -> list[str]:
+    """The benchmark's ``dynaeval score`` of ``job`` on ``workers`` workers, results to ``out``."""
     return [sys.executable, "-m", "dynaeval", "score", str(job / "pred"), str(job / "gt"),
             "--focus", "motion", "--no-lpips", "-q", "--workers", str(workers), "-o", str(out),
             "--overwrite"]

@@ -29,14 +29,13 @@ from typing import Any
 import numpy as np
 
 from dynaeval.errors import InputError
-from dynaeval.io.images import IMAGE_EXTENSIONS, check_complete
+from dynaeval.io.images import _PNG_MAGIC, IMAGE_EXTENSIONS, check_complete
 
 THRESHOLD = 0.5
 """Weights above this are the pixels of dynaeval's ``masked_*`` region."""
 MASK_FOLDER_NAMES = ("mask", "masks", "covisible")
 """Folder names that look like masks: an unused one beside the frames is warned about."""
 _FACTOR = re.compile(r"^(\d+)x$")
-_PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 
 @dataclass(frozen=True)
