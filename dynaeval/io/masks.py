@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from dynaeval.errors import InputError
-from dynaeval.io.images import _PNG_MAGIC, IMAGE_EXTENSIONS, check_complete
+from dynaeval.io.images import _PNG_MAGIC, IMAGE_EXTENSIONS, _read_bytes, check_complete
 
 THRESHOLD = 0.5
 """Weights above this are the pixels of dynaeval's ``masked_*`` region."""
@@ -105,7 +105,7 @@ def read_mask(path: str | Path, decode: str = "dynaeval") -> np.ndarray:
     path = Path(path)
     if not path.is_file():
         raise InputError("mask file not found", path=path)
-    raw = path.read_bytes()
+    raw = _read_bytes(path)
     check_complete(raw, path)
     m = cv2.imdecode(np.frombuffer(raw, np.uint8), cv2.IMREAD_UNCHANGED) if raw else None
     if m is None or m.dtype not in (np.uint8, np.uint16, np.bool_):

@@ -91,7 +91,7 @@ def test_workers_section_on_a_tiny_job_merges_the_shards_and_states_the_ceiling(
     assert "**The ceiling.**" in text and "faster than 1 worker" in text
 
 
-def test_children_name_the_failing_command(tmp_path):
+def test_children_name_the_failing_command():
     import subprocess
     import sys
 

@@ -70,6 +70,22 @@ def test_read_mask_rules(tmp_path):
         read_mask(tmp_path / "cut.png")
 
 
+def test_unreadable_mask_is_an_input_error_naming_it(tmp_path, monkeypatch):
+    """Read as images are (``images._read_bytes``): a permission error is exit 2, not a
+    traceback (patched: the tests run as root, who reads any file)."""
+    from pathlib import Path
+
+    m = np.full((4, 5), 255, np.uint8)
+    cv2.imwrite(str(tmp_path / "m.png"), m)
+
+    def denied(self):  # noqa: ANN001, ANN202
+        raise PermissionError(13, "Permission denied", str(self))
+
+    monkeypatch.setattr(Path, "read_bytes", denied)
+    with pytest.raises(InputError, match=r"m\.png: cannot read the file: permission denied"):
+        read_mask(tmp_path / "m.png")
+
+
 def test_found_in_nerfbaselines_and_dycheck_layouts(tmp_path):
     nb = nerfbaselines_folder(tmp_path / "nb")
     gts = sorted((nb / "gt-color").iterdir())
