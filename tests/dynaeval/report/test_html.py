@@ -205,7 +205,8 @@ window.addEventListener('load', () => {
     page: document.documentElement.scrollWidth,
     tables: [...document.querySelectorAll('table')].map(t => ({
       right: t.getBoundingClientRect().right, width: t.scrollWidth,
-      box: t.parentElement.clientWidth, heading: t.rows[0].cells[t.rows[0].cells.length - 1].textContent}))});
+      box: t.parentElement.clientWidth, box_right: t.parentElement.getBoundingClientRect().right,
+      heading: t.rows[0].cells[t.rows[0].cells.length - 1].textContent}))});
   document.body.appendChild(out);
 });
 </script>"""
@@ -239,3 +240,14 @@ def test_report_in_chromium_at_1280px_cuts_no_table(demo_report, tmp_path):
                                for t in m["tables"]), m
     for t in m["tables"]:
         assert t["width"] <= t["box"] and t["right"] <= m["viewport"], t  # nothing cut
+
+
+@pytest.mark.skipif(_chromium() is None, reason="no chromium binary on PATH (apt-get install chromium)")
+def test_report_in_a_narrow_window_scrolls_the_table_not_the_page(demo_report, tmp_path):
+    """At 800 px the per-camera table cannot fit: it scrolls inside its own box (its full width
+    reachable there) while the page itself never scrolls sideways."""
+    _, index = demo_report
+    m = _measure_in_chromium(index, tmp_path, width=800)
+    assert m["window"] == 800 and m["page"] <= m["viewport"], m
+    wide = [t for t in m["tables"] if t["width"] > t["box"]]
+    assert wide and all(t["box_right"] <= m["viewport"] for t in m["tables"]), m
