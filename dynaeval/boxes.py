@@ -17,7 +17,14 @@ from dynaeval.errors import InputError
 
 
 def as_boxes(boxes: object) -> np.ndarray:
-    """Return ``boxes`` as an ``(N, 4)`` int64 array (``N`` may be 0); raise InputError otherwise."""
+    """Return ``boxes`` as an ``(N, 4)`` int64 array (``N`` may be 0); raise InputError otherwise.
+
+    ``boxes``: one box or ``(N, 4)`` ``[x_min, y_min, x_max, y_max]`` in whole pixels, any numeric
+    dtype (a float array is accepted when every value is an integer, e.g. ``10.0``). Refused:
+    fractional coordinates (say how to round, as a detector's raw output needs: floor the min,
+    ceil the max, as ``dynaeval``'s detectors do) and inverted boxes (``x_max < x_min`` or
+    ``y_max < y_min``); an empty box (``max == min``) is accepted and holds no pixel.
+    """
     arr = np.asarray(boxes, dtype=np.float64)
     if arr.size == 0:
         return np.zeros((0, 4), dtype=np.int64)
@@ -27,7 +34,33 @@ def as_boxes(boxes: object) -> np.ndarray:
         raise InputError(f"boxes must have shape (N, 4) as [x_min, y_min, x_max, y_max], got {arr.shape}")
     if not np.all(np.isfinite(arr)):
         raise InputError("boxes contain NaN or Inf coordinates")
-    return np.round(arr).astype(np.int64)
+    fractional = np.flatnonzero((arr != np.round(arr)).any(axis=1))
+    if fractional.size:
+        i = int(fractional[0])
+        raise InputError(
+            f"box {i} {arr[i].tolist()} has fractional pixel coordinates: boxes are whole pixels "
+            "[x_min, y_min, x_max, y_max], max exclusive; round outwards first "
+            "(np.floor of x_min, y_min and np.ceil of x_max, y_max)"
+        )
+    out = arr.astype(np.int64)
+    inverted = np.flatnonzero((out[:, 2] < out[:, 0]) | (out[:, 3] < out[:, 1]))
+    if inverted.size:
+        raise InputError(f"box {int(inverted[0])}: {inverted_box_problem(out[inverted[0]])}")
+    return out
+
+
+def inverted_box_problem(box: object) -> str | None:
+    """What is wrong with a box whose corners are swapped (``x_max < x_min`` or ``y_max <
+    y_min``), as a message with the fix; None when the box is in order (empty boxes included).
+
+    ``box``: ``[x_min, y_min, x_max, y_max]``, 4 integers.
+    """
+    x0, y0, x1, y1 = (int(v) for v in box)  # type: ignore[attr-defined]
+    if x1 >= x0 and y1 >= y0:
+        return None
+    axis = "x" if x1 < x0 else "y"
+    return (f"inverted box {[x0, y0, x1, y1]}: {axis}_max must be >= {axis}_min (the order is "
+            "[x_min, y_min, x_max, y_max]; swap the corners)")
 
 
 def clip_boxes(boxes: object, height: int, width: int) -> np.ndarray:

@@ -19,6 +19,9 @@ the frame is what follows the last ``/``). Each value is a list (possibly empty:
 frame" is information) of records. A record needs ``"class"`` (non-empty string) and ``"box"``
 (``[x_min, y_min, x_max, y_max]``, four JSON integers, max exclusive, ``x_max > x_min`` and
 ``y_max > y_min``; coordinates outside the image are allowed and clipped where the box is used).
+Non-integer coordinates (``10.5``, also ``10.0``: the scene generator and ``dynaeval detect`` write
+integers) and inverted boxes (corners swapped) are refused when the file is read, before any
+frame is scored, naming the file, the frame key and the record.
 Optional typed fields: ``"id"`` (int; a track id from the generator, a per-frame index from a
 detector), ``"visible"`` (number in [0, 1]), ``"score"`` (number in [0, 1]). Any other field is
 kept as is.
@@ -35,7 +38,7 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.boxes import as_boxes
+from dynaeval.boxes import as_boxes, inverted_box_problem
 from dynaeval.errors import InputError
 from dynaeval.io.atomic import write_text_atomic
 
@@ -102,7 +105,7 @@ def validate_record(record: object, *, key: str, index: int, path: str | Path | 
 
     Raises InputError naming the file, the key and the record index on any problem.
     """
-    where = f"key {key!r}, record {index}"
+    where = f"frame {key!r}, record {index}"
     if not isinstance(record, Mapping):
         raise InputError(f"{where}: expected an object with 'class' and 'box', got {type(record).__name__}", path=path)
     out = dict(record)
@@ -113,14 +116,13 @@ def validate_record(record: object, *, key: str, index: int, path: str | Path | 
     if not isinstance(box, (list, tuple, np.ndarray)) or len(box) != 4:
         raise InputError(f"{where}: 'box' must be [x_min, y_min, x_max, y_max], got {box!r}", path=path)
     if not all(_is_int(v) for v in box):
-        raise InputError(f"{where}: 'box' coordinates must be integers (pixels), got {list(box)!r}", path=path)
-    x0, y0, x1, y1 = (int(v) for v in box)
-    if x1 <= x0 or y1 <= y0:
         raise InputError(
-            f"{where}: 'box' {[x0, y0, x1, y1]} is empty: need x_max > x_min and y_max > y_min "
-            "(max is exclusive)",
+            f"{where}: 'box' coordinates must be integers (whole pixels), got {list(box)!r}; "
+            "round them outwards when writing the file (floor x_min, y_min; ceil x_max, y_max)",
             path=path,
         )
+    x0, y0, x1, y1 = (int(v) for v in box)
+    _check_order([x0, y0, x1, y1], where, path)
     out["box"] = [x0, y0, x1, y1]
     if "id" in out:
         if not _is_int(out["id"]):
@@ -133,6 +135,20 @@ def validate_record(record: object, *, key: str, index: int, path: str | Path | 
                 raise InputError(f"{where}: {name!r} must be a number in [0, 1], got {v!r}", path=path)
             out[name] = float(v)
     return out
+
+
+def _check_order(box: list[int], where: str, path: str | Path | None) -> None:
+    """Refuse an inverted box (max < min: corners swapped), then an empty one (max == min)."""
+    problem = inverted_box_problem(box)
+    if problem:
+        raise InputError(f"{where}: {problem}", path=path)
+    x0, y0, x1, y1 = box
+    if x1 == x0 or y1 == y0:
+        raise InputError(
+            f"{where}: 'box' {box} is empty: need x_max > x_min and y_max > y_min "
+            "(max is exclusive)",
+            path=path,
+        )
 
 
 def validate_boxes(mapping: object, path: str | Path | None = None) -> dict[str, list[dict]]:

@@ -1,13 +1,16 @@
-"""A self-contained HTML report of one scoring run: ``dynaeval score ... --report DIR``.
+"""A one-file HTML report of one scoring run: ``dynaeval score ... --report DIR``.
 
-``DIR/index.html`` references PNG files in ``DIR/img/`` by relative path: the folder opens in a
-browser from disk (no server, no network, no script) and can be zipped or copied as a whole.
+``DIR/index.html`` is the whole report: its images (PNG) are inlined as ``data:`` URIs, so the one
+file opens in a browser from disk (no server, no network, no script) and can be mailed or copied
+alone. It is about 2.6 MB for the bundled sample (16 frames, 18 metrics) and does not grow with
+the number of frames: one curve per metric, a fixed number of worst frames and missing objects.
 
 Contents: the summary table (metric x region), per-camera means, per-frame curves of each metric
-(one plot per metric, one line per camera; matplotlib with the Agg backend, imported here only),
-and the worst frames (lowest ``focused_psnr``, else ``psnr``) as prediction / ground truth /
-error heat-map with the scored regions drawn on each: expanded boxes (the ``focused_*`` pixels)
-in yellow and the motion-mask outline (the ``masked_*`` pixels) in cyan.
+(one plot per metric, one line per camera, integer frame ticks; matplotlib with the Agg backend,
+imported here only), and the worst frames (lowest ``focused_psnr``, else ``psnr``) as prediction /
+ground truth / error heat-map with the scored regions drawn on each: expanded boxes (the
+``focused_*`` pixels) in yellow and the motion-mask outline (the ``masked_*`` pixels) in cyan.
+Tables wider than the window scroll inside their own box; their headings break at ``_``.
 
 The regions come from ``score(..., on_regions=recorder)`` with a ``RegionRecorder``: it keeps the
 boxes of every frame and the outline (contours) of every motion mask, not the masks themselves.
@@ -15,6 +18,8 @@ boxes of every frame and the outline (contours) of every motion mask, not the ma
 
 from __future__ import annotations
 
+import base64
+import io
 import json
 from html import escape
 from pathlib import Path
@@ -81,55 +86,95 @@ def worst_frames(results: dict[str, Any], n: int = 4) -> tuple[str, list[dict[st
     return metric, sorted(rows, key=lambda f: f[metric])[:n]
 
 
+def camera_label(results: dict[str, Any], camera: str) -> str:
+    """The name the report shows for a camera of the results.
+
+    The results call the frames of a flat folder (no camera subfolders) camera ``"."``, their
+    path relative to the folder; the report names it after the ground-truth folder
+    (``score runs/cam00 gt/cam00`` -> ``cam00``), or ``all`` for a render folder of a known layout
+    (whose ground-truth folder is the layout's own ``gt``). Any other camera keeps its name.
+    """
+    if camera != ".":
+        return camera
+    inputs = results.get("inputs") or {}
+    if inputs.get("layout") or not inputs.get("gt"):
+        return "all"
+    return Path(inputs["gt"]).name or "all"
+
+
+def _heading_cell(text: str) -> str:
+    """A ``<th>`` whose text may break after each ``_`` (``focused_<wbr>flicker``)."""
+    return "<th>" + "_<wbr>".join(escape(p) for p in text.split("_")) + "</th>"
+
+
+def _table(header: list[str], rows: list[list[str]]) -> str:
+    """An HTML table in its own horizontally scrolling box (cells are escaped here)."""
+    head = "".join(_heading_cell(h) for h in header)
+    body = "".join("<tr>" + "".join(f"<td>{escape(c)}</td>" for c in row) + "</tr>" for row in rows)
+    return f"<div class='table'><table><tr>{head}</tr>{body}</table></div>"
+
+
 def _summary_html(results: dict[str, Any]) -> str:
     from dynaeval.report.table import fmt, region_rows
 
     metrics = results["metrics"]
     header, body = region_rows(results, objects=True)
-    head = "".join(f"<th>{escape(h)}</th>" for h in header)
-    rows = ["<tr>" + "".join(f"<td>{escape(c)}</td>" for c in row) + "</tr>" for row in body]
-    table = f"<table><tr>{head}</tr>{''.join(rows)}</table>"
     per_cam = [m for m in metrics if any(m in v for v in results["cameras"].values())]
-    cam_head = "".join(f"<th>{escape(m)}</th>" for m in per_cam)
-    cam_rows = "".join(
-        f"<tr><td>{escape(cam)}</td><td>{v['n_frames']}</td>"
-        + "".join(f"<td>{fmt(m, v.get(m))}</td>" for m in per_cam) + "</tr>"
-        for cam, v in results["cameras"].items())
-    cams = f"<table><tr><th>camera</th><th>frames</th>{cam_head}</tr>{cam_rows}</table>"
-    return table + "<h3>Per camera (means over frames)</h3>" + cams
+    cam_rows = [[camera_label(results, cam), str(v["n_frames"]), *(fmt(m, v.get(m)) for m in per_cam)]
+                for cam, v in results["cameras"].items()]
+    return (_table(header, body) + "<h3>Per camera (means over frames)</h3>"
+            + _table(["camera", "frames", *per_cam], cam_rows))
 
 
-def _curves(results: dict[str, Any], img_dir: Path) -> list[tuple[str, str]]:
-    """One PNG per per-frame metric: value against frame index, one line per camera."""
+def _png_uri(png: bytes) -> str:
+    """``data:`` URI of PNG bytes, for an ``<img src>`` inside the page."""
+    return "data:image/png;base64," + base64.b64encode(png).decode("ascii")
+
+
+def _figure_uri(fig: Any) -> str:
+    """A matplotlib figure as a PNG ``data:`` URI; the figure is closed."""
+    import matplotlib.pyplot as plt
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    plt.close(fig)
+    return _png_uri(buf.getvalue())
+
+
+def curve_figure(results: dict[str, Any], name: str) -> Any:
+    """The matplotlib figure of per-frame metric ``name``: value against frame index (integer
+    ticks), one line per camera (named by ``camera_label``)."""
     import matplotlib
 
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import MaxNLocator
 
+    frames, cameras = results["frames"], results["inputs"]["cameras"]
+    fig, ax = plt.subplots(figsize=(7, 2.6), dpi=100)
+    for cam in cameras:
+        pts = [(f["index"], f[name]) for f in frames if f["camera"] == cam and f.get(name) is not None]
+        if pts:
+            x, y = zip(*pts, strict=True)
+            ax.plot(x, y, marker=".", lw=1, label=camera_label(results, cam))
+    info = results["metrics"][name]
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    ax.set_xlabel("frame index")
+    ax.set_ylabel(f"{name}{' (' + info['unit'] + ')' if info['unit'] else ''}")
+    ax.set_title(f"{name} per frame ({'higher' if info['higher_is_better'] else 'lower'} is better)",
+                 fontsize=10)
+    ax.grid(alpha=0.3)
+    if ax.lines and len(cameras) <= 12:  # no line (every value null): no empty legend
+        ax.legend(fontsize=7, loc="best")
+    fig.tight_layout()
+    return fig
+
+
+def _curves(results: dict[str, Any]) -> list[tuple[str, str]]:
+    """(metric, PNG ``data:`` URI) of each per-frame metric's curve."""
     frames = results["frames"]
     names = [m for m in results["metrics"] if any(m in f for f in frames)]
-    out = []
-    for name in names:
-        fig, ax = plt.subplots(figsize=(7, 2.6), dpi=100)
-        for cam in results["inputs"]["cameras"]:
-            pts = [(f["index"], f[name]) for f in frames if f["camera"] == cam and f.get(name) is not None]
-            if pts:
-                x, y = zip(*pts, strict=True)
-                ax.plot(x, y, marker=".", lw=1, label=cam)
-        info = results["metrics"][name]
-        ax.set_xlabel("frame index")
-        ax.set_ylabel(f"{name}{' (' + info['unit'] + ')' if info['unit'] else ''}")
-        ax.set_title(f"{name} per frame ({'higher' if info['higher_is_better'] else 'lower'} is better)",
-                     fontsize=10)
-        ax.grid(alpha=0.3)
-        if len(results["inputs"]["cameras"]) <= 12:
-            ax.legend(fontsize=7, loc="best")
-        fig.tight_layout()
-        file = img_dir / f"curve_{name}.png"
-        fig.savefig(file)
-        plt.close(fig)
-        out.append((name, f"img/{file.name}"))
-    return out
+    return [(name, _figure_uri(curve_figure(results, name))) for name in names]
 
 
 def _draw_regions(ax: Any, boxes: np.ndarray | None, outlines: list[np.ndarray] | None) -> None:
@@ -144,7 +189,8 @@ def _draw_regions(ax: Any, boxes: np.ndarray | None, outlines: list[np.ndarray] 
 
 
 def _frame_figure(row: dict[str, Any], metric: str, results: dict[str, Any],
-                  recorder: RegionRecorder | None, file: Path) -> None:
+                  recorder: RegionRecorder | None) -> str:
+    """Prediction / ground truth / error panels of one frame with its regions, as a PNG URI."""
     import matplotlib
 
     matplotlib.use("Agg", force=False)
@@ -175,11 +221,10 @@ def _frame_figure(row: dict[str, Any], metric: str, results: dict[str, Any],
         if img is err:
             fig.colorbar(im, ax=ax, fraction=0.03, pad=0.01)
     value = row.get(metric)
-    fig.suptitle(f"camera {row['camera']}, frame {row['frame']}: {metric} = {value:.2f} dB",
-                 fontsize=10)
+    fig.suptitle(f"camera {camera_label(results, row['camera'])}, frame {row['frame']}: "
+                 f"{metric} = {value:.2f} dB", fontsize=10)
     fig.tight_layout()
-    fig.savefig(file)
-    plt.close(fig)
+    return _figure_uri(fig)
 
 
 def missing_objects(results: dict[str, Any], n: int = 8) -> list[tuple[dict, dict]]:
@@ -193,9 +238,9 @@ def missing_objects(results: dict[str, Any], n: int = 8) -> list[tuple[dict, dic
     return out
 
 
-def _object_crops(row: dict[str, Any], obj: dict[str, Any], background: str, path: Path) -> None:
+def _object_crops(row: dict[str, Any], obj: dict[str, Any], background: str) -> str:
     """Ground-truth and predicted crop of one object side by side (its tight box, 50 % margin,
-    at least 48 px), magnified to 160 px high with nearest-neighbour sampling."""
+    at least 48 px), magnified to 160 px high with nearest-neighbour sampling; a PNG URI."""
     import cv2
 
     gt, pred = _read_frame(row["gt"], background), _read_frame(row["pred"], background)
@@ -212,7 +257,10 @@ def _object_crops(row: dict[str, Any], obj: dict[str, Any], background: str, pat
     both = np.concatenate([tiles[0], gap, tiles[1]], axis=1)
     if both.shape[2] == 1:
         both = np.repeat(both, 3, axis=2)
-    cv2.imwrite(str(path), np.round(np.clip(both, 0, 1) * 255).astype(np.uint8)[..., ::-1])
+    ok, png = cv2.imencode(".png", np.round(np.clip(both, 0, 1) * 255).astype(np.uint8)[..., ::-1])
+    if not ok:
+        raise RuntimeError("OpenCV could not encode a PNG")  # a bug, not the user's input
+    return _png_uri(png.tobytes())
 
 
 def write_report(
@@ -223,12 +271,12 @@ def write_report(
     n_worst: int = 4,
     overwrite: bool = False,
 ) -> Path:
-    """Write ``out_dir/index.html`` and its images (``out_dir/img/*.png``) for one results doc.
+    """Write ``out_dir/index.html``, the whole report (images inlined), for one results doc.
 
     Args:
         results: the results of ``dynaeval.score`` (or ``load_results``); the frames it lists
             must still be on disk for the worst-frame panels.
-        out_dir: folder, created if missing.
+        out_dir: folder, created if missing; only ``index.html`` is written into it.
         recorder: regions recorded during ``score`` (boxes and mask outlines are drawn when given).
         n_worst: how many worst frames to show.
         overwrite: replace an existing ``index.html``.
@@ -242,6 +290,7 @@ def write_report(
     """
     from dynaeval.io.atomic import write_text_atomic
     from dynaeval.report.leaderboard import TABLE_CSS
+    from dynaeval.report.table import run_title
 
     out_dir = Path(out_dir)
     index = out_dir / "index.html"
@@ -250,33 +299,42 @@ def write_report(
     if index.exists() and not overwrite:
         raise InputError("report exists; pass --overwrite or choose another --report folder",
                          path=index)
-    img_dir = out_dir / "img"
-    img_dir.mkdir(parents=True, exist_ok=True)
-    title = f"dynaeval: {results['method']} on {results['scene']}"
+    title = f"dynaeval: {run_title(results)}"
     parts = [
         "<!DOCTYPE html>", "<html><head><meta charset='utf-8'>", f"<title>{escape(title)}</title>",
-        f"<style>{TABLE_CSS}img{{max-width:100%;display:block;margin:0.5em 0}}"
-        "details pre{font-size:12px;background:#f7f7f7;padding:1em}"
-        ".curves img{display:inline-block;width:49%;margin:0}</style></head><body>",
+        f"<style>{TABLE_CSS}{REPORT_CSS}</style></head><body>",
         f"<h1>{escape(title)}</h1>",
         f"<p>{results['summary']['n_frames']} frames, {len(results['cameras'])} camera(s); "
         f"dynaeval {escape(results['dynaeval_version'])}, {escape(results['created'])}. "
         "Values are means of per-frame values.</p>",
         "<h2>Summary</h2>", _summary_html(results),
         "<h2>Per-frame curves</h2>", "<div class='curves'>",
-        *(f"<img src='{escape(src)}' alt='{escape(name)} per frame'>"
-          for name, src in _curves(results, img_dir)),
+        *(f"<img src='{src}' alt='{escape(name)} per frame'>" for name, src in _curves(results)),
         "</div>",
-        *_worst_html(results, recorder, n_worst, img_dir),
-        *_missing_html(results, img_dir),
+        *_worst_html(results, recorder, n_worst),
+        *_missing_html(results),
         *_details_html(results),
     ]
+    out_dir.mkdir(parents=True, exist_ok=True)
     return write_text_atomic(index, "\n".join(parts) + "\n", overwrite=overwrite)
 
 
-def _worst_html(results: dict[str, Any], recorder: RegionRecorder | None, n_worst: int,
-                img_dir: Path) -> list[str]:
-    """The worst frames' panels (written into ``img_dir``) and their captions."""
+REPORT_CSS = (
+    "img{max-width:100%;display:block;margin:0.5em 0}"
+    ".curves img{display:inline-block;width:49%;margin:0}"
+    "div.table{max-width:100%;overflow-x:auto}"  # a table wider than the window scrolls in its box
+    "div.table table{font-size:13px}div.table th,div.table td{padding:3px 5px}"
+    "div.table th{vertical-align:bottom}"
+    "details pre{font-size:12px;background:#f7f7f7;padding:1em;white-space:pre-wrap;"
+    "overflow-wrap:anywhere}"
+    "li{overflow-wrap:anywhere}"
+)
+"""The report's own style, after the leaderboard's ``TABLE_CSS``: nothing wider than the window."""
+
+
+def _worst_html(results: dict[str, Any], recorder: RegionRecorder | None,
+                n_worst: int) -> list[str]:
+    """The worst frames' panels and their captions."""
     metric, worst = worst_frames(results, n_worst)
     parts = [f"<h2>Worst frames by {escape(metric)}</h2>"]
     if recorder is not None:
@@ -285,17 +343,16 @@ def _worst_html(results: dict[str, Any], recorder: RegionRecorder | None, n_wors
                      "motion-mask outline</span> (pixels of the masked_* metrics).</p>")
     if not worst:
         parts.append(f"<p>No frame has a defined {escape(metric)}.</p>")
-    for i, row in enumerate(worst):
-        file = img_dir / f"worst_{i:02d}.png"
-        _frame_figure(row, metric, results, recorder, file)
+    for row in worst:
+        src = _frame_figure(row, metric, results, recorder)
         cap = ", ".join(f"{m} {row[m]:.4g}" for m in results["metrics"] if row.get(m) is not None)
-        parts.append(f"<img src='img/{escape(file.name)}' alt='camera {escape(row['camera'])} "
-                     f"frame {escape(row['frame'])}'><p>{escape(cap)}</p>")
+        alt = f"camera {camera_label(results, row['camera'])} frame {row['frame']}"
+        parts.append(f"<img src='{src}' alt='{escape(alt)}'><p>{escape(cap)}</p>")
     return parts
 
 
-def _missing_html(results: dict[str, Any], img_dir: Path) -> list[str]:
-    """Crops of the objects the presence check did not find (written into ``img_dir``)."""
+def _missing_html(results: dict[str, Any]) -> list[str]:
+    """Crops of the objects the presence check did not find."""
     missing = missing_objects(results)
     if not missing:
         return []
@@ -303,13 +360,13 @@ def _missing_html(results: dict[str, Any], img_dir: Path) -> list[str]:
     parts = ["<h2>Objects missing from the prediction</h2><p>Ground truth (left) and "
              "prediction (right) around each object the presence check did not find "
              "(first frames in order).</p>"]
-    for i, (row, obj) in enumerate(missing):
-        file = img_dir / f"missing_{i:02d}.png"
-        _object_crops(row, obj, background, file)
-        cap = (f"camera {row['camera']} frame {row['frame']}: {obj['class']} {obj['id']} "
+    for row, obj in missing:
+        src = _object_crops(row, obj, background)
+        cap = (f"camera {camera_label(results, row['camera'])} frame {row['frame']}: "
+               f"{obj['class']} {obj['id']} "
                + ", ".join(f"{k} {obj[k]:.3g}" for k in ("ncc", "psnr", "visibility")
                            if isinstance(obj.get(k), float)))
-        parts.append(f"<img src='img/{file.name}' alt='{escape(cap)}'><p>{escape(cap)}</p>")
+        parts.append(f"<img src='{src}' alt='{escape(cap)}'><p>{escape(cap)}</p>")
     return parts
 
 

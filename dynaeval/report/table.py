@@ -61,6 +61,16 @@ def region_rows(results: dict[str, Any], *,
     return ["metric", *(REGION_LABELS[r] for r in regions)], rows
 
 
+def run_title(results: dict[str, Any]) -> str:
+    """What was scored, in words: ``"METHOD on SCENE"``, or ``"MODEL (3dgs render folder)"``
+    when method and scene are one name (``dynaeval score RUN`` names both after the render
+    folder; a plain pair of folders with the same name gives just that name)."""
+    method, scene = results["method"], results["scene"]
+    layout = (results.get("inputs") or {}).get("layout") or {}
+    title = method if method == scene else f"{method} on {scene}"
+    return f"{title} ({layout['name']} render folder)" if layout.get("name") else title
+
+
 def summary_table(results: dict[str, Any]) -> str:
     """The summary (mean over all frames) as a metric x region table, the per-object metrics,
     then per-camera means of the whole-frame per-frame metrics. Arrows give the direction:
@@ -69,7 +79,7 @@ def summary_table(results: dict[str, Any]) -> str:
     n_cams = len(results["cameras"])
     header, rows = region_rows(results)
     out = [
-        f"{results['method']} on {results['scene']}: {summary['n_frames']} frames, "
+        f"{run_title(results)}: {summary['n_frames']} frames, "
         f"{n_cams} camera{'s' if n_cams != 1 else ''} (means over frames)",
         *_render(header, rows),
     ]

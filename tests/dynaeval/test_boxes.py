@@ -22,7 +22,9 @@ from dynaeval.errors import InputError
 
 def test_as_boxes_accepts_one_box_many_or_none():
     assert as_boxes([1, 2, 3, 4]).tolist() == [[1, 2, 3, 4]]
-    assert as_boxes([[0.4, 0.6, 2.5, 3.5]]).dtype == np.int64
+    assert as_boxes(np.array([[0.0, 1.0, 2.0, 3.0]])).tolist() == [[0, 1, 2, 3]]  # whole floats
+    assert as_boxes(np.array([[0.0, 1.0, 2.0, 3.0]])).dtype == np.int64
+    assert as_boxes([[5, 5, 5, 9]]).tolist() == [[5, 5, 5, 9]]  # empty, not inverted: no pixel
     assert as_boxes([]).shape == (0, 4)
 
 
@@ -33,6 +35,10 @@ def test_as_boxes_accepts_one_box_many_or_none():
         ([[1, 2, 3, 4, 5]], r"shape \(N, 4\).*got \(1, 5\)"),
         ([[0, 0, np.nan, 4]], "NaN or Inf coordinates"),
         ([[0, 0, np.inf, 4]], "NaN or Inf coordinates"),
+        ([[0, 0, 4, 4], [0.4, 0.6, 2.5, 3.5]],
+         r"box 1 \[0\.4, 0\.6, 2\.5, 3\.5\] has fractional pixel coordinates.*np\.floor"),
+        ([[20, 10, 10, 20]], r"box 0: inverted box \[20, 10, 10, 20\]: x_max must be >= x_min"),
+        ([[0, 0, 4, 4], [0, 9, 4, 3]], r"box 1: inverted box \[0, 9, 4, 3\]: y_max must be >= y_min"),
     ],
 )
 def test_as_boxes_errors(boxes, match):
@@ -151,3 +157,15 @@ def test_nms_matches_torchvision(rows, iou):
     ours_b = batched_nms(b, scores, cls, iou)
     ref_b = ops.batched_nms(torch.from_numpy(b), torch.from_numpy(scores), torch.from_numpy(cls), iou).numpy()
     np.testing.assert_array_equal(ours_b, ref_b)
+
+
+def test_metric_on_an_inverted_box_names_it_not_an_empty_region():
+    """``psnr(..., boxes=)`` used to drop an inverted box and report "no box has a pixel inside
+    the image"; a fractional box was rounded without a word."""
+    from dynaeval.metrics import psnr
+
+    img = np.zeros((32, 32, 3), np.float32)
+    with pytest.raises(InputError, match=r"inverted box \[20, 10, 10, 20\]"):
+        psnr(img, img + 0.1, boxes=[[20, 10, 10, 20]])
+    with pytest.raises(InputError, match="fractional pixel coordinates"):
+        psnr(img, img + 0.1, boxes=[[10.6, 10, 20, 20]])

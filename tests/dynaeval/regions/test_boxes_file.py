@@ -83,7 +83,11 @@ def test_frame_key():
         ({"cam00/1": [{"class": "person", "box": [0, 0, 1]}]}, r"'box' must be \[x_min"),
         ({"cam00/1": [{"class": "person", "box": [0, 0, 1.5, 2]}]}, "must be integers"),
         ({"cam00/1": [{"class": "person", "box": [0, 0, True, 2]}]}, "must be integers"),
-        ({"cam00/1": [{"class": "person", "box": [4, 0, 2, 2]}]}, r"record 0: 'box' \[4, 0, 2, 2\] is empty"),
+        ({"cam00/1": [{"class": "person", "box": [0, 0, 2.0, 2]}]}, r"integers \(whole pixels\).*round them outwards"),
+        ({"cam00/1": [{"class": "person", "box": [4, 0, 2, 2]}]},
+         r"frame 'cam00/1', record 0: inverted box \[4, 0, 2, 2\]: x_max must be >= x_min.*swap"),
+        ({"cam00/1": [{"class": "person", "box": [0, 5, 2, 2]}]}, r"inverted box \[0, 5, 2, 2\]: y_max must be >= y_min"),
+        ({"cam00/1": [{"class": "person", "box": [2, 0, 2, 2]}]}, r"record 0: 'box' \[2, 0, 2, 2\] is empty"),
         ({"cam00/1": [{"class": "person", "box": [0, 0, 2, 2], "id": "p1"}]}, "'id' must be an integer"),
         ({"cam00/1": [{"class": "person", "box": [0, 0, 2, 2], "visible": 1.5}]}, r"'visible' must be a number in \[0, 1\]"),
         ({"schema": "dynaeval/boxes/v9", "boxes": {}}, "unknown boxes schema"),
@@ -164,3 +168,37 @@ def test_write_without_overwrite_is_exclusive(tmp_path):
     assert out.read_text() == first
     write_boxes_file(out, {"cam/0000": []})  # default: replace
     assert read_boxes_file(out).boxes == {"cam/0000": []}
+
+
+@pytest.mark.parametrize(("box", "match"), [
+    ([226, 54, 206, 104], r"boxes\.json: frame 'cam07/0003', record 0: inverted box \[226, 54, 206, 104\]: "
+                          "x_max must be >= x_min"),
+    ([206.4, 54, 226, 104.6], r"boxes\.json: frame 'cam07/0003', record 0: 'box' coordinates must be integers"),
+])
+def test_bad_box_in_sample_boxes_file_is_exit_2_before_scoring(tmp_path, capsys, box, match):
+    """The sample scene's own boxes file with one box broken: exit 2 naming file, frame and box,
+    before any frame is read (no results file), instead of a null metric later."""
+    import re
+
+    from dynaeval.cli import main, sample_dir
+
+    root = sample_dir()
+    data = json.loads((root / "boxes.json").read_text())
+    data["cam07/0003"][0]["box"] = box
+    p = _write(tmp_path, data, "boxes.json")
+    out = tmp_path / "r.json"
+    code = main(["score", str(root / "pred"), str(root / "gt"), "--focus", f"boxes:{p}",
+                 "--no-lpips", "-q", "-o", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and re.search(match, err) and "Traceback" not in err
+    assert not out.exists()
+
+
+def test_files_the_generator_and_detect_write_still_load():
+    """The golden sample's boxes.json (the scene generator's, integer boxes) reads unchanged."""
+    from dynaeval.cli import sample_dir
+
+    bf = read_boxes_file(sample_dir() / "boxes.json")
+    raw = json.loads((sample_dir() / "boxes.json").read_text())
+    assert bf.boxes == raw and all(isinstance(v, int) for recs in raw.values()
+                                   for r in recs for v in r["box"])
