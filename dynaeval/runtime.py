@@ -267,8 +267,9 @@ def opencv_problem(needs_tvl1: bool = False) -> tuple[str, bool] | None:
                 f"but the cv2 at {getattr(cv2, '__file__', '?')} has none; "
                 f"{_opencv_state(dists)}; or use --flow dis"), True
     if mixed:
-        return (f"several OpenCV builds share one cv2 folder (--flow tvl1 would be refused); "
-                f"{_opencv_state(dists)}"), False
+        what = ("several OpenCV builds share one cv2 folder" if len(dists) > 1
+                else "this OpenCV is not the contrib build")
+        return f"{what} (--flow tvl1 would be refused); {_opencv_state(dists)}", False
     return None
 
 

@@ -255,6 +255,14 @@ def test_two_builds_without_tvl1_are_a_warning_not_an_error(monkeypatch):
     assert "several OpenCV builds share one cv2 folder" in note and runtime.OPENCV_REPAIR in note
 
 
+def test_one_build_without_contrib_is_named_as_such(monkeypatch):
+    install(monkeypatch, {"opencv-python-headless": "5.1.0.95"}, shadowed_cv2())
+    note = runtime.check_opencv(needs_tvl1=False)
+    assert note.startswith("this OpenCV is not the contrib build (--flow tvl1 would be refused)")
+    with pytest.raises(InputError, match=r"installed: opencv-python-headless 5\.1\.0\.95; "):
+        runtime.check_opencv(needs_tvl1=True)
+
+
 def test_a_cv2_that_does_not_import_is_refused_even_without_tvl1(monkeypatch):
     install(monkeypatch, {"opencv-python": "5.1.0.95"}, None)  # None in sys.modules: ImportError
     with pytest.raises(InputError, match=r"OpenCV \(cv2\) does not import .*installed: "
