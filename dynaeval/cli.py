@@ -566,11 +566,13 @@ def _run_leaderboard(args: argparse.Namespace) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``dynaeval`` command; returns the exit code."""
-    from dynaeval.runtime import keep_freed_memory
+    from dynaeval.runtime import check_opencv, keep_freed_memory
 
     args = build_parser().parse_args(argv)
     keep_freed_memory(getattr(args, "workers", 1) or 1)
     try:
+        if note := check_opencv(needs_tvl1=getattr(args, "flow", None) == "tvl1"):
+            print(f"dynaeval: warning: {note}", file=sys.stderr)
         if args.command == "score":
             return _run_score(args.pred, args.gt, args, overwrite=args.overwrite)
         if args.command == "merge":

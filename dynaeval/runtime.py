@@ -1,5 +1,5 @@
 """Runtime plumbing shared by every layer: devices, onnxruntime providers and sessions, OpenCV's
-threads, file hashes.
+threads and build (contrib or not), file hashes.
 
 **One meaning of** ``device="auto"``: *the GPU when the engine that will run can use one, else
 the CPU* — never an error. For torch that is ``"cuda"`` when ``torch.cuda.is_available()`` (and
@@ -208,6 +208,87 @@ def keep_freed_memory(workers: int = 1) -> bool:
     ok = bool(mallopt(m_mmap_threshold, MMAP_THRESHOLD)) and bool(
         mallopt(m_trim_threshold, TRIM_THRESHOLD))
     return ok and (workers <= 1 or bool(mallopt(m_arena_max, 1)))
+
+
+OPENCV_DISTRIBUTIONS: tuple[str, ...] = (
+    "opencv-python", "opencv-python-headless", "opencv-contrib-python",
+    "opencv-contrib-python-headless")
+"""The four pip distributions that each install the same ``cv2`` folder: any two of them
+installed together overwrite each other's files (the last one installed wins)."""
+OPENCV_REPAIR = ("pip uninstall -y opencv-python opencv-python-headless && pip install "
+                 "--force-reinstall --no-deps opencv-contrib-python-headless")
+"""The command that leaves the one OpenCV build dynaeval depends on (uninstalling a build removes
+the shared files, so the contrib one is reinstalled after)."""
+
+
+def installed_opencv() -> dict[str, str]:
+    """``{distribution: version}`` of the OpenCV pip distributions installed (read from their
+    metadata with ``importlib.metadata``; ``cv2`` is not imported)."""
+    from importlib import metadata
+
+    found = {}
+    for name in OPENCV_DISTRIBUTIONS:
+        try:
+            found[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            continue
+    return found
+
+
+def has_tvl1(cv2: Any) -> bool:
+    """True when the imported module ``cv2`` has OpenCV-contrib's TV-L1 optical flow.
+
+    ``hasattr(cv2, "optflow")`` is not enough: a non-contrib build installed over the contrib one
+    leaves contrib's ``cv2/optflow/`` stub folder, which imports as an empty namespace package.
+    """
+    return hasattr(getattr(cv2, "optflow", None), "DualTVL1OpticalFlow_create")
+
+
+def opencv_problem(needs_tvl1: bool = False) -> tuple[str, bool] | None:
+    """What is wrong with the installed OpenCV, as ``(message, fatal)``; None when nothing is.
+
+    Cheap when healthy: only the distributions' metadata is read unless ``needs_tvl1`` or more
+    than one OpenCV distribution (or none with contrib) is installed; then ``cv2`` is imported
+    and probed with ``hasattr``. Fatal: ``cv2`` does not import, or ``needs_tvl1`` and this
+    ``cv2`` has no TV-L1. Not fatal (a warning): several builds share the ``cv2`` folder but
+    this run does not need contrib. The message names the installed distributions, ``cv2``'s
+    file and the repair command.
+    """
+    dists = installed_opencv()
+    mixed = len(dists) > 1 or (bool(dists) and not any("contrib" in d for d in dists))
+    if not (mixed or needs_tvl1):
+        return None
+    try:
+        import cv2
+    except ImportError as err:
+        return f"OpenCV (cv2) does not import ({err}); {_opencv_state(dists)}", True
+    if needs_tvl1 and not has_tvl1(cv2):
+        return (f"flow 'tvl1' (--flow tvl1) needs cv2.optflow.DualTVL1OpticalFlow_create from opencv-contrib, "
+                f"but the cv2 at {getattr(cv2, '__file__', '?')} has none; "
+                f"{_opencv_state(dists)}; or use --flow dis"), True
+    if mixed:
+        what = ("several OpenCV builds share one cv2 folder" if len(dists) > 1
+                else "this OpenCV is not the contrib build")
+        return f"{what} (--flow tvl1 would be refused); {_opencv_state(dists)}", False
+    return None
+
+
+def _opencv_state(dists: dict[str, str]) -> str:
+    names = ", ".join(f"{d} {v}" for d, v in dists.items()) or "no OpenCV pip distribution"
+    return (f"installed: {names}; dynaeval needs opencv-contrib-python-headless alone (e.g. "
+            f"'pip install ultralytics' adds opencv-python); repair: {OPENCV_REPAIR}")
+
+
+def check_opencv(needs_tvl1: bool = False) -> str | None:
+    """Raise InputError when the installed OpenCV cannot run this command (see
+    :func:`opencv_problem`); return the warning text when it can but is in a fragile state."""
+    problem = opencv_problem(needs_tvl1)
+    if problem is None:
+        return None
+    message, fatal = problem
+    if fatal:
+        raise InputError(message)
+    return message
 
 
 def file_sha256(path: str | Path) -> str:

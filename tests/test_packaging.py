@@ -108,6 +108,22 @@ def test_ci_runs_the_readme_test_command_which_installs_the_reference_models():
     assert "-e ./tools/reference-models" in test_command and (REFERENCE_PROJECT / "pyproject.toml").is_file()
 
 
+def test_the_readme_cpu_only_line_installs_the_torch_packages_of_the_lpips_extra():
+    # issue 32: the CUDA build is most of a 6.4 GiB venv; the README's CPU-only line must fetch
+    # every torch package the lpips extra needs from the CPU index, or pip takes it from PyPI
+    import tomllib
+
+    readme = (ROOT / "README.md").read_text()
+    index = "--index-url https://download.pytorch.org/whl/cpu"
+    (line,) = [c for c in readme.splitlines() if c.startswith("pip install ") and index in c]
+    first, then = line.split(" && ")
+    extra = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"][
+        "optional-dependencies"]["lpips"]
+    torch_family = {re.match(r"[a-z]+", r).group() for r in extra if r.startswith("torch")}
+    assert set(first.removeprefix("pip install ").removesuffix(f" {index}").split()) == torch_family
+    assert then == 'pip install -e ".[lpips]"'
+
+
 def _fake_repo(root: Path, name: str = "dynaeval") -> Path:
     (root / "docs").mkdir(parents=True)
     (root / "pyproject.toml").write_text(f'[project]\nname = "{name}"\n')

@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from dynaeval.errors import InputError, UndefinedMetricError
+from dynaeval.runtime import check_opencv, has_tvl1
 from dynaeval.validation import as_image
 
 FLOW_METHODS = ("dis", "farneback", "tvl1")
@@ -158,11 +159,8 @@ def _flow_from_gray(a: np.ndarray, b: np.ndarray, config: FlowConfig) -> np.ndar
             0,
         )
     else:
-        if not hasattr(cv2, "optflow"):
-            raise InputError(
-                "flow method 'tvl1' needs cv2.optflow from opencv-contrib; "
-                "install opencv-contrib-python-headless or use method 'dis'"
-            )
+        if not has_tvl1(cv2):
+            check_opencv(needs_tvl1=True)  # raises, naming the installed builds and the repair
         flow = cv2.optflow.DualTVL1OpticalFlow_create().calc(a, b, None)
     return np.ascontiguousarray(flow, dtype=np.float32)
 

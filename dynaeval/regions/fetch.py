@@ -34,6 +34,15 @@ EXPORT_HW = (720, 1280)
 dynamic, so any frame size runs."""
 YOLO_RELEASE = "https://github.com/ultralytics/assets/releases/download/v8.4.0"
 """Where Ultralytics' own loader downloads ``NAME.pt`` from (named in the offline message)."""
+ULTRALYTICS_INSTALL = ("pip install --no-deps ultralytics && "
+                       "pip install torch torchvision pyyaml requests onnx")
+"""The install line of the YOLO names. Not a plain ``pip install ultralytics``: that pulls
+``opencv-python``, whose files overwrite dynaeval's ``opencv-contrib-python-headless`` in the shared
+``cv2`` folder and take ``--flow tvl1`` away. Of ultralytics' other requirements, loading a
+``.pt`` and ``YOLO.export(format="onnx")`` need only pyyaml (its import), requests (the weights
+download) and onnx (the export); tried with ultralytics 8.4.190 (docs/regions.md)."""
+TORCHVISION_INSTALL = "pip install torch torchvision onnx"
+"""The install line of the torchvision names (onnx writes the class names into the export)."""
 
 
 @dataclass(frozen=True)
@@ -62,9 +71,9 @@ KNOWN: dict[str, KnownDetector] = {d.name: d for d in (
                   "FasterRCNN_MobileNet_V3_Large_FPN_Weights.COCO_V1",
                   "torchvision Faster R-CNN MobileNet-v3 large FPN, COCO (small, fast)"),
     KnownDetector("yolov8n", "ultralytics", "yolov8n.pt", None,
-                  "Ultralytics YOLOv8n, COCO (needs pip install ultralytics)"),
+                  f"Ultralytics YOLOv8n, COCO (needs: {ULTRALYTICS_INSTALL})"),
     KnownDetector("yolo11n", "ultralytics", "yolo11n.pt", None,
-                  "Ultralytics YOLO11n, COCO (needs pip install ultralytics)"),
+                  f"Ultralytics YOLO11n, COCO (needs: {ULTRALYTICS_INSTALL})"),
 )}
 """Name -> what ``fetch`` builds."""
 
@@ -207,15 +216,19 @@ def _common_record(spec: KnownDetector, onnx: Path, pretrained: bool) -> dict[st
 
 
 def _import(names: str, what: str):  # noqa: ANN202
-    """Import torch + torchvision (or ultralytics), or InputError saying what to install."""
+    """Import torch + torchvision (or ultralytics, or onnx), or InputError saying what to install."""
     import importlib
 
     try:
         return [importlib.import_module(n) for n in names.split()]
     except ImportError as err:
-        raise InputError(f"fetching {what} needs {err.name}: pip install "
-                         f"{'ultralytics' if 'ultralytics' in names else 'torch torchvision'}"
-                         " (dynaeval only needs it to fetch; scoring runs the ONNX file)") from err
+        raise _missing(err, what, ULTRALYTICS_INSTALL if "ultralytics" in names
+                       else TORCHVISION_INSTALL) from err
+
+
+def _missing(err: ImportError, what: str, install: str) -> InputError:
+    return InputError(f"fetching {what} needs the {err.name} package: {install} (dynaeval only "
+                      "needs it to fetch; scoring runs the ONNX file)")
 
 
 def torchvision_model(spec: KnownDetector, pretrained: bool, **kwargs: Any):  # noqa: ANN201
@@ -328,6 +341,8 @@ def _export_ultralytics(spec: KnownDetector, out: Path, folder: Path, pretrained
     if pretrained:
         try:
             model = ultralytics.YOLO(str(pt))  # its own loader downloads to this path
+        except ImportError as err:  # installed with --no-deps, without requests
+            raise _missing(err, spec.name, ULTRALYTICS_INSTALL) from err
         except Exception as err:  # offline: Ultralytics raises several kinds
             raise InputError(
                 f"could not download the weights of {spec.name!r} ({type(err).__name__}: {err}). "
@@ -346,6 +361,8 @@ def _export_ultralytics(spec: KnownDetector, out: Path, folder: Path, pretrained
     try:
         exported = model.export(**{k: v for k, v in settings.items()
                                    if k not in ("exporter", "model_hook")})
+    except ImportError as err:  # onnx missing and Ultralytics' own pip run off or offline
+        raise _missing(err, spec.name, ULTRALYTICS_INSTALL) from err
     finally:
         os.chdir(cwd)
     os.replace(work / exported, out)

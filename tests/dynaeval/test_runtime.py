@@ -23,6 +23,8 @@ from dynaeval.runtime import (
     worker_opencv_threads,
 )
 
+from .opencv_fakes import MIXED, install, shadowed_cv2
+
 ort = pytest.importorskip("onnxruntime")
 
 
@@ -206,3 +208,68 @@ def test_without_a_writable_cache_the_loops_are_compiled_per_process(monkeypatch
         return 2 * x
 
     assert runtime.compiled(double)(21) == 42
+
+
+# ------------------------------------------------------------------ which OpenCV is installed
+
+
+def test_this_venv_has_the_contrib_build_alone_and_tv_l1():
+    import cv2
+
+    assert list(runtime.installed_opencv()) == ["opencv-contrib-python-headless"]
+    assert runtime.has_tvl1(cv2)
+    assert runtime.opencv_problem(needs_tvl1=True) is None
+    assert runtime.check_opencv(needs_tvl1=True) is None
+
+
+def test_installed_opencv_reads_the_four_distributions_metadata(monkeypatch):
+    from importlib import metadata
+
+    def version(name):
+        if name in MIXED:
+            return MIXED[name]
+        raise metadata.PackageNotFoundError(name)
+
+    monkeypatch.setattr(metadata, "version", version)
+    assert runtime.installed_opencv() == MIXED
+
+
+def test_an_empty_optflow_namespace_is_not_tv_l1():
+    # a non-contrib build over the contrib one leaves cv2/optflow/ (stubs): hasattr(cv2, "optflow")
+    assert not runtime.has_tvl1(shadowed_cv2()) and hasattr(shadowed_cv2(), "optflow")
+
+
+def test_tvl1_on_a_shadowed_cv2_is_refused_naming_the_builds_and_the_repair(monkeypatch):
+    install(monkeypatch, MIXED, shadowed_cv2())
+    with pytest.raises(InputError, match=r"flow 'tvl1' .*needs cv2\.optflow\.DualTVL1OpticalFlow_"
+                       r"create.*installed: opencv-python 5\.1\.0\.95, opencv-contrib-python-"
+                       r"headless 5\.1\.0\.95.*repair: pip uninstall -y opencv-python "
+                       r"opencv-python-headless && pip install --force-reinstall --no-deps "
+                       r"opencv-contrib-python-headless"):
+        runtime.check_opencv(needs_tvl1=True)
+
+
+def test_two_builds_without_tvl1_are_a_warning_not_an_error(monkeypatch):
+    install(monkeypatch, MIXED, shadowed_cv2())
+    note = runtime.check_opencv(needs_tvl1=False)
+    assert "several OpenCV builds share one cv2 folder" in note and runtime.OPENCV_REPAIR in note
+
+
+def test_one_build_without_contrib_is_named_as_such(monkeypatch):
+    install(monkeypatch, {"opencv-python-headless": "5.1.0.95"}, shadowed_cv2())
+    note = runtime.check_opencv(needs_tvl1=False)
+    assert note.startswith("this OpenCV is not the contrib build (--flow tvl1 would be refused)")
+    with pytest.raises(InputError, match=r"installed: opencv-python-headless 5\.1\.0\.95; "):
+        runtime.check_opencv(needs_tvl1=True)
+
+
+def test_a_cv2_that_does_not_import_is_refused_even_without_tvl1(monkeypatch):
+    install(monkeypatch, {"opencv-python": "5.1.0.95"}, None)  # None in sys.modules: ImportError
+    with pytest.raises(InputError, match=r"OpenCV \(cv2\) does not import .*installed: "
+                                         r"opencv-python 5\.1\.0\.95.*repair: pip uninstall"):
+        runtime.check_opencv(needs_tvl1=False)
+
+
+def test_a_healthy_install_is_probed_without_importing_cv2(monkeypatch):
+    install(monkeypatch, {"opencv-contrib-python-headless": "5.1.0.95"}, None)
+    assert runtime.check_opencv(needs_tvl1=False) is None  # cv2 would not import: not tried

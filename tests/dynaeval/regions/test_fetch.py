@@ -5,6 +5,9 @@ every failure is one exit-2 message that says what to do."""
 from __future__ import annotations
 
 import json
+import sys
+import types
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -279,7 +282,9 @@ def test_fetch_without_the_library_says_what_to_install(cache, monkeypatch, caps
     monkeypatch.setattr("importlib.import_module", lambda n: no_ultralytics(n))
     assert main(["detector", "fetch", "yolo11n"]) == 2
     err = capsys.readouterr().err
-    assert "pip install ultralytics" in err and err.count("\n") == 1
+    assert err.count("\n") == 1 and ("needs the ultralytics package: pip install --no-deps "
+                                      "ultralytics && pip install torch torchvision pyyaml "
+                                      "requests onnx") in err
 
 
 def test_fetch_refuses_to_overwrite(cache, capsys):
@@ -293,3 +298,59 @@ def test_detector_list_cli(cache, capsys):
     assert main(["detector", "list"]) == 0
     out = capsys.readouterr().out
     assert str(cache) in out and "retinanet" in out and "not fetched" in out
+
+
+def test_the_yolo_install_line_keeps_opencv_python_out_and_is_the_documented_one(cache, capsys):
+    # a plain 'pip install ultralytics' pulls opencv-python over dynaeval's contrib build and
+    # takes --flow tvl1 away (issue 32): the line installs ultralytics without its dependencies
+    line = fetch.ULTRALYTICS_INSTALL
+    assert line.startswith("pip install --no-deps ultralytics && pip install ")
+    assert "opencv" not in line
+    docs = (Path(__file__).parents[3] / "docs" / "regions.md").read_text()
+    assert f"```bash\n{line}\n```" in docs
+    assert main(["detector", "list"]) == 0
+    listed = [r for r in capsys.readouterr().out.splitlines() if "Ultralytics" in r]
+    assert len(listed) == 2 and all(r.endswith(f"(needs: {line})") for r in listed)
+
+
+def _fake_ultralytics(monkeypatch, *, load=None, export=None):
+    """An ``ultralytics`` module whose ``YOLO(...)`` raises ``load`` and whose export raises
+    ``export`` (what a --no-deps install without requests or onnx does)."""
+
+    class YOLO:
+        def __init__(self, source):
+            if load is not None:
+                raise load
+            self.model, self.names = None, {}
+
+        def export(self, **kwargs):
+            raise export
+
+    monkeypatch.setitem(sys.modules, "ultralytics", types.SimpleNamespace(YOLO=YOLO,
+                                                                            __version__="0"))
+
+
+def test_yolo_weights_without_requests_name_the_package_not_the_network(cache, monkeypatch,
+                                                                        capsys):
+    _fake_ultralytics(monkeypatch, load=ModuleNotFoundError("No module named 'requests'",
+                                                            name="requests"))
+    assert main(["detector", "fetch", "yolov8n"]) == 2
+    err = capsys.readouterr().err
+    assert "fetching yolov8n needs the requests package: pip install --no-deps ultralytics" in err
+    assert "could not download" not in err and not (cache / "yolov8n.onnx").exists()
+
+
+def test_yolo_export_without_onnx_is_an_input_error(cache, monkeypatch):
+    _fake_ultralytics(monkeypatch, export=ModuleNotFoundError("No module named 'onnx'",
+                                                              name="onnx"))
+    with pytest.raises(InputError, match=r"fetching yolo11n needs the onnx package: pip install "
+                                         r"--no-deps ultralytics && pip install .*onnx"):
+        fetch.fetch("yolo11n", pretrained=False)
+    assert list((cache / "weights").iterdir()) == []
+
+
+def test_torchvision_export_without_onnx_says_to_install_it(monkeypatch, tmp_path):
+    monkeypatch.setitem(sys.modules, "onnx", None)  # import onnx raises ImportError
+    with pytest.raises(InputError, match=r"needs the onnx package: pip install torch torchvision "
+                                         r"onnx \(dynaeval only needs it to fetch"):
+        fetch.write_onnx_metadata(tmp_path / "m.onnx", {"names": "{}"})
