@@ -59,9 +59,12 @@ class ScoreConfig:
     ``black``."""
     allow_missing: bool = False
     """Score the frames present when a camera misses some predictions (else an error)."""
-    focus: FocusConfig = field(default_factory=FocusConfig)
-    """Regions for ``focused_*`` and ``masked_*`` metrics (``FocusConfig.parse`` reads the CLI
-    form). Default: the shipped detector's boxes, expanded as in the seed study, and motion masks."""
+    focus: FocusConfig | str = field(default_factory=FocusConfig)
+    """Regions for ``focused_*`` and ``masked_*`` metrics: a ``FocusConfig``, or the CLI's string
+    (``"detector"``, ``"motion"``, ``"none"``, ``"boxes:FILE"``), read as ``--focus`` reads it
+    (``FocusConfig.parse``, the other focus settings at their defaults, the detector on
+    ``device``). Default: the shipped detector's boxes, expanded as in the seed study, and
+    motion masks."""
     presence: bool = True
     """Decide per ground-truth object whether the prediction shows it: ``presence_person``,
     ``presence_ball``, ``tight_psnr_*`` and ``objects`` per frame (``dynaeval.metrics.presence``).
@@ -133,8 +136,11 @@ class ScoreConfig:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < low:
                 raise InputError(f"{name} must be an integer >= {low}, got {value!r}")
+        if isinstance(self.focus, str):  # the CLI's form, read as the CLI reads it
+            self.focus = FocusConfig.parse(self.focus, option="focus", device=self.device)
         if not isinstance(self.focus, FocusConfig):
-            raise InputError(f"focus must be a FocusConfig, got {type(self.focus).__name__}")
+            raise InputError(f"focus must be a FocusConfig or one of the CLI's strings detector, "
+                             f"motion, none, boxes:FILE, got {type(self.focus).__name__}")
         _check_choice("focus source", self.focus.source, FOCUS_SOURCES)
         from dynaeval.metrics.flow import FlowConfig
         from dynaeval.metrics.protocols import check_background, check_lpips_net, get_protocol

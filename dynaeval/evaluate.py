@@ -77,7 +77,8 @@ def score(
         gt_dir: ground truth in the same layout; frames are paired by relative path with the
             extension ignored (``dynaeval.io.frames`` gives the rules).
         config: settings (default ``ScoreConfig()``, the CLI's defaults); keyword
-            ``overrides`` replace its fields (``score(p, g, workers=2)``).
+            ``overrides`` replace its fields (``score(p, g, workers=2)``); ``focus`` takes the
+            CLI's strings too (``score(p, g, focus="motion")`` is ``--focus motion``).
         on_regions: called once per camera, before its frames are scored, with the camera name,
             its pairs and their regions (``FrameRegions``, same order): how a report keeps the
             boxes and masks it draws without ``score`` holding every camera's masks.

@@ -34,6 +34,7 @@ from dynaeval.metrics.registry import (
 )
 from dynaeval.regions.focus import FrameRegions
 from dynaeval.report.results import INFINITE_MARK
+from dynaeval.validation import values_known_in
 
 PresenceStep = Callable[[FramePair, np.ndarray, np.ndarray, FrameRegions],
                         tuple[dict[str, float | None], dict[str, str], list[dict]]]
@@ -288,12 +289,13 @@ def _score_frame(pair: FramePair, regions: FrameRegions, run: Run,
         regions = with_weights(regions, pair.gt.path, run.masks)
     row: dict[str, Any] = {"camera": pair.camera, "frame": pair.frame, "index": pair.index,
                            "pred": str(pair.pred), "gt": str(pair.gt)}
-    values = _metric_values(pair, pred, gt, regions, run, elapsed)
-    if run.presence is not None:
-        t0 = time.perf_counter()
-        found, reasons, row["objects"] = run.presence(pair, pred, gt, regions)
-        values.extend((name, v, reasons.get(name)) for name, v in found.items())
-        elapsed["presence"] = time.perf_counter() - t0
+    with values_known_in(1.0):  # read by dynaeval.io.images: in [0, 1], no range pass per metric
+        values = _metric_values(pair, pred, gt, regions, run, elapsed)
+        if run.presence is not None:
+            t0 = time.perf_counter()
+            found, reasons, row["objects"] = run.presence(pair, pred, gt, regions)
+            values.extend((name, v, reasons.get(name)) for name, v in found.items())
+            elapsed["presence"] = time.perf_counter() - t0
     warnings: list[dict] = []
     for name, value, reason in values:
         if value is None:

@@ -29,16 +29,13 @@ from pathlib import Path
 import numpy as np
 
 from dynaeval.errors import InputError
-from dynaeval.validation import as_image
+from dynaeval.validation import FLOAT_TOLERANCE, as_image
 
 IMAGE_EXTENSIONS = frozenset(
     {".png", ".jpg", ".jpeg", ".tif", ".tiff", ".exr", ".webp", ".bmp"}
 )
 
 BACKGROUNDS = {"white": 1.0, "black": 0.0}
-
-FLOAT_TOLERANCE = 1e-3
-"""Float pixels this far outside [0, 1] are clipped (rounding); further out is an InputError."""
 
 DECODES = ("dynaeval", "pil")
 """How 16-bit PNGs are mapped to [0, 1] (module docstring)."""

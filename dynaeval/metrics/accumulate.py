@@ -33,7 +33,15 @@ from dynaeval.metrics.registry import (
     region_argument,
     spec,
 )
-from dynaeval.validation import check_finite_image, check_unit_range, is_torch_tensor, to_numpy
+from dynaeval.validation import (
+    channel_first_hint,
+    check_finite_image,
+    check_pair,
+    check_unit_range,
+    is_torch_tensor,
+    to_numpy,
+    values_known_in,
+)
 
 SUPPORTED = tuple(s.name for s in frame_specs())
 """Names ``ImageMetrics`` accepts: every per-frame metric of the registry."""
@@ -43,7 +51,8 @@ def _images(x: Any, name: str) -> list[np.ndarray]:
     """A batch as a list of (H, W, C) float arrays.
 
     Torch tensors: (B, C, H, W) or (C, H, W), channel first, C in {1, 3}; numpy arrays:
-    (B, H, W, C), (H, W, C) or (H, W), channel last.
+    (B, H, W, C), (H, W, C) or (H, W), channel last. Dtypes are kept (floats as float32) for
+    ``check_pair``'s range rule: integers are never read as [0, 1].
     """
     if is_torch_tensor(x):
         shape = tuple(x.shape)
@@ -54,11 +63,16 @@ def _images(x: Any, name: str) -> list[np.ndarray]:
                 f"{name}: torch tensors must be (B, C, H, W) or (C, H, W) with C = 1 or 3, got shape "
                 f"{shape}; a channel-last (B, H, W, C) tensor needs .permute(0, 3, 1, 2)"
             )
-        arr = x.detach().float().cpu().numpy().transpose(0, 2, 3, 1)
+        t = x.detach()
+        arr = (t.float() if t.is_floating_point() else t).cpu().numpy().transpose(0, 2, 3, 1)
         return list(arr)
     arr = np.asarray(x)
     if arr.ndim in (2, 3):
         return [arr]
+    if arr.ndim == 4 and channel_first_hint(arr.shape) is not None:
+        raise InputError(f"{name}: numpy batches are channel-last (B, H, W, C), got shape "
+                         f"{arr.shape}, which looks channel-first (B, C, H, W): pass "
+                         "np.moveaxis(x, 1, -1), or a torch tensor (taken as (B, C, H, W))")
     if arr.ndim == 4:
         return list(arr)
     raise InputError(f"{name}: numpy images must be (B, H, W, C), (H, W, C) or (H, W), got shape "
@@ -194,7 +208,8 @@ class ImageMetrics:
 
         Args:
             pred, gt: torch tensors (B, C, H, W) / (C, H, W) on any device, or numpy arrays
-                (B, H, W, C) / (H, W, C) / (H, W); float in [0, data_range]; equal shapes.
+                (B, H, W, C) / (H, W, C) / (H, W); float in [0, data_range], or integers with
+                ``data_range`` set (255 for uint8); equal shapes.
             mask: with ``masked=True`` only (and then required): one mask per image, (B, H, W),
                 (B, 1, H, W) or (H, W), bool or weights in [0, 1], numpy or torch.
 
@@ -202,16 +217,22 @@ class ImageMetrics:
             This batch's per-image values, per result key.
 
         Raises:
-            InputError: shapes differ or are not images, NaN/Inf pixels, LPIPS input outside
-                [0, 1], a mask missing, given without ``masked=True``, or not of the images'
-                size. Nothing is kept from a batch that raised.
+            InputError: shapes differ or are not images (a channel-first numpy batch), values
+                outside [0, data_range] (0..255 images with data_range=1: pass data_range=255
+                or x / 255; under a protocol that clips, integers only), NaN/Inf pixels,
+                LPIPS input outside [0, 1], a mask missing, given without ``masked=True``, or
+                not of the images' size. Nothing is kept from a batch that raised.
             WeightsUnavailableError: LPIPS asked for and its backbone weights are absent.
         """
-        from dynaeval.metrics.pixel import quantize
-
         preds, gts = _images(pred, "pred"), _images(gt, "gt")
         if len(preds) != len(gts):
             raise InputError(f"pred has {len(preds)} images but gt has {len(gts)}")
+        # every image checked once (shape, layout, values in [0, data_range]) before any is
+        # scored; a protocol that clips (or quantises: clips, then 8 bit) takes floats outside
+        clipped = self.protocol.clip or self.protocol.quantize != "none"
+        checked = [check_pair(p, g, data_range=self.data_range, clipped=clipped)
+                   for p, g in zip(preds, gts, strict=True)]
+        preds, gts = [p for p, _ in checked], [g for _, g in checked]
         if mask is not None and not self.masked:
             raise InputError("a mask was given to an ImageMetrics made without masked=True")
         weights = (_masks(mask, len(gts), gts[0].shape[:2]) if self.masked
@@ -220,6 +241,18 @@ class ImageMetrics:
         if device is None and is_torch_tensor(pred):
             device = pred.device
         fns = self._functions(device)
+        with values_known_in(self.data_range):
+            batch = self._score_batch(fns, preds, gts, weights)
+        for k, vals in batch.items():
+            self._values[k].extend(vals)
+        self._count += len(gts)
+        return batch
+
+    def _score_batch(self, fns: dict[str, FrameFn], preds: list[np.ndarray],
+                     gts: list[np.ndarray], weights: list) -> dict[str, list[float | None]]:
+        """Every kept value of checked images, per result key."""
+        from dynaeval.metrics.pixel import quantize
+
         batch: dict[str, list[float | None]] = {k: [] for k, _, _ in self.keys}
         for p, g, w in zip(preds, gts, weights, strict=True):
             if self.protocol.quantize != "none":
@@ -228,9 +261,6 @@ class ImageMetrics:
             for key, m, region in self.keys:
                 batch[key].append(self._value(fns[m], p, g, region_argument(
                     region, key, self.protocol, regions), region))
-        for k, vals in batch.items():
-            self._values[k].extend(vals)
-        self._count += len(gts)
         return batch
 
     @staticmethod

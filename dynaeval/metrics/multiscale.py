@@ -75,9 +75,12 @@ def ms_ssim(pred: object, gt: object, *, data_range: float = 1.0, clip: bool = F
     """MS-SSIM of one image pair, torchmetrics 1.9's definition (module docstring), in float64.
 
     Args:
-        pred, gt: (H, W) or (H, W, C) arrays/tensors in [0, data_range], H, W >= 176.
+        pred, gt: (H, W) or (H, W, C) arrays/tensors in [0, data_range], channel last,
+            H, W >= 176; values outside [0, data_range] are refused (unless ``clip``).
         data_range: L in ``C1 = (0.01 L)^2``, ``C2 = (0.03 L)^2`` (K-Planes: 1).
-        clip: clip both images to [0, 1] first (the kplanes and nerfbaselines protocols).
+        clip: clip both images to [0, 1] first (the kplanes and nerfbaselines protocols): float
+            values outside are then expected and not refused (integers still are, with
+            ``data_range <= 1``).
 
     Returns:
         MS-SSIM in [0, 1] (1 for identical images), a Python float.
@@ -86,7 +89,7 @@ def ms_ssim(pred: object, gt: object, *, data_range: float = 1.0, clip: bool = F
         InputError: bad shapes or values. UndefinedMetricError: an image under 176 x 176 pixels.
     """
     data_range = check_data_range(data_range)
-    p, g = check_pair(pred, gt)
+    p, g = check_pair(pred, gt, data_range=data_range, clipped=clip)
     x = (p[..., None] if p.ndim == 2 else p).astype(np.float64)
     y = (g[..., None] if g.ndim == 2 else g).astype(np.float64)
     if clip:

@@ -73,7 +73,8 @@ def _sse_numpy(a: np.ndarray, b: np.ndarray) -> float:
 
 
 def squared_error_stats(
-    pred: object, gt: object, *, mask: object = None, boxes: object = None
+    pred: object, gt: object, *, mask: object = None, boxes: object = None,
+    data_range: float | None = None,
 ) -> SquaredErrorStats:
     """Sum of squared errors and the number of values over the whole image or a region.
 
@@ -82,34 +83,38 @@ def squared_error_stats(
         mask: optional bool (H, W): only these pixels count (all channels).
         boxes: optional (N, 4) ``[x_min, y_min, x_max, y_max]`` (max exclusive); their union
             counts, each pixel once. Not together with ``mask``.
+        data_range: when given, both images must hold values in [0, data_range]
+            (``dynaeval.validation.check_value_range``); None: any values.
 
     Returns:
         ``SquaredErrorStats(sse, count)``, sse in squared data units (float64), count = pixels x C.
 
     Raises:
-        InputError (shapes, NaN/Inf), EmptyRegionError (region with no pixel).
+        InputError (shapes, NaN/Inf, values outside [0, data_range]), EmptyRegionError (region
+        with no pixel).
     """
-    p, g = check_pair(pred, gt, finite=False)
+    # NaN/Inf anywhere are an error, also outside the region; the whole frame checks them only
+    # when its sum is not finite (saves a pass)
+    region = mask is not None or boxes is not None
+    p, g = check_pair(pred, gt, data_range=data_range, finite=region)
     h, w = p.shape[:2]
     channels = 1 if p.ndim == 2 else p.shape[2]
     if boxes is not None and mask is None:
         # the union of the boxes as disjoint rectangles: each pixel once, only the boxes are read
-        check_finite(p, g)  # also outside the region: bad pixels are an error wherever they are
         rects = disjoint_rectangles(clipped_boxes(boxes, h, w))
         sse = sum(_sse(p[y0:y1, x0:x1], g[y0:y1, x0:x1]) for x0, y0, x1, y1 in rects)
         count = sum(int((x1 - x0) * (y1 - y0)) for x0, y0, x1, y1 in rects)
         return SquaredErrorStats(float(sse), count * channels)
     m = region_mask(mask, boxes, h, w)
     if m is None:
-        # a NaN/Inf anywhere makes the sum non-finite: check the pixels only then (saves a pass)
         sse = _sse(p, g)
         if not math.isfinite(sse):
             check_finite(p, g)
             raise InputError(
-                "the squared error overflows float64: values far outside [0, data_range]?"
+                "the squared error overflows float64 (values of 1e154 and more): scale the "
+                "images and data_range down"
             )
         return SquaredErrorStats(sse, p.size)
-    check_finite(p, g)
     # only the mask's bounding box is read
     rows = np.flatnonzero(m.any(axis=1))
     cols = np.flatnonzero(m.any(axis=0))
@@ -165,8 +170,10 @@ def psnr(
     """Peak signal-to-noise ratio in dB, over the whole image, a mask, or the union of boxes.
 
     Args:
-        pred, gt: (H, W) or (H, W, C) numpy arrays or torch tensors of equal shape; float in
-            [0, data_range] (float16 is upcast) or integers with ``data_range`` set (255 for uint8).
+        pred, gt: (H, W) or (H, W, C) numpy arrays or torch tensors of equal shape, channel
+            last; float in [0, data_range] (float16 is upcast) or integers with ``data_range``
+            set (255 for uint8). Values outside [0, data_range] (beyond a 1e-3 * data_range
+            rounding tolerance) and integers with ``data_range <= 1`` are refused.
         data_range: peak value L, explicit (never inferred from the pixels).
         mask: optional bool (H, W): PSNR of the masked pixels alone (MSE divided by the mask's
             pixel count, never by the frame's).
@@ -177,10 +184,12 @@ def psnr(
         ``10 * log10(L**2 / MSE)`` in dB as a Python float; ``math.inf`` for identical images.
 
     Raises:
-        InputError: shapes differ, NaN/Inf pixels, bad mask/boxes/data_range.
+        InputError: shapes differ, channel-first layout, values outside [0, data_range] (e.g.
+            uint8 with data_range=1), NaN/Inf pixels, bad mask/boxes/data_range.
         EmptyRegionError: the mask or boxes hold no pixel.
     """
-    return psnr_from_stats(squared_error_stats(pred, gt, mask=mask, boxes=boxes), data_range=data_range)
+    stats = squared_error_stats(pred, gt, mask=mask, boxes=boxes, data_range=data_range)
+    return psnr_from_stats(stats, data_range=data_range)
 
 
 QUANTIZE_MODES = ("none", "round", "truncate")

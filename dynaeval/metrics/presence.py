@@ -36,7 +36,8 @@ by ``focused_*``, grown by ``PresenceConfig.margin`` pixels and clipped to the i
 
 An object is ``present`` when it passes the region test and, if the detector test ran, that too.
 
-Images are ``(H, W)`` or ``(H, W, C)`` float in ``[0, data_range]`` (integers are upcast); boxes
+Images are ``(H, W)`` or ``(H, W, C)`` float in ``[0, data_range]`` (integers are upcast; values
+outside the range are refused, ``dynaeval.validation``'s range rule); boxes
 ``[x_min, y_min, x_max, y_max]`` int pixels, max exclusive (``dynaeval.boxes``).
 """
 
@@ -53,7 +54,7 @@ from dynaeval.boxes import as_boxes, box_iou_matrix, boxes_to_mask, clip_boxes
 from dynaeval.errors import InputError
 from dynaeval.metrics.pixel import psnr as _psnr
 from dynaeval.metrics.registry import PRESENCE_CLASSES, keys_of, result_key
-from dynaeval.validation import check_data_range, check_pair
+from dynaeval.validation import check_data_range, check_pair, values_known_in
 
 PRESENCE_METRICS = tuple(keys_of("object"))
 """Result keys of the presence check (``presence_<class>``, ``tight_psnr_<class>``), from the
@@ -248,7 +249,7 @@ def crop_similarity(
     """
     from dynaeval.metrics.pixel import SquaredErrorStats, psnr_from_stats
 
-    p, g = check_pair(pred, gt)
+    p, g = check_pair(pred, gt, data_range=data_range)
     h, w = p.shape[:2]
     b = clip_boxes(box, h, w)
     if len(b) != 1 or not np.array_equal(b[0], as_boxes(box)[0]):
@@ -311,7 +312,7 @@ def visibility(
         or None when undefined: no margin ring (the box is the object's box), or the object's
         summed contrast is below ``min_contrast`` or ``min_snr``.
     """
-    p, g = check_pair(pred, gt)
+    p, g = check_pair(pred, gt, data_range=data_range)
     x0, y0, x1, y1 = (int(v) for v in as_boxes(box)[0])
     ix0, iy0, ix1, iy1 = (int(v) for v in as_boxes(inner)[0])
     gc = g[y0:y1, x0:x1].astype(np.float64)
@@ -409,10 +410,18 @@ def frame_presence(
         ``FramePresence`` (objects, ``presence_*`` and ``tight_psnr_*`` values, reasons).
 
     Raises:
-        InputError: bad images or records.
+        InputError: bad images (shapes, channel-first, values outside [0, data_range]) or
+            records.
     """
     cfg = config or PresenceConfig()
-    p, g = check_pair(pred, gt)
+    p, g = check_pair(pred, gt, data_range=cfg.data_range)
+    with values_known_in(cfg.data_range):  # checked once here, not again for every crop
+        return _presence_of(p, g, objects, detections, cfg)
+
+
+def _presence_of(p: np.ndarray, g: np.ndarray, objects: Iterable[Mapping[str, Any]],
+                 detections: Any, cfg: PresenceConfig) -> FramePresence:
+    """``frame_presence`` of checked images."""
     h, w = p.shape[:2]
     kept: list[dict[str, Any]] = []
     for i, rec in enumerate(objects):

@@ -283,7 +283,7 @@ def ssim_map(pred: object, gt: object, *, data_range: float = 1.0, threads: int 
         (H - 10, W - 10) float32 map, values in [-1, 1]; element ``[i, j]`` is the SSIM of the
         11x11 window centred at pixel ``(i + 5, j + 5)``. Its float64 mean is ``ssim(pred, gt)``.
     """
-    p, g = check_pair(pred, gt)
+    p, g = check_pair(pred, gt, data_range=data_range)
     _check_size(*p.shape[:2])
     return _valid_map(p, g, check_data_range(data_range), threads)
 
@@ -333,8 +333,10 @@ def ssim(
     """Structural similarity (Wang et al. 2004, Gaussian window 11, sigma 1.5), whole image or region.
 
     Args:
-        pred, gt: (H, W) or (H, W, C) numpy arrays or torch tensors of equal shape, H, W >= 11;
-            float in [0, data_range] (float16 upcast) or integers with ``data_range`` set.
+        pred, gt: (H, W) or (H, W, C) numpy arrays or torch tensors of equal shape, channel
+            last, H, W >= 11; float in [0, data_range] (float16 upcast) or integers with
+            ``data_range`` set (255 for uint8): values outside [0, data_range] (beyond a 1e-3 *
+            data_range rounding tolerance) and integers with ``data_range <= 1`` are refused.
         data_range: L (1.0 for float images in [0, 1], 255 for uint8), explicit.
         mask: optional bool (H, W): mean of the whole-image SSIM map over the masked pixels whose
             11x11 window fits in the image (windows centred in the mask; their pixels outside
@@ -354,13 +356,14 @@ def ssim(
         SSIM as a float in [-1, 1]; 1.0 for identical images.
 
     Raises:
-        InputError: shapes differ, NaN/Inf, bad mask/boxes/mode.
+        InputError: shapes differ, channel-first layout, values outside [0, data_range],
+            NaN/Inf, bad mask/boxes/mode.
         UndefinedMetricError: (an InputError) the image is smaller than 11x11.
         EmptyRegionError: the region holds no pixel (or none whose window fits, in map mode).
     """
     if region_mode is not None and region_mode not in REGION_MODES:
         raise InputError(f"region_mode must be one of {REGION_MODES} or None, got {region_mode!r}")
-    p, g = check_pair(pred, gt)
+    p, g = check_pair(pred, gt, data_range=data_range)
     h, w = p.shape[:2]
     _check_size(h, w)
     data_range = check_data_range(data_range)
@@ -380,7 +383,7 @@ def ssim_reference(pred: object, gt: object, *, data_range: float = 1.0) -> np.n
     Every 11x11 window is taken explicitly (no border handling needed: only windows inside the
     image). Returns the (H - 10, W - 10) float64 channel-mean map; ``.mean()`` is the SSIM.
     """
-    p, g = check_pair(pred, gt)
+    p, g = check_pair(pred, gt, data_range=data_range)
     _check_size(*p.shape[:2])
     data_range = check_data_range(data_range)
     x = p.astype(np.float64) if p.ndim == 3 else p.astype(np.float64)[..., None]

@@ -98,16 +98,24 @@ class FocusConfig:
         return DetectorConfig(model=self.detector_model, device=self.device, **extra, **kwargs)
 
     @staticmethod
-    def parse(spec: str, **kwargs: Any) -> FocusConfig:
-        """Build from the CLI form: ``detector``, ``motion``, ``none`` or ``boxes:FILE``."""
+    def parse(spec: str, *, option: str = "--focus", **kwargs: Any) -> FocusConfig:
+        """Build from the CLI form: ``detector``, ``motion``, ``none`` or ``boxes:FILE``.
+
+        ``option``: how messages name the setting (``"--focus"`` for the CLI, ``"focus"`` for
+        ``ScoreConfig(focus="motion")`` / ``dynaeval.score(..., focus="motion")``); ``kwargs``:
+        the other ``FocusConfig`` fields.
+        """
         if spec.startswith("boxes:"):
             path = spec[len("boxes:"):]
             if not path:
-                raise InputError("--focus boxes:FILE needs a file name after 'boxes:'")
+                raise InputError(f"{option} boxes:FILE needs a file name after 'boxes:'")
             return FocusConfig(source="boxes", boxes_file=path, **kwargs)
         if spec not in ("detector", "motion", "none"):
+            more = "" if option.startswith("-") else (
+                "; or a FocusConfig (dynaeval.regions.focus) to set expand, classes, "
+                "detector_model or masked as well")
             raise InputError(
-                f"--focus must be detector, motion, none or boxes:FILE, got {spec!r}"
+                f"{option} must be detector, motion, none or boxes:FILE, got {spec!r}{more}"
             )
         return FocusConfig(source=spec, **kwargs)
 

@@ -164,7 +164,11 @@ def test_channel_mismatch(tmp_path, scene):
     ("metrics", ("psnr", "fid"), r"unknown metric\(s\) \['fid'\]"),
     ("metrics", "psnr", "metrics must be a sequence of metric names"),
     ("shard", (3, 2), "needs 1 <= I <= N"),
-    ("focus", "motion", "focus must be a FocusConfig"),
+    ("focus", "moving", r"focus must be detector, motion, none or boxes:FILE, got 'moving'; "
+                        r"or a FocusConfig \(dynaeval.regions.focus\) to set expand"),
+    ("focus", "boxes:", "focus boxes:FILE needs a file name after 'boxes:'"),
+    ("focus", None, "focus must be a FocusConfig or one of the CLI's strings detector, motion, "
+                    "none, boxes:FILE, got NoneType"),
     ("metric_options", {"ssim": {"window": 7}}, "metric 'ssim' has no options"),
     ("metric_options", {"flip": {"observer": 1}}, "flip has no option 'observer'"),
     ("metric_options", {"flip": {"pixels_per_degree": "many"}}, "must be a float, got 'many'"),
@@ -458,3 +462,30 @@ def test_a_failing_camera_stops_the_others_and_its_error_is_raised(monkeypatch):
     with ThreadPoolExecutor(max_workers=2) as lanes, pytest.raises(InputError, match="0002.png"):
         _cameras_at_once(lanes, cams, run, None, progress)
     assert frames_of["b"] < 100  # stopped at its next frame, not run to its end
+
+
+@pytest.mark.parametrize("focus", ["detector", "motion", "none", "boxes:b.json"])
+@pytest.mark.parametrize("device", ["cpu", "auto"])
+def test_focus_strings_are_read_as_the_cli_reads_them(focus, device):
+    """Issue 32 item 12: score(focus="motion") was refused ("focus must be a FocusConfig")."""
+    from dynaeval.cli import build_parser, config_from_args
+
+    args = build_parser().parse_args(["score", "p", "g", "--focus", focus, "--device", device])
+    assert ScoreConfig(focus=focus, device=device) == config_from_args(args)
+
+
+def test_score_with_a_focus_string_gives_the_cli_numbers(tmp_path, scene):
+    from dynaeval.cli import main
+
+    pred_dir, gt_dir, _, _ = scene
+    res = dynaeval.score(pred_dir, gt_dir, metrics=("psnr", "ssim"), temporal=False,
+                         focus="motion", progress=False)
+    out = tmp_path / "cli.json"
+    code = main(["score", str(pred_dir), str(gt_dir), "--metrics", "psnr", "ssim", "--no-temporal",
+                 "--focus", "motion", "--quiet", "-o", str(out)])
+    cli = json.loads(out.read_text())
+    assert code == 0 and res["settings"]["focus"] == cli["settings"]["focus"]
+    keys = ("psnr", "focused_psnr", "masked_psnr", "ssim", "focused_ssim", "masked_ssim")
+    assert [[f.get(k) for k in keys] for f in res["frames"]] == [
+        [f.get(k) for k in keys] for f in cli["frames"]]
+    assert any(f.get("focused_psnr") is not None for f in cli["frames"])  # motion boxes found

@@ -231,3 +231,24 @@ def test_a_camera_without_any_box_says_which_frames(tmp_path):
              and w.get("metric") == "focused_warp_error"]
     assert any("4 of 4 frames have no box" in n and "no pair of consecutive frames has boxes in both" in n
                for n in notes), notes
+
+
+def test_frames_read_from_files_get_no_second_range_pass(tmp_path, monkeypatch):
+    """Issue 32 item 1: io.images checked the frames' range when it read them; the metrics do
+    not check it again per metric (values_known_in), unless the run's data_range is narrower."""
+    import dynaeval.validation as validation
+
+    rng = np.random.default_rng(1)
+    _write(tmp_path, [textured_frame(rng, 48, 64), textured_frame(rng, 48, 64)])
+    calls = []
+    real = validation.check_value_range
+    monkeypatch.setattr(validation, "check_value_range",
+                        lambda *a, **k: calls.append(a[1]) or real(*a, **k))
+    res = _score(tmp_path, metrics=("psnr", "ssim"), focus=FocusConfig(source="motion"),
+                 temporal=False)
+    assert all(f["psnr"] is not None and f["ssim"] is not None for f in res["frames"])
+    assert calls == []
+    with pytest.raises(InputError, match=r"psnr: pred holds values in \[[\d.]+, 1\], outside "
+                                         r"\[0, data_range\] = \[0, 0\.5\]"):
+        _score(tmp_path, metrics=("psnr",), focus=FocusConfig(source="none"), temporal=False,
+               data_range=0.5)

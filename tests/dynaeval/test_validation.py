@@ -129,3 +129,113 @@ def test_unit_u8_is_the_float32_division_bit_for_bit(shape, strided):
     got = unit_u8(arr)
     assert got.dtype == np.float32 and got.shape == arr.shape
     assert np.array_equal(got.view(np.uint32), want.view(np.uint32))
+
+
+# ---- the range rule with a data_range (issue 32, item 1) ---------------------------------------
+
+F255 = np.linspace(0.0, 255.0, 48).reshape(4, 4, 3)
+
+
+@pytest.mark.parametrize(
+    ("image", "data_range", "match"),
+    [
+        (U8, 1.0, r"pred is uint8 \(integer values, 0\.\.255\) but data_range is 1: integers are "
+                  r"never read as \[0, 1\]; pass data_range=255, or pred / 255 as float"),
+        (U8.astype(np.uint16), 0.5, r"pred is uint16 .* pass data_range=65535, or pred / 65535"),
+        (U8.astype(np.int64), 1.0, r"pred is int64 .* pass data_range=255, or pred / 255"),
+        (F255, 1.0, r"pred holds values in \[0, 255\], outside \[0, data_range\] = \[0, 1\]: "
+                    r"0\.\.255 values\? pass data_range=255, or x / 255"),
+        (F255 / 127.5 - 1.0, 1.0, r"values in \[-1, 1\], outside .* pass \(x \+ 1\) / 2"),
+        (np.full((2, 2), 1.5), 1.0, r"\[1\.5, 1\.5\], outside .* pass the data_range the images "
+                                    r"use \(data_range=255 for 0\.\.255 values\), or scale .*"
+                                    r"np\.clip\(x, 0, 1\)"),
+        (U8.astype(np.int16) - 10, 255.0, r"values in \[-10, 225\], outside \[0, data_range\] = "
+                                          r"\[0, 255\]"),
+        (U8.astype(np.uint16) * 2, 255.0, r"values in \[0, 470\], outside"),
+        (np.full((2, 2), 1.002), 1.0, r"outside \[0, data_range\]"),  # beyond the tolerance
+        (np.full((2, 2), -0.002), 1.0, r"outside \[0, data_range\]"),
+    ],
+)
+def test_values_outside_data_range_are_refused_with_the_fix(image, data_range, match):
+    with pytest.raises(InputError, match=match):
+        check_pair(image, np.zeros_like(image), data_range=data_range)
+
+
+def test_values_in_range_are_kept_as_they_are():
+    edge = np.array([[-5e-4, 1.0 + 5e-4]])  # a renderer's rounding: within FLOAT_TOLERANCE
+    p, _ = check_pair(edge, edge, data_range=1.0)
+    np.testing.assert_array_equal(p, edge)  # kept, not clipped
+    p, _ = check_pair(U8, U8, data_range=255)
+    np.testing.assert_array_equal(p, U8.astype(np.float32))
+    p, _ = check_pair(F255 / 255, F255 / 255, data_range=1)
+    assert p.max() == 1.0
+
+
+def test_the_range_pass_reports_nan_as_nan():
+    with pytest.raises(InputError, match="gt contains 1 NaN or Inf"):
+        check_pair(np.zeros((1, 2)), np.array([[0.0, np.nan]]), data_range=1.0)
+    with pytest.raises(InputError, match="pred contains 1 NaN or Inf"):
+        check_pair(np.array([[0.0, np.inf]]), np.zeros((1, 2)), data_range=1.0, finite=False)
+
+
+def test_values_known_in_skips_the_range_pass_in_its_thread_only():
+    import threading
+
+    from dynaeval.validation import values_known_in
+
+    big = np.full((2, 2), 0.8)
+    with values_known_in(1.0):
+        check_pair(big, big, data_range=1.0)  # known in [0, 1]: not checked again
+        with pytest.raises(InputError, match=r"outside \[0, data_range\] = \[0, 0\.5\]"):
+            check_pair(big, big, data_range=0.5)  # a narrower range is still checked
+        with pytest.raises(InputError, match="contains 1 NaN"):  # the finite check stays
+            check_pair(np.array([[np.nan, 0.0]]), big[:1], data_range=1.0)
+        errors = []
+
+        def other_thread():
+            try:
+                check_pair(F255, F255, data_range=1.0)
+            except InputError as err:
+                errors.append(err)
+
+        t = threading.Thread(target=other_thread)
+        t.start()
+        t.join()
+        assert len(errors) == 1  # another thread knows nothing of this block
+    with pytest.raises(InputError, match="outside"):
+        check_pair(F255, F255, data_range=1.0)  # and after the block it checks again
+
+
+# ---- the layout rule (issue 32, item 2) --------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("shape", "match"),
+    [
+        ((3, 20, 30), r"pred looks channel-first: shape \(3, 20, 30\) read as \(C, H, W\); .* "
+                      r"pass np\.moveaxis\(x, 0, -1\)"),
+        ((1, 20, 30), r"shape \(1, 20, 30\) read as \(C, H, W\)"),
+        ((4, 5, 6), r"shape \(4, 5, 6\) read as \(C, H, W\)"),
+        ((2, 3, 20, 30), r"pred looks like a channel-first batch: shape \(2, 3, 20, 30\) read as "
+                         r"\(B, C, H, W\); .* np\.moveaxis\(x\[i\], 0, -1\) for each image i, or "
+                         r"feed the batch to dynaeval\.metrics\.ImageMetrics"),
+    ],
+)
+def test_channel_first_images_are_refused_with_the_permute(shape, match):
+    with pytest.raises(InputError, match=match):
+        check_pair(np.zeros(shape), np.zeros(shape))
+
+
+def test_channel_first_tensors_are_told_to_permute():
+    torch = pytest.importorskip("torch")
+    with pytest.raises(InputError, match=r"\(3, 20, 30\) read as \(C, H, W\).* pass "
+                                         r"x\.permute\(1, 2, 0\)"):
+        as_image(torch.zeros(3, 20, 30), "pred", to_unit=False)
+    with pytest.raises(InputError, match=r"x\[i\]\.permute\(1, 2, 0\) for each image i"):
+        as_image(torch.zeros(2, 3, 20, 30), "pred")
+
+
+@pytest.mark.parametrize("shape", [(20, 30, 3), (20, 30, 4), (20, 30, 1), (3, 4, 3), (4, 4),
+                                   (3, 30), (20, 30, 5)])
+def test_channel_last_images_are_not_mistaken_for_channel_first(shape):
+    assert check_pair(np.zeros(shape), np.zeros(shape))[0].shape == shape

@@ -100,7 +100,8 @@ def test_reset_single_image_and_errors(rng):
     with pytest.raises(InputError, match="reports LPIPS with the alex backbone"):
         ImageMetrics(protocol="nerfstudio", lpips_net="vgg")
     with pytest.raises(InputError, match="LPIPS expects pred in"):
-        ImageMetrics(("lpips",), pretrained_backbone=False).update(np.full((32, 32, 3), 2.0), np.zeros((32, 32, 3)))
+        ImageMetrics(("lpips",), data_range=2.0, pretrained_backbone=False).update(
+            np.full((32, 32, 3), 2.0), np.zeros((32, 32, 3)))
     assert len(acc) == 0  # nothing kept from batches that raised
 
 
@@ -159,3 +160,53 @@ def test_masked_image_metrics_need_masks_of_the_images_size():
     assert got["masked_psnr"][1] is None and got["masked_psnr"][0] == pytest.approx(
         M.psnr(p[0], g[0], mask=m[0, 0]), abs=1e-6)
     assert im.compute()["masked_psnr"] == got["masked_psnr"][0] and len(im) == 2
+
+
+def _u8_batch(rng, n=2, shape=(24, 28, 3)):
+    a = rng.integers(0, 256, (n, *shape)).astype(np.uint8)
+    return a, np.clip(a.astype(int) + rng.integers(-20, 21, a.shape), 0, 255).astype(np.uint8)
+
+
+def test_0_255_batches_are_refused_at_data_range_1(rng):
+    """Issue 32: ImageMetrics(("psnr", "ssim")) fed uint8 or float x 255 gave psnr -16.2, ssim
+    0.61; nothing is kept from the batch."""
+    a, b = _u8_batch(rng)
+    acc = ImageMetrics(("psnr", "ssim"))
+    with pytest.raises(InputError, match=r"pred is uint8 .* pass data_range=255, or pred / 255"):
+        acc.update(a, b)  # numpy (B, H, W, C)
+    ta, tb = torch.from_numpy(a).permute(0, 3, 1, 2), torch.from_numpy(b).permute(0, 3, 1, 2)
+    with pytest.raises(InputError, match=r"pred is uint8 .* pass data_range=255"):
+        acc.update(ta, tb)  # torch (B, C, H, W) uint8: not read as float 0..255 either
+    with pytest.raises(InputError, match=r"pred holds values in \[0, 255\].* data_range=255"):
+        acc.update(ta.float(), tb.float())
+    with pytest.raises(InputError, match=r"gt holds values in \[0, 255\]"):
+        acc.update(ta.float() / 255, tb.float())  # the second image of a pair too
+    assert len(acc) == 0
+    acc255, acc1 = ImageMetrics(("psnr", "ssim"), data_range=255), ImageMetrics(("psnr", "ssim"))
+    acc255.update(ta, tb)
+    acc1.update(ta.float() / 255, tb.float() / 255)
+    for key, value in acc255.compute().items():
+        assert value == pytest.approx(acc1.compute()[key], abs=1e-6)
+
+
+def test_channel_first_numpy_batch_is_refused_with_the_moveaxis(rng):
+    a, b = _u8_batch(rng)
+    with pytest.raises(InputError, match=r"pred: numpy batches are channel-last \(B, H, W, C\), "
+                                         r"got shape \(2, 3, 24, 28\), which looks channel-first"
+                                         r".* np\.moveaxis\(x, 1, -1\)"):
+        ImageMetrics(("psnr",)).update(a.transpose(0, 3, 1, 2) / 255, b.transpose(0, 3, 1, 2) / 255)
+    with pytest.raises(InputError, match=r"pred looks channel-first: shape \(3, 24, 28\)"):
+        ImageMetrics(("psnr",)).update(a[0].transpose(2, 0, 1) / 255, b[0].transpose(2, 0, 1) / 255)
+
+
+def test_a_protocol_that_clips_takes_overshooting_floats_but_not_uint8(rng):
+    a, b = _u8_batch(rng)
+    over = a[0] / 250.0  # up to 1.02: NeRFBaselines clips it, as its own code does
+    acc = ImageMetrics(("psnr",), protocol="nerfbaselines")
+    got = acc.update(over, b[0] / 255)["psnr"][0]
+    assert got == pytest.approx(ImageMetrics(("psnr",), protocol="nerfbaselines").update(
+        np.clip(over, 0, 1), b[0] / 255)["psnr"][0], abs=1e-9)
+    with pytest.raises(InputError, match=r"pred holds values in \[0, 1\.02\]"):
+        ImageMetrics(("psnr",)).update(over, b[0] / 255)  # dynaeval's protocol does not clip
+    with pytest.raises(InputError, match=r"pred is uint8 .* pass data_range=255"):
+        acc.update(a, b)

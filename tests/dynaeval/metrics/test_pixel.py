@@ -145,10 +145,15 @@ def test_psnr_properties(seed, h, w, sigma):
     gt = rng.random((h, w, 3))
     noise = sigma * rng.standard_normal(gt.shape)
     p1, p2 = gt + noise, gt + 2 * noise
-    assert psnr(p1, gt) == psnr(gt, p1)  # symmetric
-    assert psnr(gt, gt) == math.inf  # identical -> ideal
-    assert psnr(p2, gt) < psnr(p1, gt)  # more noise -> worse (by 20 log10 2 dB)
-    assert psnr(p1, gt) - psnr(p2, gt) == pytest.approx(20 * math.log10(2), abs=1e-9)
+    lo = min(p2.min(), gt.min(), 0.0)  # shifted into [0, L]: the noise leaves [0, 1]
+    gt, p1, p2 = gt - lo, p1 - lo, p2 - lo
+    L = max(p2.max(), gt.max())
+    assert psnr(p1, gt, data_range=L) == psnr(gt, p1, data_range=L)  # symmetric
+    assert psnr(gt, gt, data_range=L) == math.inf  # identical -> ideal
+    assert psnr(p2, gt, data_range=L) < psnr(p1, gt, data_range=L)  # more noise -> worse
+    assert psnr(p1, gt, data_range=L) - psnr(p2, gt, data_range=L) == pytest.approx(
+        20 * math.log10(2), abs=1e-9)  # by 20 log10 2 dB
+    gt, p1 = gt + lo, p1 + lo
     q, g8 = (np.clip(p1, 0, 1) * 255).astype(np.uint8), (gt * 255).astype(np.uint8)
     if np.any(q != g8):
         assert abs(psnr(q, g8, data_range=255) - psnr(q / 255.0, g8 / 255.0)) < ATOL_DB
@@ -247,7 +252,7 @@ def test_bad_pixels_are_errors_inside_and_outside_the_region():
 
 def test_overflowing_squared_error_is_an_error():
     with pytest.raises(InputError, match="overflows float64"):
-        psnr(np.full((2, 2), 1e200), np.zeros((2, 2)))
+        psnr(np.full((2, 2), 1e200), np.zeros((2, 2)), data_range=1e200)
 
 
 @settings(max_examples=40, deadline=None)
@@ -261,3 +266,42 @@ def test_disjoint_rectangles_cover_the_union_once(raw):
     for x0, y0, x1, y1 in disjoint_rectangles(boxes):
         cover[y0:y1, x0:x1] += 1
     assert np.array_equal(cover, boxes_to_mask(boxes, 25, 30).astype(int))
+
+
+def _u8_pair(rng, shape=(40, 50, 3)):
+    a = rng.integers(0, 256, shape).astype(np.uint8)
+    return a, np.clip(a.astype(int) + rng.integers(-20, 21, shape), 0, 255).astype(np.uint8)
+
+
+def test_0_255_input_is_refused_not_scored_as_0_1(rng):
+    """Issue 32: psnr(uint8, uint8) returned -17.39 dB; float x 255 as much nonsense."""
+    from dynaeval.metrics import focused_psnr, masked_psnr
+
+    a, b = _u8_pair(rng)
+    with pytest.raises(InputError, match=r"pred is uint8 .* pass data_range=255, or pred / 255"):
+        psnr(a, b)
+    with pytest.raises(InputError, match=r"pred holds values in \[0, 255\].* data_range=255"):
+        psnr(a.astype(np.float32), b.astype(np.float32))
+    with pytest.raises(InputError, match=r"gt holds values in \[0, 255\]"):
+        psnr(a / 255.0, b.astype(np.float32))
+    boxes = np.array([[5, 5, 30, 30]])
+    with pytest.raises(InputError, match="pass data_range=255"):
+        focused_psnr(a, b, boxes)
+    with pytest.raises(InputError, match="pass data_range=255"):
+        masked_psnr(a, b, boxes_to_mask(boxes, 40, 50))
+    with pytest.raises(InputError, match="pass data_range=255"):
+        squared_error_stats(a, b, data_range=1.0)
+    want = psnr(a / 255.0, b / 255.0)  # the fixes the messages give, and they agree
+    assert abs(psnr(a, b, data_range=255) - want) < ATOL_DB
+    assert abs(focused_psnr(a, b, boxes, data_range=255) - focused_psnr(a / 255, b / 255, boxes)) < ATOL_DB
+
+
+def test_channel_first_input_is_refused_not_scored(rng):
+    """Issue 32: psnr on (3, H, W) silently scored an image 3 pixels high."""
+    a, b = _u8_pair(rng, (3, 40, 50))
+    with pytest.raises(InputError, match=r"pred looks channel-first: shape \(3, 40, 50\).*"
+                                         r"np\.moveaxis\(x, 0, -1\)"):
+        psnr(a / 255.0, b / 255.0)
+    torch = pytest.importorskip("torch")
+    with pytest.raises(InputError, match=r"x\.permute\(1, 2, 0\)"):
+        psnr(torch.from_numpy(a / 255.0), torch.from_numpy(b / 255.0))

@@ -405,3 +405,22 @@ def test_score_detector_focus_runs_the_detector_on_the_prediction(on_disk, rende
     first = res["frames"][0]["objects"]
     assert [(o["class"], o["detected"], o["present"]) for o in first] == [("ball", True, True)]
     assert res["frames"][0]["presence_person"] is None  # the detector found no person
+
+
+def test_0_255_input_is_refused_by_presence_and_tight_psnr(rng):
+    """Issue 32: presence and tight_psnr_* read 0..255 images as [0, 1] at data_range=1."""
+    gt, bg, _, inner = _disk_scene(rng)
+    objects = [{"class": "ball", "id": 1, "box": inner.tolist()}]
+    g8, b8 = (gt * 255).astype(np.uint8), (bg * 255).astype(np.uint8)
+    with pytest.raises(InputError, match=r"pred is uint8 .* pass data_range=255"):
+        frame_presence(b8, g8, objects)
+    with pytest.raises(InputError, match=r"gt holds values in \[[\d.]+, [\d.]+\], outside \[0, "
+                                         r"data_range\] = \[0, 1\]: 0\.\.255 values\?"):
+        frame_presence(bg, gt * 255, objects)
+    with pytest.raises(InputError, match="pass data_range=255"):
+        crop_similarity(b8, g8, inner)
+    with pytest.raises(InputError, match="pass data_range=255"):
+        visibility(bg * 255, gt * 255, inner + np.array([-2, -2, 2, 2]), inner)
+    at_255 = frame_presence(b8, g8, objects, config=PresenceConfig(data_range=255))
+    at_1 = frame_presence(b8 / 255, g8 / 255, objects)
+    assert at_255.values["tight_psnr_ball"] == pytest.approx(at_1.values["tight_psnr_ball"], abs=1e-9)

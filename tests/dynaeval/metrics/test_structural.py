@@ -113,10 +113,13 @@ def test_ssim_properties(seed, h, w, sigma):
     gt = rng.random((h, w, 3))
     noise = sigma * rng.standard_normal(gt.shape)
     p1, p2 = gt + noise, gt + 2 * noise
-    assert ssim(p1, gt) == ssim(gt, p1)  # symmetric
-    assert ssim(gt, gt) == 1.0  # identical -> ideal
-    assert ssim(p1, gt) <= 1.0 + 1e-7  # bounded (float32 work may round up by < 1e-7)
-    assert ssim(p2, gt) < ssim(p1, gt)  # more noise -> worse
+    lo = min(p2.min(), 0.0)  # shifted into [0, L]: the noise leaves [0, 1]
+    gt, p1, p2 = gt - lo, p1 - lo, p2 - lo
+    L = float(max(p2.max(), gt.max(), 1.0))
+    assert ssim(p1, gt, data_range=L) == ssim(gt, p1, data_range=L)  # symmetric
+    assert ssim(gt, gt, data_range=L) == 1.0  # identical -> ideal
+    assert ssim(p1, gt, data_range=L) <= 1.0 + 1e-7  # bounded (float32 may round up by < 1e-7)
+    assert ssim(p2, gt, data_range=L) < ssim(p1, gt, data_range=L)  # more noise -> worse
 
 
 # ---- regions ----------------------------------------------------------------------------------
@@ -329,3 +332,33 @@ def test_tiling_changes_no_bit(rng, monkeypatch, channels, width):
         np.testing.assert_array_equal(got[0], results[0][0])
         assert got[1] == results[0][1]
         np.testing.assert_array_equal(got[2], results[0][2])
+
+
+def test_0_255_input_is_refused_not_scored_as_0_1(rng):
+    """Issue 32: ssim of uint8 / float x 255 images at data_range=1 was scored (0.61)."""
+    from dynaeval.metrics import focused_ssim, masked_ssim
+
+    a = rng.integers(0, 256, (40, 50, 3)).astype(np.uint8)
+    b = np.clip(a.astype(int) + rng.integers(-20, 21, a.shape), 0, 255).astype(np.uint8)
+    with pytest.raises(InputError, match=r"pred is uint8 .* pass data_range=255, or pred / 255"):
+        ssim(a, b)
+    with pytest.raises(InputError, match=r"pred holds values in \[0, 255\].* data_range=255"):
+        ssim(a * 1.0, b * 1.0)
+    with pytest.raises(InputError, match="pass data_range=255"):
+        ssim_map(a, b)
+    with pytest.raises(InputError, match="pass data_range=255"):
+        focused_ssim(a, b, np.array([[5, 5, 30, 30]]))
+    mask = np.zeros((40, 50), bool)
+    mask[10:30, 10:30] = True
+    with pytest.raises(InputError, match="pass data_range=255"):
+        masked_ssim(a, b, mask)
+    assert abs(ssim(a, b, data_range=255) - ssim(a / 255, b / 255)) < TOL
+
+
+def test_channel_first_tensor_is_told_to_permute(rng):
+    """Issue 32: a (3, H, W) tensor got "SSIM needs at least 11x11 ... got 3x383"."""
+    torch = pytest.importorskip("torch")
+    t = torch.from_numpy(rng.random((3, 40, 383)))
+    with pytest.raises(InputError, match=r"pred looks channel-first: shape \(3, 40, 383\) read as "
+                                         r"\(C, H, W\).* pass x\.permute\(1, 2, 0\)"):
+        ssim(t, t)
