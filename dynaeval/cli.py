@@ -68,8 +68,7 @@ def _add_metric_flags(p: argparse.ArgumentParser) -> None:
 def _metric_flag(spec: Any) -> tuple[str, str]:
     """The flag that toggles a per-frame metric and its argparse dest: ``--no-NAME`` for one on
     by default, ``--NAME`` for one off by default."""
-    name = spec.name.replace("_", "-")
-    return (f"--no-{name}", f"no_{spec.name}") if spec.default else (f"--{name}", f"with_{spec.name}")
+    return spec.flag, f"no_{spec.name}" if spec.default else f"with_{spec.name}"
 
 
 def _add_classes_flag(p: argparse.ArgumentParser) -> None:
@@ -208,7 +207,8 @@ def config_from_args(args: argparse.Namespace) -> Any:
 
     Raises:
         InputError: conflicting options (``--metrics`` with ``--no-NAME``; ``--detector``
-            without ``--focus detector``), or a value ``ScoreConfig`` refuses.
+            without ``--focus detector``), a value ``ScoreConfig`` refuses, or a metric named
+            (``--flip``, ``--metrics lpips``, ``--lpips-net``) that cannot run here.
     """
     from dataclasses import replace
 
@@ -220,7 +220,7 @@ def config_from_args(args: argparse.Namespace) -> Any:
         raise InputError(f"--detector is only used with --focus detector (got --focus "
                          f"{args.focus}): drop --detector, or pass --focus detector")
     opt = lambda name: getattr(args, name, getattr(d, name))  # noqa: E731
-    return replace(
+    config = replace(
         d, method=getattr(args, "method", None), scene=getattr(args, "scene", None),
         metrics=metrics, metric_options=_metric_options(getattr(args, "metric_option", []),
                                                         getattr(args, "flip_every", None), metrics),
@@ -241,6 +241,10 @@ def config_from_args(args: argparse.Namespace) -> Any:
         iteration=getattr(args, "iteration", None), split=getattr(args, "split", None),
         prepared=getattr(args, "prepared", None),
     )
+    named = [*(getattr(args, "metrics", None) or ()),
+             *(("lpips",) if getattr(args, "lpips_net", None) else ())]
+    config.require_metrics(named)  # asked for by name: refused now if it cannot run
+    return config
 
 
 def _metric_options(specs: list[str], flip_every: int | None = None,
@@ -249,13 +253,17 @@ def _metric_options(specs: list[str], flip_every: int | None = None,
     config converts and checks the values); ``--flip-every K`` is ``flip.every=K``.
 
     Raises:
-        InputError: a malformed option, or ``--flip-every`` without FLIP.
+        InputError: a malformed option, or an option of a registered metric that is not
+            computed (``--flip-every`` without ``--flip``, ``--metric-option jod.model=fvvdp``
+            without ``--jod``), naming both flags.
     """
+    from dynaeval.metrics.registry import SPECS
+
     out: dict[str, dict[str, Any]] = {}
+    given: list[tuple[str, str]] = []  # (metric, the flag as typed)
     if flip_every is not None:
-        if "flip" not in metrics:
-            raise InputError("--flip-every applies to FLIP, which is not computed: add --flip")
         out["flip"] = {"every": flip_every}
+        given.append(("flip", "--flip-every"))
     for spec in specs:
         key, sep, value = spec.partition("=")
         metric, dot, name = key.partition(".")
@@ -263,6 +271,13 @@ def _metric_options(specs: list[str], flip_every: int | None = None,
             raise InputError(f"--metric-option must be NAME.OPTION=VALUE, e.g. "
                              f"flip.pixels_per_degree=40; got {spec!r}")
         out.setdefault(metric, {})[name] = value
+        given.append((metric, f"--metric-option {spec}"))
+    for metric, flag in given:  # an unknown metric is the config's error (it lists them)
+        if metric in SPECS and metric not in metrics:
+            s = SPECS[metric]
+            raise InputError(f"{flag} is an option of {s.title}, which is not computed: "
+                             f"{s.switch_on} (or {s.name} to --metrics), or drop "
+                             f"{flag.split()[0]}")
     return out
 
 
