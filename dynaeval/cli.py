@@ -562,13 +562,13 @@ def _run_detect(args: argparse.Namespace) -> int:
 
 def _run_leaderboard(args: argparse.Namespace) -> int:
     from dynaeval.io.atomic import write_text_atomic
-    from dynaeval.report.leaderboard import build_leaderboard, render
+    from dynaeval.report.leaderboard import build_leaderboard, forced_fields, render
 
     check_writable(args.output, overwrite=args.overwrite, what="leaderboard file",
                    inputs=args.results)
     board = build_leaderboard(args.results, force=args.force, metrics=args.metrics)
     text = render(board, args.format, args.by)
-    for f in sorted({f["field"] for f in board["forced"]}):
+    for f in forced_fields(board):
         print(f"dynaeval: warning: combined despite differing setting {f!r} (--force)",
               file=sys.stderr)
     if args.output:
