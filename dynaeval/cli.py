@@ -19,6 +19,9 @@ from dynaeval.io.frames import parse_shard
 
 EXIT_OK, EXIT_BUG, EXIT_INPUT = 0, 1, 2
 
+FOLDERS_RULE = "missing folders are created when it is written"
+"""The one rule of every output option (``dynaeval.io.atomic.parent_folders``), in its help."""
+
 
 def sample_dir() -> Path:
     """Folder of the sample scene shipped inside the package (``pred/`` and ``gt/``)."""
@@ -161,14 +164,15 @@ def _add_score_options(p: argparse.ArgumentParser) -> None:
                         f"{d.cache_mb}; a 1080p frame is 25 MB, and a camera needs its ground "
                         "truth and predictions); never changes a number")
     p.add_argument("-o", "--output", metavar="results.json",
-                   help="write the results JSON here (atomically)")
+                   help=f"write the results JSON here (atomically; {FOLDERS_RULE})")
     p.add_argument("--overwrite", action="store_true", help="replace an existing -o file")
     p.add_argument("--3dgs-json", dest="gs_json", metavar="DIR",
                    help="also write DIR/results.json and DIR/per_view.json in the shape of the "
-                        "3DGS family's metrics.py (their numbers with --protocol 3dgs)")
+                        "3DGS family's metrics.py (their numbers with --protocol 3dgs; "
+                        f"{FOLDERS_RULE})")
     p.add_argument("--report", metavar="DIR",
                    help="also write an HTML report (DIR/index.html + DIR/img/): summary, per-frame "
-                        "curves, worst frames with the scored regions drawn")
+                        f"curves, worst frames with the scored regions drawn ({FOLDERS_RULE})")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.add_argument("--prepared", metavar="PREP",
                    help="a ground truth prepared with 'dynaeval prepare GT -o PREP': its regions "
@@ -307,7 +311,8 @@ def build_parser() -> argparse.ArgumentParser:
                                    "into the results of the unsharded run (same numbers, bit for "
                                    "bit).")
     m.add_argument("parts", nargs="+", metavar="PART.json")
-    m.add_argument("-o", "--output", required=True, metavar="results.json")
+    m.add_argument("-o", "--output", required=True, metavar="results.json",
+                   help=f"the merged results file ({FOLDERS_RULE})")
     m.add_argument("--overwrite", action="store_true", help="replace an existing -o file")
 
     t = sub.add_parser("detect", help="find boxes in ground-truth frames once, for --focus boxes:FILE",
@@ -315,7 +320,8 @@ def build_parser() -> argparse.ArgumentParser:
                                    "to a boxes file that 'score --focus boxes:FILE' reuses, so "
                                    "every method is scored on the same pixels.")
     t.add_argument("gt", help="folder of ground-truth frames")
-    t.add_argument("-o", "--output", required=True, metavar="boxes.json")
+    t.add_argument("-o", "--output", required=True, metavar="boxes.json",
+                   help=f"the boxes file to write ({FOLDERS_RULE})")
     t.add_argument("--source", choices=["detector", "motion"], default="detector",
                    help="ONNX detector (default) or connected components of the motion masks")
     t.add_argument("--detector", metavar="MODEL.onnx|NAME",
@@ -343,7 +349,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help="metrics to show (default: every metric of the files)")
     lb.add_argument("--force", action="store_true",
                     help="combine files even when settings differ (the differences are recorded)")
-    lb.add_argument("-o", "--output", metavar="FILE", help="write here (atomically) instead of stdout")
+    lb.add_argument("-o", "--output", metavar="FILE", help=f"write here (atomically; {FOLDERS_RULE}) instead of stdout")
     lb.add_argument("--overwrite", action="store_true", help="replace an existing -o file")
 
     d = sub.add_parser("demo", help="score the sample scene shipped with dynaeval",
@@ -371,7 +377,8 @@ def _add_prepare_command(sub: Any) -> None:
                                    "PREP' (same numbers, faster): docs/performance.md. Pass the "
                                    "options the scoring runs will use.")
     r.add_argument("gt", help="folder of ground-truth frames (as given to 'dynaeval score')")
-    r.add_argument("-o", "--output", required=True, metavar="PREP", help="folder to write")
+    r.add_argument("-o", "--output", required=True, metavar="PREP",
+                   help=f"folder to write ({FOLDERS_RULE})")
     r.add_argument("--overwrite", action="store_true", help="replace an existing PREP folder")
     for flag, kw in (
         ("--focus", {"default": d.focus.source, "metavar": "detector|motion|boxes:FILE|none"}),
@@ -543,7 +550,7 @@ def _run_detect(args: argparse.Namespace) -> int:
         raise InputError(f"--detector is only used with --source detector (got --source "
                          f"{args.source}): drop --detector, or pass --source detector")
     check_writable(args.output, overwrite=args.overwrite, what="boxes file",
-                   inputs=[args.gt, args.detector], create_folders=True)
+                   inputs=[args.gt, args.detector])
     notes: list[dict] = []
     mapping, source = detect_ground_truth(args.gt, source=args.source,
                                           detector_model=args.detector, device=args.device,
