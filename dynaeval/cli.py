@@ -438,24 +438,50 @@ def _run_detector(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _print_warnings(results: dict) -> None:
+def _print_warnings(results: dict, output: str | None = None) -> None:
+    """The run's warnings on stderr: run-level and whole-camera ones each, then the per-frame
+    and per-camera-metric ones grouped by reason (``_print_frame_warnings``); ``output``: the
+    results file written (None: the console is the only place the user sees them)."""
     from dynaeval.evaluate import warning_text
 
     for w in results["warnings"]:
-        if "camera" not in w:  # run-level warnings; per-frame ones are in the JSON
+        if "camera" not in w:  # run-level warnings
             print(f"dynaeval: warning: {warning_text(w)}", file=sys.stderr)
     _print_regions(results)
     for w in results["warnings"]:  # about a whole camera (its motion masks, its frames' sizes)
         if "camera" in w and "frame" not in w and "metric" not in w:
             print(f"dynaeval: warning: camera {w['camera']}: {w['reason']}", file=sys.stderr)
-    n_frame_warnings = sum("camera" in w for w in results["warnings"])  # per frame or camera
-    if n_frame_warnings:
-        print(f"dynaeval: {n_frame_warnings} warning(s) about single frames or cameras, listed in "
-              "the results JSON", file=sys.stderr)
+    _print_frame_warnings([w for w in results["warnings"]
+                           if "camera" in w and ("frame" in w or "metric" in w)], output)
     cams = results["inputs"]["unscored_cameras"]
     if cams:
         print(f"dynaeval: {len(cams)} ground-truth camera(s) without predictions not scored: "
               f"{', '.join(cams[:8])}{' …' if len(cams) > 8 else ''}", file=sys.stderr)
+
+
+def _print_frame_warnings(warnings: list[dict], output: str | None, most: int = 5) -> None:
+    """Warnings about single frames (or one metric of a camera), one line per distinct reason
+    with how many frames and cameras it concerns, the ``most`` commonest first; the others
+    summarised with a count, pointing at ``output`` if it was written, else at ``-o``."""
+    from collections import Counter
+
+    from dynaeval.evaluate import warning_text
+
+    groups = Counter(warning_text(w) for w in warnings)
+    cameras: dict[str, set[str]] = {}
+    frames: Counter[str] = Counter()
+    for w in warnings:
+        cameras.setdefault(warning_text(w), set()).add(w["camera"])
+        frames[warning_text(w)] += "frame" in w
+    for text, _ in groups.most_common(most):
+        where = f"{len(cameras[text])} camera(s)"
+        where = f"{frames[text]} frame(s) in {where}" if frames[text] else where
+        print(f"dynaeval: warning: {text} ({where})", file=sys.stderr)
+    rest = sum(n for _, n in groups.most_common()[most:])
+    if rest:
+        kept = f"all listed in {output}" if output else "pass -o results.json to keep them all"
+        print(f"dynaeval: {rest} more warning(s) about single frames or cameras, of "
+              f"{len(groups) - most} other kind(s) ({kept})", file=sys.stderr)
 
 
 def _print_regions(results: dict, most: int = 12) -> None:
@@ -525,7 +551,7 @@ def _run_score(pred: str, gt: str | None, args: argparse.Namespace, *, overwrite
     elif layout:
         print(f"dynaeval: {layout['name']} render folder: scored {results['inputs']['pred']} "
               f"against {results['inputs']['gt']}", file=sys.stderr)
-    _print_warnings(results)
+    _print_warnings(results, output)
     if output:
         write_json_atomic(output, results, overwrite=overwrite)
         print(f"results written to {output}", file=sys.stderr)
