@@ -349,7 +349,8 @@ def build_parser() -> argparse.ArgumentParser:
                     help="metrics to show (default: every metric of the files)")
     lb.add_argument("--force", action="store_true",
                     help="combine files even when settings differ (the differences are recorded)")
-    lb.add_argument("-o", "--output", metavar="FILE", help=f"write here (atomically; {FOLDERS_RULE}) instead of stdout")
+    lb.add_argument("-o", "--output", metavar="FILE",
+                    help=f"write here (atomically; {FOLDERS_RULE}) instead of stdout")
     lb.add_argument("--overwrite", action="store_true", help="replace an existing -o file")
 
     d = sub.add_parser("demo", help="score the sample scene shipped with dynaeval",

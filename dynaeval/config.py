@@ -225,10 +225,6 @@ def _check_metric_options(options: object, metrics: tuple[str, ...]) -> dict[str
                              f"{', '.join(with_options) or 'none'})")
         if not isinstance(given, dict):
             raise InputError(f"metric_options[{metric!r}] must be a dict, got {given!r}")
-        if metric not in metrics:
-            raise InputError(f"metric_options[{metric!r}] sets options of {SPECS[metric].title}, "
-                             f"which is not computed: add {metric!r} to metrics "
-                             f"(CLI: {SPECS[metric].switch_on}), or drop the options")
         out[metric] = {}
         for name, value in given.items():
             if name not in declared:
@@ -239,4 +235,8 @@ def _check_metric_options(options: object, metrics: tuple[str, ...]) -> dict[str
                 out[metric][name] = kind(value)
             except (TypeError, ValueError, InputError):
                 raise InputError(f"{metric}.{name} must be a {kind.__name__}, got {value!r}") from None
+        if metric not in metrics:  # checked last: a misspelt option is the clearer message
+            raise InputError(f"metric_options[{metric!r}] sets options of {SPECS[metric].title}, "
+                             f"which is not computed: add {metric!r} to metrics "
+                             f"(CLI: {SPECS[metric].switch_on}), or drop the options")
     return out

@@ -176,8 +176,8 @@ def test_every_output_creates_its_missing_folders(tmp_path, scene, capsys):
     assert (new / "b" / "gs" / "per_view.json").is_file()
     assert (new / "c" / "report" / "index.html").is_file()
     results = new / "a" / "r.json"
-    for argv, made in ((["leaderboard", results, "-o", new / "d" / "board.md"], new / "d" / "board.md"),
-                       (["merge", results, "-o", new / "e" / "merged.json"], new / "e" / "merged.json"),
+    for argv, made in ((["leaderboard", results, "-o", new / "d" / "b.md"], new / "d" / "b.md"),
+                       (["merge", results, "-o", new / "e" / "m.json"], new / "e" / "m.json"),
                        (["detect", gt, "--source", "motion", "-q", "-o", new / "f" / "boxes.json"],
                         new / "f" / "boxes.json"),
                        (["prepare", gt, "--focus", "none", "--no-temporal", "-q", "-o",
