@@ -19,6 +19,9 @@ from dynaeval.io.frames import parse_shard
 
 EXIT_OK, EXIT_BUG, EXIT_INPUT = 0, 1, 2
 
+FOLDERS_RULE = "missing folders are created when it is written"
+"""The one rule of every output option (``dynaeval.io.atomic.parent_folders``), in its help."""
+
 
 def sample_dir() -> Path:
     """Folder of the sample scene shipped inside the package (``pred/`` and ``gt/``)."""
@@ -68,8 +71,7 @@ def _add_metric_flags(p: argparse.ArgumentParser) -> None:
 def _metric_flag(spec: Any) -> tuple[str, str]:
     """The flag that toggles a per-frame metric and its argparse dest: ``--no-NAME`` for one on
     by default, ``--NAME`` for one off by default."""
-    name = spec.name.replace("_", "-")
-    return (f"--no-{name}", f"no_{spec.name}") if spec.default else (f"--{name}", f"with_{spec.name}")
+    return spec.flag, f"no_{spec.name}" if spec.default else f"with_{spec.name}"
 
 
 def _add_classes_flag(p: argparse.ArgumentParser) -> None:
@@ -162,14 +164,15 @@ def _add_score_options(p: argparse.ArgumentParser) -> None:
                         f"{d.cache_mb}; a 1080p frame is 25 MB, and a camera needs its ground "
                         "truth and predictions); never changes a number")
     p.add_argument("-o", "--output", metavar="results.json",
-                   help="write the results JSON here (atomically)")
+                   help=f"write the results JSON here (atomically; {FOLDERS_RULE})")
     p.add_argument("--overwrite", action="store_true", help="replace an existing -o file")
     p.add_argument("--3dgs-json", dest="gs_json", metavar="DIR",
                    help="also write DIR/results.json and DIR/per_view.json in the shape of the "
-                        "3DGS family's metrics.py (their numbers with --protocol 3dgs)")
+                        "3DGS family's metrics.py (their numbers with --protocol 3dgs; "
+                        f"{FOLDERS_RULE})")
     p.add_argument("--report", metavar="DIR",
                    help="also write an HTML report (DIR/index.html + DIR/img/): summary, per-frame "
-                        "curves, worst frames with the scored regions drawn")
+                        f"curves, worst frames with the scored regions drawn ({FOLDERS_RULE})")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.add_argument("--prepared", metavar="PREP",
                    help="a ground truth prepared with 'dynaeval prepare GT -o PREP': its regions "
@@ -208,7 +211,8 @@ def config_from_args(args: argparse.Namespace) -> Any:
 
     Raises:
         InputError: conflicting options (``--metrics`` with ``--no-NAME``; ``--detector``
-            without ``--focus detector``), or a value ``ScoreConfig`` refuses.
+            without ``--focus detector``), a value ``ScoreConfig`` refuses, or a metric named
+            (``--flip``, ``--metrics lpips``, ``--lpips-net``) that cannot run here.
     """
     from dataclasses import replace
 
@@ -220,7 +224,7 @@ def config_from_args(args: argparse.Namespace) -> Any:
         raise InputError(f"--detector is only used with --focus detector (got --focus "
                          f"{args.focus}): drop --detector, or pass --focus detector")
     opt = lambda name: getattr(args, name, getattr(d, name))  # noqa: E731
-    return replace(
+    config = replace(
         d, method=getattr(args, "method", None), scene=getattr(args, "scene", None),
         metrics=metrics, metric_options=_metric_options(getattr(args, "metric_option", []),
                                                         getattr(args, "flip_every", None), metrics),
@@ -241,6 +245,10 @@ def config_from_args(args: argparse.Namespace) -> Any:
         iteration=getattr(args, "iteration", None), split=getattr(args, "split", None),
         prepared=getattr(args, "prepared", None),
     )
+    named = [*(getattr(args, "metrics", None) or ()),
+             *(("lpips",) if getattr(args, "lpips_net", None) else ())]
+    config.require_metrics(named)  # asked for by name: refused now if it cannot run
+    return config
 
 
 def _metric_options(specs: list[str], flip_every: int | None = None,
@@ -249,13 +257,17 @@ def _metric_options(specs: list[str], flip_every: int | None = None,
     config converts and checks the values); ``--flip-every K`` is ``flip.every=K``.
 
     Raises:
-        InputError: a malformed option, or ``--flip-every`` without FLIP.
+        InputError: a malformed option, or an option of a registered metric that is not
+            computed (``--flip-every`` without ``--flip``, ``--metric-option jod.model=fvvdp``
+            without ``--jod``), naming both flags.
     """
+    from dynaeval.metrics.registry import SPECS
+
     out: dict[str, dict[str, Any]] = {}
+    given: list[tuple[str, str]] = []  # (metric, the flag as typed)
     if flip_every is not None:
-        if "flip" not in metrics:
-            raise InputError("--flip-every applies to FLIP, which is not computed: add --flip")
         out["flip"] = {"every": flip_every}
+        given.append(("flip", "--flip-every"))
     for spec in specs:
         key, sep, value = spec.partition("=")
         metric, dot, name = key.partition(".")
@@ -263,6 +275,13 @@ def _metric_options(specs: list[str], flip_every: int | None = None,
             raise InputError(f"--metric-option must be NAME.OPTION=VALUE, e.g. "
                              f"flip.pixels_per_degree=40; got {spec!r}")
         out.setdefault(metric, {})[name] = value
+        given.append((metric, f"--metric-option {spec}"))
+    for metric, flag in given:  # an unknown metric is the config's error (it lists them)
+        if metric in SPECS and metric not in metrics:
+            s = SPECS[metric]
+            raise InputError(f"{flag} is an option of {s.title}, which is not computed: "
+                             f"{s.switch_on} (or {s.name} to --metrics), or drop "
+                             f"{flag.split()[0]}")
     return out
 
 
@@ -292,7 +311,8 @@ def build_parser() -> argparse.ArgumentParser:
                                    "into the results of the unsharded run (same numbers, bit for "
                                    "bit).")
     m.add_argument("parts", nargs="+", metavar="PART.json")
-    m.add_argument("-o", "--output", required=True, metavar="results.json")
+    m.add_argument("-o", "--output", required=True, metavar="results.json",
+                   help=f"the merged results file ({FOLDERS_RULE})")
     m.add_argument("--overwrite", action="store_true", help="replace an existing -o file")
 
     t = sub.add_parser("detect", help="find boxes in ground-truth frames once, for --focus boxes:FILE",
@@ -300,7 +320,8 @@ def build_parser() -> argparse.ArgumentParser:
                                    "to a boxes file that 'score --focus boxes:FILE' reuses, so "
                                    "every method is scored on the same pixels.")
     t.add_argument("gt", help="folder of ground-truth frames")
-    t.add_argument("-o", "--output", required=True, metavar="boxes.json")
+    t.add_argument("-o", "--output", required=True, metavar="boxes.json",
+                   help=f"the boxes file to write ({FOLDERS_RULE})")
     t.add_argument("--source", choices=["detector", "motion"], default="detector",
                    help="ONNX detector (default) or connected components of the motion masks")
     t.add_argument("--detector", metavar="MODEL.onnx|NAME",
@@ -328,7 +349,8 @@ def build_parser() -> argparse.ArgumentParser:
                     help="metrics to show (default: every metric of the files)")
     lb.add_argument("--force", action="store_true",
                     help="combine files even when settings differ (the differences are recorded)")
-    lb.add_argument("-o", "--output", metavar="FILE", help="write here (atomically) instead of stdout")
+    lb.add_argument("-o", "--output", metavar="FILE",
+                    help=f"write here (atomically; {FOLDERS_RULE}) instead of stdout")
     lb.add_argument("--overwrite", action="store_true", help="replace an existing -o file")
 
     d = sub.add_parser("demo", help="score the sample scene shipped with dynaeval",
@@ -356,7 +378,8 @@ def _add_prepare_command(sub: Any) -> None:
                                    "PREP' (same numbers, faster): docs/performance.md. Pass the "
                                    "options the scoring runs will use.")
     r.add_argument("gt", help="folder of ground-truth frames (as given to 'dynaeval score')")
-    r.add_argument("-o", "--output", required=True, metavar="PREP", help="folder to write")
+    r.add_argument("-o", "--output", required=True, metavar="PREP",
+                   help=f"folder to write ({FOLDERS_RULE})")
     r.add_argument("--overwrite", action="store_true", help="replace an existing PREP folder")
     for flag, kw in (
         ("--focus", {"default": d.focus.source, "metavar": "detector|motion|boxes:FILE|none"}),
@@ -416,24 +439,50 @@ def _run_detector(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _print_warnings(results: dict) -> None:
+def _print_warnings(results: dict, output: str | None = None) -> None:
+    """The run's warnings on stderr: run-level and whole-camera ones each, then the per-frame
+    and per-camera-metric ones grouped by reason (``_print_frame_warnings``); ``output``: the
+    results file written (None: the console is the only place the user sees them)."""
     from dynaeval.evaluate import warning_text
 
     for w in results["warnings"]:
-        if "camera" not in w:  # run-level warnings; per-frame ones are in the JSON
+        if "camera" not in w:  # run-level warnings
             print(f"dynaeval: warning: {warning_text(w)}", file=sys.stderr)
     _print_regions(results)
     for w in results["warnings"]:  # about a whole camera (its motion masks, its frames' sizes)
         if "camera" in w and "frame" not in w and "metric" not in w:
             print(f"dynaeval: warning: camera {w['camera']}: {w['reason']}", file=sys.stderr)
-    n_frame_warnings = sum("camera" in w for w in results["warnings"])  # per frame or camera
-    if n_frame_warnings:
-        print(f"dynaeval: {n_frame_warnings} warning(s) about single frames or cameras, listed in "
-              "the results JSON", file=sys.stderr)
+    _print_frame_warnings([w for w in results["warnings"]
+                           if "camera" in w and ("frame" in w or "metric" in w)], output)
     cams = results["inputs"]["unscored_cameras"]
     if cams:
         print(f"dynaeval: {len(cams)} ground-truth camera(s) without predictions not scored: "
               f"{', '.join(cams[:8])}{' …' if len(cams) > 8 else ''}", file=sys.stderr)
+
+
+def _print_frame_warnings(warnings: list[dict], output: str | None, most: int = 5) -> None:
+    """Warnings about single frames (or one metric of a camera), one line per distinct reason
+    with how many frames and cameras it concerns, the ``most`` commonest first; the others
+    summarised with a count, pointing at ``output`` if it was written, else at ``-o``."""
+    from collections import Counter
+
+    from dynaeval.evaluate import warning_text
+
+    groups = Counter(warning_text(w) for w in warnings)
+    cameras: dict[str, set[str]] = {}
+    frames: Counter[str] = Counter()
+    for w in warnings:
+        cameras.setdefault(warning_text(w), set()).add(w["camera"])
+        frames[warning_text(w)] += "frame" in w
+    for text, _ in groups.most_common(most):
+        where = f"{len(cameras[text])} camera(s)"
+        where = f"{frames[text]} frame(s) in {where}" if frames[text] else where
+        print(f"dynaeval: warning: {text} ({where})", file=sys.stderr)
+    rest = sum(n for _, n in groups.most_common()[most:])
+    if rest:
+        kept = f"all listed in {output}" if output else "pass -o results.json to keep them all"
+        print(f"dynaeval: {rest} more warning(s) about single frames or cameras, of "
+              f"{len(groups) - most} other kind(s) ({kept})", file=sys.stderr)
 
 
 def _print_regions(results: dict, most: int = 12) -> None:
@@ -503,7 +552,7 @@ def _run_score(pred: str, gt: str | None, args: argparse.Namespace, *, overwrite
     elif layout:
         print(f"dynaeval: {layout['name']} render folder: scored {results['inputs']['pred']} "
               f"against {results['inputs']['gt']}", file=sys.stderr)
-    _print_warnings(results)
+    _print_warnings(results, output)
     if output:
         write_json_atomic(output, results, overwrite=overwrite)
         print(f"results written to {output}", file=sys.stderr)
@@ -528,7 +577,7 @@ def _run_detect(args: argparse.Namespace) -> int:
         raise InputError(f"--detector is only used with --source detector (got --source "
                          f"{args.source}): drop --detector, or pass --source detector")
     check_writable(args.output, overwrite=args.overwrite, what="boxes file",
-                   inputs=[args.gt, args.detector], create_folders=True)
+                   inputs=[args.gt, args.detector])
     notes: list[dict] = []
     mapping, source = detect_ground_truth(args.gt, source=args.source,
                                           detector_model=args.detector, device=args.device,
@@ -547,13 +596,13 @@ def _run_detect(args: argparse.Namespace) -> int:
 
 def _run_leaderboard(args: argparse.Namespace) -> int:
     from dynaeval.io.atomic import write_text_atomic
-    from dynaeval.report.leaderboard import build_leaderboard, render
+    from dynaeval.report.leaderboard import build_leaderboard, forced_fields, render
 
     check_writable(args.output, overwrite=args.overwrite, what="leaderboard file",
                    inputs=args.results)
     board = build_leaderboard(args.results, force=args.force, metrics=args.metrics)
     text = render(board, args.format, args.by)
-    for f in sorted({f["field"] for f in board["forced"]}):
+    for f in forced_fields(board):
         print(f"dynaeval: warning: combined despite differing setting {f!r} (--force)",
               file=sys.stderr)
     if args.output:

@@ -114,7 +114,7 @@ class ScoreConfig:
 
     def __post_init__(self) -> None:
         self.metrics = _check_metrics(self.metrics)
-        self.metric_options = _check_metric_options(self.metric_options)
+        self.metric_options = _check_metric_options(self.metric_options, self.metrics)
         from dynaeval.metrics.jod import check_fps
 
         self.fps = check_fps(self.fps)
@@ -164,6 +164,25 @@ class ScoreConfig:
 
             spec = self.shard if isinstance(self.shard, str) else "/".join(map(str, self.shard))
             self.shard = parse_shard(spec)
+        self.require_metrics()  # last: the values it reads are checked
+
+    def require_metrics(self, names: tuple[str, ...] | list[str] | None = None) -> None:
+        """Refuse, before any work, metrics asked for by name that cannot run on this machine
+        (a package or weights absent; ``registry.require_available``). ``names``: default those
+        of ``metrics`` that are off by default (``flip``, ``jod``) or given options; the CLI adds
+        ``--metrics NAME`` and ``--lpips-net``. A default metric not named (LPIPS without torch)
+        is reported unavailable by the run instead, which goes on.
+
+        Raises:
+            InputError: the metric, what is missing and the install line.
+        """
+        from dynaeval.metrics.registry import SPECS, FrameContext, require_available
+
+        if names is None:
+            names = [n for n in self.metrics if not SPECS[n].default or n in self.metric_options]
+        require_available([n for n in names if n in self.metrics],
+                          FrameContext(lpips_net=self.resolved_lpips_net(),
+                                       options=self.metric_options))
 
     def resolved_lpips_net(self) -> str:
         """The LPIPS backbone of the run: the one asked for, else the protocol's."""
@@ -194,9 +213,10 @@ def _check_metrics(names: object) -> tuple[str, ...]:
     return names
 
 
-def _check_metric_options(options: object) -> dict[str, dict[str, Any]]:
-    """``{metric: {option: value}}`` checked against the options each metric declares; values
-    converted to the declared type."""
+def _check_metric_options(options: object, metrics: tuple[str, ...]) -> dict[str, dict[str, Any]]:
+    """``{metric: {option: value}}`` checked against the options each metric declares, for
+    metrics in ``metrics`` only (an option of a metric not computed is refused, never silently
+    unused); values converted to the declared type."""
     from dynaeval.metrics.registry import SPECS
 
     if not isinstance(options, dict):
@@ -221,4 +241,8 @@ def _check_metric_options(options: object) -> dict[str, dict[str, Any]]:
                 out[metric][name] = kind(value)
             except (TypeError, ValueError, InputError):
                 raise InputError(f"{metric}.{name} must be a {kind.__name__}, got {value!r}") from None
+        if metric not in metrics:  # checked last: a misspelt option is the clearer message
+            raise InputError(f"metric_options[{metric!r}] sets options of {SPECS[metric].title}, "
+                             f"which is not computed: add {metric!r} to metrics "
+                             f"(CLI: {SPECS[metric].switch_on}), or drop the options")
     return out

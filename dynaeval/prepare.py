@@ -97,6 +97,7 @@ def prepare(gt_dir: str | Path, out: str | Path, config: ScoreConfig | None = No
         InputError: ``out`` exists, bad ground truth or settings (before the work starts).
     """
     from dynaeval.io import pair_frames
+    from dynaeval.io.atomic import check_writable
     from dynaeval.io.prepared import write_folder_atomic
     from dynaeval.progress import Progress
     from dynaeval.regions.focus import open_sources
@@ -107,8 +108,7 @@ def prepare(gt_dir: str | Path, out: str | Path, config: ScoreConfig | None = No
     gt_dir, out = Path(gt_dir), Path(out)
     if out.exists() and not overwrite:
         raise InputError("prepared folder exists; pass --overwrite or choose another -o", path=out)
-    if not out.parent.is_dir():
-        raise InputError("folder for the prepared ground truth does not exist", path=out.parent)
+    check_writable(out, overwrite=overwrite, what="prepared folder", inputs=[gt_dir], folder=True)
     pairing = pair_frames(gt_dir, gt_dir)
     sources = open_sources(config.focus)
     run = Run(config, {}, {}, list(sources.warnings), sources)

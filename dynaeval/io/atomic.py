@@ -1,10 +1,14 @@
 """Writing output files atomically and exclusively: a failed or interrupted run never leaves a
 half-written file, and of two runs racing for one path exactly one wins.
 
+One rule for every output (``score -o``, ``--report``, ``--3dgs-json``, ``prepare -o``,
+``detect -o``, ``leaderboard -o``, ``merge -o``): missing folders above it are created, when it
+is written (``parent_folders``: those it created are removed again if the write fails).
 ``check_writable`` is called by the CLI for every output before any frame is read, so a bad
-``-o`` / ``--report`` fails in a second, not after the whole run; ``write_text_atomic`` makes the
-final step exclusive (``os.link`` of the finished temporary file, which fails if the target
-appeared meanwhile), or ``os.replace`` with ``overwrite``.
+``-o`` / ``--report`` (a path under a file, a folder that cannot be created) fails in a second,
+not after the whole run, and creates nothing; ``write_text_atomic`` makes the final step
+exclusive (``os.link`` of the finished temporary file, which fails if the target appeared
+meanwhile), or ``os.replace`` with ``overwrite``.
 """
 
 from __future__ import annotations
@@ -12,7 +16,8 @@ from __future__ import annotations
 import errno
 import os
 import tempfile
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 from dynaeval.errors import InputError
@@ -50,9 +55,11 @@ def _probe_folder(folder: Path, what: str) -> None:
 
 def check_writable(
     path: str | Path | None, *, overwrite: bool, what: str = "output file",
-    inputs: Iterable[str | Path | None] = (), folder: bool = False, create_folders: bool = False,
+    inputs: Iterable[str | Path | None] = (), folder: bool = False,
 ) -> None:
-    """Check, before any work, that ``path`` can be written (None: nothing to check).
+    """Check, before any work, that ``path`` can be written (None: nothing to check). Missing
+    folders above it are fine (the writer creates them): the nearest existing one must be a
+    writable folder. Nothing is created here.
 
     Args:
         path: the output: a file (``-o``), or with ``folder`` a folder (``--report DIR``).
@@ -60,14 +67,13 @@ def check_writable(
         what: what the output is, for messages ("results file", "report folder", ...).
         inputs: the run's input paths (files or folders); the output may be none of them.
         folder: ``path`` is a folder the writer creates (with its parents) if missing.
-        create_folders: the writer creates a missing parent folder of the file itself.
 
     Raises:
         InputError: naming the path: it is a folder (a file was expected) or a file (a folder
             was expected); it exists and not ``overwrite``; it is one of the inputs, or an
             existing image or video file (never replaced, even with ``overwrite``: a mistyped
-            ``-o`` must not destroy a ground-truth frame); its folder is missing or not
-            writable.
+            ``-o`` must not destroy a ground-truth frame); it lies under a file; the nearest
+            existing folder above it is not writable (a folder that cannot be created).
     """
     if path is None:
         return
@@ -90,13 +96,43 @@ def check_writable(
                              path=path)
         refuse_existing(path, overwrite=overwrite, what=what)
     parent = path if folder else path.parent
-    if folder or create_folders:
-        while not parent.exists() and parent != parent.parent:
-            parent = parent.parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
     if not parent.is_dir():
-        raise InputError(f"folder for the {what} does not exist" if not parent.exists()
-                         else f"folder for the {what} is a file", path=parent)
+        raise InputError(f"the {what} would be under this file, which is not a folder; choose "
+                         "another path", path=parent)
     _probe_folder(parent, what)
+
+
+@contextmanager
+def parent_folders(path: str | Path, what: str = "output file") -> Iterator[Path]:
+    """Create the missing folders above ``path`` (the one rule for every output); if the body
+    raises, remove again those it created (when still empty), so a failed write leaves no
+    new empty folder behind. Yields ``path``'s folder.
+
+    Raises:
+        InputError: naming the folder that cannot be created (a file in the way, no permission).
+    """
+    folder = Path(path).parent
+    missing = []
+    probe = folder
+    while not probe.exists() and probe != probe.parent:
+        missing.append(probe)
+        probe = probe.parent
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise InputError(f"cannot create the folder for the {what} ({err.strerror or err})",
+                         path=folder) from err
+    try:
+        yield folder
+    except BaseException:
+        for made in missing:  # deepest first
+            try:
+                made.rmdir()
+            except OSError:
+                break
+        raise
 
 
 def _read_umask() -> int:
@@ -143,21 +179,25 @@ def write_text_atomic(
     gets the permissions a plain ``open(path, "w")`` would give (0666 minus the umask).
 
     Args:
-        path: file to write; its folder must exist.
+        path: file to write; missing folders above it are created (``parent_folders``).
         text: the whole content.
         overwrite: replace an existing file (else InputError: never overwritten silently).
         what: what the file is, for error messages ("results file", "boxes file", ...).
 
     Raises:
         InputError: ``path`` exists (or appears during the write) and not ``overwrite``, it is
-            a folder, or its folder is missing or not writable.
+            a folder, or its folder cannot be created or is not writable.
     """
     path = Path(path)
     refuse_existing(path, overwrite=overwrite, what=what)
     if path.is_dir():
         raise InputError(f"the {what} must be a file, but this is a folder", path=path)
-    if not path.parent.is_dir():
-        raise InputError(f"folder for the {what} does not exist", path=path.parent)
+    with parent_folders(path, what):
+        return _write_new_file(path, text, overwrite, what)
+
+
+def _write_new_file(path: Path, text: str, overwrite: bool, what: str) -> Path:
+    """``write_text_atomic``'s body, once ``path``'s folder exists."""
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     except OSError as err:

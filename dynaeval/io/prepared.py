@@ -71,12 +71,20 @@ def write_folder_atomic(out: str | Path, fill: Callable[[Path], None], *,
                         overwrite: bool = False, what: str = "prepared folder") -> Path:
     """Build a folder with ``fill(tmp)`` under a temporary name beside ``out``, then rename it
     to ``out``: exclusively (InputError if ``out`` exists), or with ``overwrite`` replacing it.
-    On any failure the temporary folder is removed and ``out`` is untouched."""
+    Missing folders above ``out`` are created (``dynaeval.io.atomic.parent_folders``, the rule
+    of every output). On any failure the temporary folder and the folders created are removed
+    and ``out`` is untouched."""
+    from dynaeval.io.atomic import parent_folders
+
     out = Path(out)
     if out.exists() and not overwrite:
         raise InputError(f"{what} exists; pass --overwrite or choose another -o", path=out)
-    if not out.parent.is_dir():
-        raise InputError(f"folder for the {what} does not exist", path=out.parent)
+    with parent_folders(out, what):
+        return _fill_and_rename(out, fill, overwrite, what)
+
+
+def _fill_and_rename(out: Path, fill: Callable[[Path], None], overwrite: bool, what: str) -> Path:
+    """``write_folder_atomic``'s body, once ``out``'s parent folder exists."""
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent))
     try:
         fill(tmp)

@@ -42,7 +42,7 @@ from typing import Any
 import numpy as np
 
 from dynaeval.errors import InputError
-from dynaeval.metrics._common import region_mask
+from dynaeval.metrics._common import absent_modules, region_mask
 from dynaeval.validation import as_image, grey_to_rgb
 
 PIXELS_PER_DEGREE = 0.7 * (3840 / 0.7) * math.pi / 180
@@ -85,16 +85,22 @@ def context_radius(pixels_per_degree: float = PIXELS_PER_DEGREE) -> int:
     return max(colour, feature) + 1
 
 
-def _package(hint: bool = True) -> Any:
+_ABSENT = f"FLIP needs NVIDIA's {PACKAGE} package, which is not installed: {_HINT}"
+
+
+def _package() -> Any:
     """The ``flip_evaluator`` module; ImportError saying what to install when it is absent."""
     try:
         import flip_evaluator
     except ImportError as err:
-        how = f": {_HINT}" if hint else ""
-        raise ImportError(
-            f"FLIP needs NVIDIA's {PACKAGE} package, which is not installed{how}"
-        ) from err
+        raise ImportError(_ABSENT) from err
     return flip_evaluator
+
+
+def missing_package(ctx: Any = None) -> str | None:
+    """Why FLIP cannot run on this machine (with the install line), or None when its package is
+    there; found without importing it (the registry's ``requires``)."""
+    return _ABSENT if absent_modules("flip_evaluator") else None
 
 
 def _rgb(x: object, name: str) -> np.ndarray:
@@ -198,9 +204,10 @@ def flip(
 
 def build_flip(ctx: Any) -> Any:
     """The registry's FLIP for a run (``dynaeval.metrics.registry.FrameContext``): checks the
-    package is importable now (``ImportError``: the run reports FLIP unavailable and goes on);
+    package is importable now (``ImportError`` with the install line: the registry reports FLIP
+    unavailable; a run that asked for it was refused before by ``missing_package``);
     images in [0, data_range] are scaled to [0, 1]; the region as ``flip``."""
-    _package(hint=False)  # the registry adds the install hint
+    _package()
     scale = 1.0 / ctx.data_range
     ppd = _pixels_per_degree(ctx)
 

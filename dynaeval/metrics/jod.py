@@ -42,6 +42,7 @@ import numpy as np
 
 from dynaeval.boxes import as_boxes, clip_boxes, grow_box
 from dynaeval.errors import EmptyRegionError, InputError
+from dynaeval.metrics._common import absent_modules
 from dynaeval.validation import as_image, grey_to_rgb
 
 MODELS = {"cvvdp": ("cvvdp", "pycvvdp"), "fvvdp": ("pyfvvdp", "pyfvvdp")}
@@ -76,20 +77,33 @@ def check_fps(fps: object) -> float:
     return value
 
 
-def _module(model: str, hint: bool = True) -> Any:
+def _absent(model: str, missing: str | None = None) -> str:
+    """The message for ``model``'s package (or its dependency ``missing``) being absent, with
+    the install line of that model (``HINTS``)."""
+    dist, name = MODELS[model]
+    what = ("is not installed" if missing in (None, name) else
+            f"cannot be imported (its dependency {missing} is missing)")
+    return f"JOD ({MODEL_NAMES[model]}) needs the {dist} package, which {what}: {HINTS[model]}"
+
+
+def _module(model: str) -> Any:
     """The package of ``model``; ImportError saying what to install when it is absent."""
     import importlib
 
-    dist, name = MODELS[check_model(model)]
+    name = MODELS[check_model(model)][1]
     try:
         return importlib.import_module(name)
     except ImportError as err:
-        how = f": {HINTS[model]}" if hint else ""
-        missing = getattr(err, "name", None)
-        what = ("is not installed" if missing in (None, name) else
-                f"cannot be imported (its dependency {missing} is missing)")
-        raise ImportError(f"JOD ({MODEL_NAMES[model]}) needs the {dist} package, which {what}{how}"
-                          ) from err
+        raise ImportError(_absent(model, getattr(err, "name", None))) from err
+
+
+def missing_package(ctx: Any) -> str | None:
+    """Why the run's JOD model (option ``jod.model``) cannot run on this machine, with its
+    install line (``dynaeval[fvvdp]`` for FovVideoVDP), or None when its package and torch are
+    there; found without importing them (the registry's ``requires``)."""
+    model = check_model(ctx.option("jod", "model", DEFAULT_MODEL))
+    absent = absent_modules(MODELS[model][1], "torch")
+    return _absent(model, absent[0]) if absent else None
 
 
 def load_model(model: str = DEFAULT_MODEL, display: str = DEFAULT_DISPLAY,
@@ -274,7 +288,7 @@ def build_jod(ctx: Any) -> Any:
     gt_frames, fps, region)`` with region ``{}`` or ``{"boxes": [per-frame boxes or None]}``;
     frames in [0, data_range] are scaled to [0, 1]."""
     model = check_model(ctx.option("jod", "model", DEFAULT_MODEL))
-    _module(model, hint=False)  # the registry adds the install hint
+    _module(model)
     metric = load_model(model, ctx.option("jod", "display", DEFAULT_DISPLAY), ctx.device)
     min_size = _min_window(ctx)
     scale = 1.0 / ctx.data_range

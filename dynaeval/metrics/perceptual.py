@@ -19,7 +19,7 @@ import numpy as np
 
 from dynaeval.boxes import grow_box
 from dynaeval.errors import InputError, UndefinedMetricError, WeightsUnavailableError
-from dynaeval.metrics._common import clipped_boxes, region_mask
+from dynaeval.metrics._common import absent_modules, clipped_boxes, region_mask
 from dynaeval.runtime import new_session, onnx_providers, resolve_device, torch_device
 from dynaeval.validation import check_pair, grey_to_rgb
 
@@ -63,17 +63,35 @@ def backbone_weights_file(net: str = "alex") -> Path:
     return Path(torch.hub.get_dir()) / "checkpoints" / _backbone_url(net).rsplit("/", 1)[-1]
 
 
+def _weights_absent(net: str) -> str | None:
+    """Why ``net``'s pretrained backbone cannot be loaded (where to place it), or None."""
+    path = backbone_weights_file(net)
+    if path.is_file():
+        return None
+    return (f"LPIPS ({net}) needs torchvision's pretrained {net} backbone, which is not on this "
+            f"machine: place {path.name} (from {_backbone_url(net)}) in {path.parent} "
+            "(set TORCH_HOME to use another cache directory), or score without LPIPS (--no-lpips)")
+
+
+def missing_package(ctx: Any) -> str | None:
+    """Why LPIPS cannot run on this machine (the install line, or where to place the backbone
+    of ``ctx.lpips_net``), or None: the registry's ``requires``, found without building the
+    network (torch is imported only when its package is there, to find the weights file)."""
+    absent = absent_modules("torch", "torchvision", "lpips")
+    if absent:
+        return (f"LPIPS needs the torch, torchvision and lpips packages ({', '.join(absent)} "
+                f"not installed): pip install 'dynaeval[lpips]'")
+    return _weights_absent(ctx.lpips_net) if ctx.pretrained_backbone else None
+
+
 def _build(net: str, spatial: bool, pretrained_backbone: bool, seed: int) -> Any:
     import lpips as lpips_pkg
     import torch
 
     path = backbone_weights_file(net)
-    if pretrained_backbone and not path.is_file():
-        raise WeightsUnavailableError(
-            f"LPIPS ({net}) needs torchvision's pretrained {net} backbone, which is not on this "
-            f"machine: place {path.name} (from {_backbone_url(net)}) in {path.parent} "
-            "(set TORCH_HOME to use another cache directory), or score without LPIPS (--no-lpips)"
-        )
+    missing = _weights_absent(net) if pretrained_backbone else None
+    if missing:
+        raise WeightsUnavailableError(missing)
     # The package builds its backbone through torchvision's deprecated ``pretrained=`` argument;
     # pnet_rand=True makes torchvision build it without weights (no download is ever tried).
     with torch.random.fork_rng(devices=[]), warnings.catch_warnings():

@@ -161,6 +161,11 @@ class MetricSpec:
     ``function(ctx: FrameContext) -> FrameFn`` (a video metric's ``fn(pred_frames, gt_frames,
     fps, region)``). It may raise ``WeightsUnavailableError`` or ``ImportError``: the metric is
     then reported unavailable with the message, and the run goes on."""
+    requires: str | None = None
+    """``"module:function"``, ``function(ctx: FrameContext) -> str | None``: why the metric cannot
+    run on this machine (a package or weights absent), with what to install, else None. Found
+    without running or importing the metric (``importlib.util.find_spec``), so a run that asks
+    for the metric by name is refused in a moment, before any work (``require_available``)."""
     settings: str | None = None
     """``"module:function"``, ``function(ctx, enabled: bool, unavailable: str | None) -> dict |
     None``: what the metric records in the results' ``settings[name]`` (None: nothing)."""
@@ -212,6 +217,17 @@ class MetricSpec:
     def title(self) -> str:
         return self.label or self.name.upper()
 
+    @property
+    def switch_on(self) -> str:
+        """How a CLI run computes it, for messages: ``add --jod`` (or ``drop --no-lpips``)."""
+        return f"drop {self.flag}" if self.default else f"add {self.flag}"
+
+    @property
+    def flag(self) -> str:
+        """The CLI flag that switches it: ``--no-NAME`` for one on by default, else ``--NAME``."""
+        name = self.name.replace("_", "-")
+        return f"--no-{name}" if self.default else f"--{name}"
+
 
 def positive_int(value: Any) -> int:
     """An option value as an integer >= 1 (``"10"`` -> 10); ValueError otherwise."""
@@ -250,6 +266,7 @@ SPECS: dict[str, MetricSpec] = {
             "LPIPS v0.1 of the lpips package (AlexNet backbone unless lpips_net = vgg)",
             regions=_DYCHECK_REGIONS, extra="lpips",
             build="dynaeval.metrics.perceptual:build_lpips",
+            requires="dynaeval.metrics.perceptual:missing_package",
             settings="dynaeval.metrics.perceptual:lpips_settings",
             ignored_settings=("enabled", "device", "backend", "unavailable"), doc="LPIPS",
         ),
@@ -259,6 +276,7 @@ SPECS: dict[str, MetricSpec] = {
             "reference, FLIP's default observer: 67.02 pixels per degree)",
             regions=_FRAME_REGIONS, default=False, extra="video",
             build="dynaeval.metrics.flip:build_flip",
+            requires="dynaeval.metrics.flip:missing_package",
             settings="dynaeval.metrics.flip:flip_settings",
             ignored_settings=("enabled", "unavailable"), doc="FLIP",
             options=(("pixels_per_degree", float,
@@ -327,6 +345,7 @@ SPECS: dict[str, MetricSpec] = {
             "standard_fhd unless jod.display is set), 10 = identical",
             regions=("whole", "focused"), precision=3, default=False, extra="video",
             build="dynaeval.metrics.jod:build_jod",
+            requires="dynaeval.metrics.jod:missing_package",
             settings="dynaeval.metrics.jod:jod_settings",
             ignored_settings=("enabled", "unavailable"), doc="JOD",
             options=(("model", str, "cvvdp (ColorVideoVDP, default) or fvvdp (FovVideoVDP, "
@@ -435,6 +454,25 @@ def selectable_specs(names: tuple[str, ...] | list[str] | None = None) -> list[M
     return _named([s for s in SPECS.values() if s.build is not None], names, "metric")
 
 
+def require_available(names: tuple[str, ...] | list[str], ctx: FrameContext) -> None:
+    """Refuse, before any work, a metric asked for by name that cannot run on this machine (its
+    ``requires`` says why): an explicitly requested metric is never silently left out.
+
+    Raises:
+        InputError: naming the metric, what is missing, the install line, and how to score
+            without it.
+    """
+    from dynaeval.errors import InputError
+
+    for s in selectable_specs(list(names)):
+        why = s.load("requires")(ctx) if s.requires else None
+        if why:
+            without = s.flag if s.default else f"drop {s.flag}"
+            raise InputError(f"{s.title} was asked for but cannot run here: {why}; or score "
+                             f"without {s.title} ({without}; in the library, leave {s.name!r} "
+                             "out of metrics)")
+
+
 def temporal_keys(region: str | None = None) -> list[str]:
     """Result keys the temporal engine (``dynaeval.metrics.temporal``) computes: the ``pair``
     and ``camera`` metrics without a ``build`` (``warp_error, tof, tlp, flicker`` and their
@@ -487,7 +525,8 @@ def build_frame_metrics(
             try:
                 built[s.name] = s.load("build")(ctx)
             except (WeightsUnavailableError, ImportError) as err:
-                hint = f" (pip install 'dynaeval[{s.extra}]')" if isinstance(err, ImportError) and s.extra else ""
+                hint = (f" (pip install 'dynaeval[{s.extra}]')" if isinstance(err, ImportError)
+                        and s.extra and "pip install" not in str(err) else "")
                 unavailable = f"{err}{hint}"
                 out.unavailable[s.name] = unavailable
         settings_fn = s.load("settings")

@@ -239,7 +239,6 @@ def write_boxes_file(
     clean = validate_boxes({k: list(v) for k, v in boxes.items()}, path)
     doc = {"schema": BOXES_SCHEMA, "source": _plain(dict(source or {})), "boxes": _plain(clean)}
     text = json.dumps(doc, indent=1, allow_nan=False)  # before opening: a bad value leaves no file
-    path.parent.mkdir(parents=True, exist_ok=True)
     write_text_atomic(path, text + "\n", overwrite=overwrite, what="boxes file")
     return path
 

@@ -410,24 +410,33 @@ def to_markdown(board: dict[str, Any], by: str = "method") -> str:
               "mean of the per-scene means."]
     lines += [f"Note: {n}" for n in board["notes"]]
     if board["forced"]:
-        fields = sorted({f["field"] for f in board["forced"]})
         lines.append(f"Warning: combined with --force although these settings differ: "
-                     f"{', '.join(fields)}")
+                     f"{', '.join(forced_fields(board))}")
     return "\n".join(lines) + "\n"
 
 
+def forced_fields(board: dict[str, Any]) -> list[str]:
+    """The number-changing settings that differ between the combined files (``--force``),
+    sorted, each once; empty when the files agree."""
+    return sorted({f["field"] for f in board["forced"]})
+
+
 def to_csv(board: dict[str, Any], by: str = "method") -> str:
-    """Long-format CSV: one line per (method, scene, metric) with mean, ci_low, ci_high, n."""
+    """Long-format CSV: one line per (method, scene, metric) with mean, ci_low, ci_high, n,
+    higher_is_better and ``settings_differ``: the settings that differ between the files the
+    table combines (``--force``), joined by ``"; "``, the same on every line; empty when they
+    agree. A plain column, so every CSV reader keeps it (``pandas.read_csv`` as it is)."""
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(["method", "scene", "n_frames", "metric", "mean", "ci_low", "ci_high", "n",
-                "higher_is_better"])
+                "higher_is_better", "settings_differ"])
+    differ = "; ".join(forced_fields(board))
     for r in _ordered_rows(board, by):
         for n, inf in board["metrics"].items():
             e = r["values"][n]
             w.writerow([r["method"], r["scene"], r["n_frames"], n,
                         *("" if e[k] is None else repr(e[k]) for k in ("mean", "ci_low", "ci_high")),
-                        e["n"], inf["higher_is_better"]])
+                        e["n"], inf["higher_is_better"], differ])
     return buf.getvalue()
 
 

@@ -31,22 +31,21 @@ def run(capsys, *args):
 
 def _bad_output(tmp_path, case):
     (tmp_path / "folder").mkdir(exist_ok=True)
+    (tmp_path / "plain.txt").write_text("x")
     return {"folder": tmp_path / "folder", "proc": "/proc/x.json",
-            "missing": tmp_path / "missing" / "r.json"}[case]
+            "under_file": tmp_path / "plain.txt" / "new" / "r.json"}[case]
 
 
 @pytest.mark.parametrize("command", ["score", "merge", "detect", "leaderboard"])
 @pytest.mark.parametrize("case,message", [
     ("folder", "folder: the {what} must be a file, but this is a folder"),
     ("proc", "/proc: cannot write the {what} in this folder"),
-    ("missing", "missing: folder for the {what} does not exist"),
+    ("under_file", "plain.txt: the {what} would be under this file, which is not a folder"),
 ])
 def test_bad_output_refused_before_any_work(tmp_path, scene, no_work, capsys, command, case,
                                             message):
     if case == "proc" and not os.path.isdir("/proc/self"):
         pytest.skip("needs Linux /proc")
-    if case == "missing" and command == "detect":
-        pytest.skip("detect creates the boxes file's folder")
     pred, gt = scene
     out = _bad_output(tmp_path, case)
     (tmp_path / "a.json").write_text("{}")
@@ -123,7 +122,7 @@ def _config(*argv):
     return config_from_args(build_parser().parse_args(["score", "p", "g", *argv]))
 
 
-def test_metrics_sets_the_metrics_exactly():
+def test_metrics_sets_the_metrics_exactly(random_lpips):
     from dynaeval.metrics.registry import selectable_specs
 
     assert _config("--metrics", "ssim", "psnr").metrics == ("psnr", "ssim")  # registry order
@@ -158,3 +157,48 @@ def test_metrics_psnr_only_scores_psnr(tmp_path, scene, capsys):
     assert code == 0, err
     doc = json.loads(out.read_text())
     assert set(doc["summary"]) == {"n_frames", "psnr", "focused_psnr", "masked_psnr"}
+
+
+def test_every_output_creates_its_missing_folders(tmp_path, scene, capsys):
+    """One rule for every output option (issue 32, item 8: score -o, --3dgs-json and
+    leaderboard -o refused a missing folder while --report and detect -o created it)."""
+    pred, gt = scene
+    new = tmp_path / "new"
+    code, _, err = run(capsys, "score", pred, gt, "--no-lpips", "-q", "--no-temporal",
+                       "--focus", "none", "-o", new / "a" / "r.json", "--shard", "1/1",
+                       "--report", new / "c" / "report")
+    assert code == 0, err
+    assert json.loads((new / "a" / "r.json").read_text())["summary"]["n_frames"] == 8
+    code, _, err = run(capsys, "score", pred / "cam00", gt / "cam00", "--no-lpips", "-q",
+                       "--no-temporal", "--focus", "none", "--3dgs-json", new / "b" / "gs")
+    assert code == 0, err
+    assert (new / "b" / "gs" / "results.json").is_file()
+    assert (new / "b" / "gs" / "per_view.json").is_file()
+    assert (new / "c" / "report" / "index.html").is_file()
+    results = new / "a" / "r.json"
+    for argv, made in ((["leaderboard", results, "-o", new / "d" / "b.md"], new / "d" / "b.md"),
+                       (["merge", results, "-o", new / "e" / "m.json"], new / "e" / "m.json"),
+                       (["detect", gt, "--source", "motion", "-q", "-o", new / "f" / "boxes.json"],
+                        new / "f" / "boxes.json"),
+                       (["prepare", gt, "--focus", "none", "--no-temporal", "-q", "-o",
+                         new / "g" / "prep"], new / "g" / "prep" / "manifest.json")):
+        code, _, err = run(capsys, *argv)
+        assert code == 0, (argv[0], err)
+        assert made.is_file(), argv[0]
+
+
+def test_a_failed_run_leaves_no_new_folder(tmp_path, scene, capsys):
+    pred, gt = scene
+    (pred / "cam01" / "0002.png").write_bytes(b"\x89PNG broken")
+    code, _, err = run(capsys, "score", pred, gt, "--no-lpips", "-q", "--focus", "none",
+                       "-o", tmp_path / "new" / "r.json", "--3dgs-json", tmp_path / "gs")
+    assert code == 2 and "0002.png" in err
+    assert not (tmp_path / "new").exists() and not (tmp_path / "gs").exists()
+
+
+def test_prepare_output_under_a_file_is_exit_2_before_the_work(tmp_path, scene, capsys):
+    _, gt = scene
+    (tmp_path / "plain.txt").write_text("x")
+    code, _, err = run(capsys, "prepare", gt, "-q", "-o", tmp_path / "plain.txt" / "prep")
+    assert code == 2
+    assert "plain.txt: the prepared folder would be under this file, which is not a folder" in err

@@ -20,8 +20,29 @@ def test_writes_replaces_only_when_asked_and_leaves_no_temporary(tmp_path):
     write_text_atomic(out, "two", overwrite=True)
     assert out.read_text() == "two"
     assert [p.name for p in tmp_path.iterdir()] == ["r.json"]
-    with pytest.raises(InputError, match="does not exist"):
-        write_text_atomic(tmp_path / "missing" / "r.json", "x")
+
+
+def test_missing_folders_are_created_and_a_failed_write_removes_them(tmp_path, monkeypatch):
+    """The one rule of every output (issue 32, item 8: -o in a missing folder was refused):
+    missing folders are created when the file is written; a write that fails removes those it
+    created; a path under a file is refused naming the file."""
+    from dynaeval.io import atomic
+
+    out = write_text_atomic(tmp_path / "new" / "deeper" / "r.json", "x")
+    assert out.read_text() == "x"
+    (tmp_path / "keep").mkdir()
+
+    def fail(*args):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(atomic, "_write_new_file", fail)
+    with pytest.raises(OSError, match="disk full"):
+        write_text_atomic(tmp_path / "keep" / "a" / "b" / "r.json", "x")
+    assert list((tmp_path / "keep").iterdir()) == []  # a/ and a/b/ removed, keep/ kept
+    monkeypatch.undo()
+    with pytest.raises(InputError, match=r"r\.json/sub: cannot create the folder for the "
+                                         r"output file"):
+        write_text_atomic(out / "sub" / "x.json", "x")
 
 
 def test_file_gets_the_permissions_of_a_plain_open(tmp_path):
@@ -110,18 +131,20 @@ def test_check_writable_accepts_a_new_file_and_leaves_nothing(tmp_path):
     check_writable(tmp_path / "r.json", overwrite=False)
     check_writable(None, overwrite=False)
     check_writable(tmp_path / "new" / "deeper", overwrite=False, folder=True)
-    check_writable(tmp_path / "new" / "b.json", overwrite=False, create_folders=True)
+    check_writable(tmp_path / "new" / "b.json", overwrite=False)
+    check_writable(tmp_path / "new" / "deeper" / "b.json", overwrite=False)
     assert list(tmp_path.iterdir()) == []
 
 
 @pytest.mark.parametrize("case,message", [
     ("folder", r"d: the results file must be a file, but this is a folder"),
-    ("missing", r"missing: folder for the results file does not exist"),
     ("exists", r"r\.json: results file exists; pass --overwrite"),
     ("image", r"0000\.png: refusing to write the results file over an existing image or video"),
     ("video", r"cam\.mp4: refusing to write the results file over an existing image or video"),
     ("input", r"in\.json: the results file would replace an input of this run"),
-    ("parent-file", r"r\.json: folder for the results file is a file"),
+    ("parent-file", r"r\.json: the results file would be under this file, which is not a "
+                    "folder; choose another path"),
+    ("grandparent-file", r"r\.json: the results file would be under this file"),
 ])
 def test_check_writable_refuses(tmp_path, case, message):
     from dynaeval.io.atomic import check_writable
@@ -129,7 +152,7 @@ def test_check_writable_refuses(tmp_path, case, message):
     (tmp_path / "d").mkdir()
     for name in ("r.json", "0000.png", "cam.mp4", "in.json"):
         (tmp_path / name).write_text("keep")
-    path = {"folder": tmp_path / "d", "missing": tmp_path / "missing" / "r.json",
+    path = {"folder": tmp_path / "d", "grandparent-file": tmp_path / "r.json" / "x" / "y.json",
             "exists": tmp_path / "r.json", "image": tmp_path / "0000.png",
             "video": tmp_path / "cam.mp4", "input": tmp_path / "in.json",
             "parent-file": tmp_path / "r.json" / "x.json"}[case]

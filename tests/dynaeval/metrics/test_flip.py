@@ -472,21 +472,22 @@ def test_flip_is_off_unless_asked_and_image_metrics_accepts_it(pairs):
     assert meter.values["flip"] == [F.flip(p, g) for p, g in items]
 
 
-def test_without_the_package_the_run_goes_on_and_says_what_to_install(monkeypatch):
-    import dynaeval
+def test_without_the_package_a_run_asking_for_flip_is_refused_with_the_install_line(monkeypatch):
+    """FLIP is off by default, so naming it is asking for it: without its package the run is
+    refused before any frame is read (issue 32, item 4: it used to go on without the metric)."""
+    from dynaeval.metrics.registry import FrameContext, build_frame_metrics
 
     monkeypatch.setitem(sys.modules, "flip_evaluator", None)  # import flip_evaluator fails
-    with pytest.warns(dynaeval.DynaevalWarning, match="FLIP not computed"):
-        res = _score_sample()
-    settings = res["settings"]["flip"]
-    assert settings["enabled"] is False
-    assert "flip-evaluator package, which is not installed" in settings["unavailable"]
-    assert "pip install 'dynaeval[video]'" in settings["unavailable"]
-    assert any("pip install 'dynaeval[video]'" in w["reason"] for w in res["warnings"])
-    assert res["summary"]["psnr"] > 20 and not any(k in res["summary"] for k in KEYS)
-    assert not any(k in row for row in res["frames"] for k in KEYS)
+    with pytest.raises(InputError, match=r"FLIP was asked for but cannot run here: FLIP needs "
+                       r"NVIDIA's flip-evaluator package, which is not installed: pip install "
+                       r"'dynaeval\[video\]'; or score without FLIP \(drop --flip"):
+        _score_sample()
     with pytest.raises(ImportError, match=r"pip install 'dynaeval\[video\]'"):
         F.flip(np.zeros((8, 8, 3)), np.zeros((8, 8, 3)))
+    # the registry's soft path (a package found but failing to import) names the line once
+    built = build_frame_metrics(FrameContext(), ("psnr", "flip"))
+    assert built.unavailable["flip"].count("pip install") == 1, built.unavailable
+    assert "flip" not in built.fns and built.settings["flip"]["enabled"] is False
 
 
 def test_pixels_per_degree_is_a_run_option_recorded_in_the_settings(tmp_path):
@@ -532,8 +533,8 @@ def test_bad_metric_options_are_usage_errors(option, message, capsys):
     from dynaeval.cli import main, sample_dir
 
     root = sample_dir()
-    assert main(["score", str(root / "pred"), str(root / "gt"), "--metric-option", option,
-                 "-q"]) == 2
+    assert main(["score", str(root / "pred"), str(root / "gt"), "--flip", "--metric-option",
+                 option, "-q"]) == 2
     assert message in capsys.readouterr().err
 
 
@@ -597,7 +598,8 @@ def test_every_kth_frame_scores_only_those_and_summaries_count_them(sample_resul
 
 
 @pytest.mark.parametrize(("args", "message"), [
-    (["--flip-every", "10"], "--flip-every applies to FLIP, which is not computed: add --flip"),
+    (["--flip-every", "10"], "--flip-every is an option of FLIP, which is not computed: add "
+                             "--flip (or flip to --metrics), or drop --flip-every"),
     (["--flip", "--flip-every", "0"], "flip.every must be a positive integer, got 0"),
     (["--flip", "--metric-option", "flip.every=2.5"], "flip.every must be a positive integer"),
 ])

@@ -331,7 +331,7 @@ def test_jod_is_off_by_default_and_bad_options_are_usage_errors(capsys):
     with pytest.raises(InputError, match="frames per second must be a positive number"):
         ScoreConfig(fps=0)
     with pytest.raises(InputError, match="jod has no option 'ppd'"):
-        ScoreConfig(metric_options={"jod": {"ppd": 1}})
+        ScoreConfig(metrics=("psnr", "jod"), metric_options={"jod": {"ppd": 1}})
     root = sample_dir()
     base = ["score", str(root / "pred"), str(root / "gt"), "--jod", "-q", "--no-lpips"]
     for extra, message in ((["--metric-option", "jod.model=vmaf"], "jod model must be one of"),
@@ -340,18 +340,30 @@ def test_jod_is_off_by_default_and_bad_options_are_usage_errors(capsys):
         assert message in capsys.readouterr().err
 
 
-def test_without_the_packages_the_run_goes_on_and_says_what_to_install(monkeypatch):
-    import dynaeval
-
+def test_without_the_packages_a_run_asking_for_jod_is_refused_with_the_install_line(monkeypatch):
+    """JOD is off by default, so naming it is asking for it: without its package the run is
+    refused before any frame is read (issue 32, item 4: it used to go on without the metric)."""
     monkeypatch.setitem(sys.modules, "pycvvdp", None)  # import pycvvdp fails
-    with pytest.warns(dynaeval.DynaevalWarning, match="JOD not computed") as caught:
-        res = _score(focus=_none())
-    messages = [w for w in res["warnings"] if w.get("metric") == "jod"]
-    assert len(messages) == 1  # one message, naming the package and the pip command
-    assert "cvvdp package, which is not installed" in messages[0]["reason"]
-    assert "pip install 'dynaeval[video]'" in messages[0]["reason"]
-    assert len([w for w in caught if "JOD" in str(w.message)]) == 1
-    assert res["settings"]["jod"]["enabled"] is False
-    assert res["summary"]["psnr"] > 20 and not any(k in res["summary"] for k in KEYS)
+    with pytest.raises(InputError, match=r"JOD was asked for but cannot run here: JOD "
+                       r"\(ColorVideoVDP\) needs the cvvdp package, which is not installed: pip "
+                       r"install 'dynaeval\[video\]'; or score without JOD \(drop --jod"):
+        _score(focus=_none())
     with pytest.raises(ImportError, match=r"pip install 'dynaeval\[video\]'"):
         J.jod([np.zeros((8, 8, 3))], [np.zeros((8, 8, 3))])
+
+
+def test_fovvideovdp_absent_names_its_own_extra(monkeypatch):
+    """jod.model=fvvdp needs pyfvvdp, which is in dynaeval[fvvdp] (non-commercial), never in
+    dynaeval[video]: the refusal, the registry's soft path and the model loader all say so
+    (issue 32, item 4: the registry appended dynaeval[video])."""
+    from dynaeval.metrics.registry import FrameContext, build_frame_metrics
+
+    monkeypatch.setitem(sys.modules, "pyfvvdp", None)
+    with pytest.raises(InputError, match=r"JOD \(FovVideoVDP\) needs the pyfvvdp package, "
+                       r"which is not installed: pip install 'dynaeval\[fvvdp\]'; or score"):
+        _score(focus=_none(), metric_options={"jod": {"model": "fvvdp"}})
+    ctx = FrameContext(options={"jod": {"model": "fvvdp"}})
+    assert J.missing_package(ctx).endswith("pip install 'dynaeval[fvvdp]'")
+    built = build_frame_metrics(ctx, ("psnr", "jod"))
+    assert built.unavailable["jod"].endswith("pip install 'dynaeval[fvvdp]'"), built.unavailable
+    assert "dynaeval[video]" not in built.unavailable["jod"]

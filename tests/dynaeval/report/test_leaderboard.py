@@ -210,6 +210,27 @@ def test_cli_refusal_exit_2_and_force(tmp_path, files, capsys):
     assert "differing setting 'quantize'" in capsys.readouterr().err
 
 
+def test_forced_csv_keeps_the_differing_settings_in_a_column_pandas_reads(tmp_path, files,
+                                                                         capsys):
+    """``--force --format csv`` carries the list md and json keep (issue 32, item 9: it was
+    dropped), as a ``settings_differ`` column that pandas.read_csv reads without options."""
+    pd = pytest.importorskip("pandas")
+    other = json.loads(json.dumps(SETTINGS))
+    other["quantize"] = "truncate"
+    other["ssim"]["win_size"] = 7
+    bad = _write(tmp_path / "bad.json", "C", "s1", [20.0], settings=other)
+    out = tmp_path / "board.csv"
+    assert main(["leaderboard", files[("A", "s1")], bad, "--force", "--format", "csv",
+                 "-o", str(out)]) == 0
+    table = pd.read_csv(out)
+    assert len(table) == 4 * 2 and set(table["metric"]) == {"psnr", "ssim"}
+    assert set(table["settings_differ"]) == {"quantize; ssim.win_size"}
+    assert table["mean"].dtype.kind == "f"  # the numbers still parse as numbers
+    agree = tmp_path / "agree.csv"
+    assert main(["leaderboard", *files.values(), "--format", "csv", "-o", str(agree)]) == 0
+    assert {r["settings_differ"] for r in csv.DictReader(io.StringIO(agree.read_text()))} == {""}
+
+
 def test_leaderboard_validates_against_shipped_schema(files, tmp_path):
     jsonschema = pytest.importorskip("jsonschema")
     schema = json.loads(schema_path().read_text())

@@ -74,9 +74,10 @@ def test_failed_write_leaves_no_file(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
-def test_write_into_missing_folder(tmp_path):
-    with pytest.raises(InputError, match="folder for the results file does not exist"):
-        write_json_atomic(tmp_path / "no" / "r.json", {})
+def test_write_into_missing_folder_creates_it(tmp_path):
+    assert json.loads(write_json_atomic(tmp_path / "no" / "r.json", {}).read_text()) == {}
+    with pytest.raises(InputError, match="cannot create the folder for the results file"):
+        write_json_atomic(tmp_path / "no" / "r.json" / "x.json", {})
 
 
 def test_load_results_checks_schema(tmp_path):
