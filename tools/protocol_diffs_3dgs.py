@@ -38,11 +38,11 @@ def rows():
 def _lpips(p, g):
     from pathlib import Path
 
-    from tests.dynaeval.metrics.test_protocol_3dgs import LpipsPyTorchVGG
+    from tests.dynaeval.metrics.test_protocol_3dgs import LpipsPyTorch, checkpoint_features
 
     path = Path(torch.hub.get_dir()) / "checkpoints" / "vgg16-397923af.pth"
     with torch.no_grad():
-        ref = float(LpipsPyTorchVGG(path)(nchw(p), nchw(g)))
+        ref = float(LpipsPyTorch("vgg", checkpoint_features(path))(nchw(p), nchw(g)))
     return lpips_unit_input(p, g, net="vgg"), ref
 
 
