@@ -159,7 +159,7 @@ def msssim_settings(ctx: Any, enabled: bool, unavailable: str | None) -> dict[st
 
         return {
             "variant": "pytorch_msssim 1.0 ms_ssim(data_range=1, size_average=True) defaults, "
-                       "as 4DGaussians' metrics.py calls it (float32)",
+                       "as 4DGaussians' metrics.py calls it (its formula in float64)",
             "win_size": 11, "sigma": 1.5, "k1": 0.01, "k2": 0.03, "betas": list(BETAS),
             "padding": "none (valid windows at every scale)", "normalize": "relu",
             "pooling": "2x2 average, odd sides zero-padded", "reduction": "product per channel, "

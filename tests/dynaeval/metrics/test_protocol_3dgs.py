@@ -346,7 +346,8 @@ BIG_PAIRS = photo_pairs(BIG_CROPS, seed=4, dim=False)
 @pytest.mark.parametrize("name,pred,gt", BIG_PAIRS, ids=[p[0] for p in BIG_PAIRS])
 def test_4dgaussians_msssim_is_pytorch_msssim(name, pred, gt):
     """metrics.py: ``ms_ssim(renders[idx], gts[idx], data_range=1, size_average=True)``, and
-    ``(1 - that) / 2``. Float32 as they run it: 2e-6 (measured <= 8e-7); the formula in float64
+    ``(1 - that) / 2``. Against their float32 run: 2e-6 (measured <= 6e-7, their own float32
+    rounding; dynaeval's float32 variant: <= 8e-7 here, 3e-6 on smooth images); the formula
     against pytorch_msssim on float64 tensors: 1e-12 (measured 4e-16)."""
     pm = pytest.importorskip("pytorch_msssim")
     from dynaeval.metrics.multiscale import ms_ssim as torchmetrics_msssim
@@ -357,7 +358,8 @@ def test_4dgaussians_msssim_is_pytorch_msssim(name, pred, gt):
     assert ours == pytest.approx(ref, abs=2e-6)
     assert dssim_4dgaussians(pred, gt) == pytest.approx((1 - ref) / 2, abs=1e-6)
     f64 = pm.ms_ssim(nchw(pred, torch.float64), nchw(gt, torch.float64), data_range=1)
-    assert msssim_4dgaussians(pred, gt, precision="float64") == pytest.approx(float(f64), abs=1e-12)
+    assert ours == pytest.approx(float(f64), abs=1e-12)
+    assert msssim_4dgaussians(pred, gt, precision="float32") == pytest.approx(ref, abs=2e-6)
     # not the torchmetrics MS-SSIM of --protocol kplanes / --msssim (measured 2e-4 .. 2e-3)
     if min(pred.shape[:2]) >= 176:
         assert abs(ours - torchmetrics_msssim(pred, gt)) > 1e-4
