@@ -170,7 +170,7 @@ class LpipsPyTorch(torch.nn.Module):
         build = {"alex": torchvision.models.alexnet, "vgg": torchvision.models.vgg16}[net]
         self.layers = build(weights=None).features.eval()
         self.layers.load_state_dict(features)
-        self.layers.double()
+        self.layers.double().requires_grad_(False)
         self.targets = LPIPSPYTORCH_TARGETS[net]
         f64 = torch.float64
         self.mean = torch.tensor([-0.030, -0.088, -0.188], dtype=f64)[None, :, None, None]
