@@ -126,7 +126,8 @@ def _whole_only(name: str, ctx: Any) -> Any:
     if getattr(protocol, "msssim", "torchmetrics") == "pytorch_msssim":
         from dynaeval.metrics import protocol_3dgs
 
-        fn = {"msssim": protocol_3dgs.msssim_4dgaussians, "dssim": protocol_3dgs.dssim_4dgaussians}[name]
+        fn = {"msssim": protocol_3dgs.msssim_4dgaussians,
+              "dssim": protocol_3dgs.dssim_4dgaussians}[name]
         kw: dict[str, Any] = {}  # 4DGaussians does not clip
     else:
         fn, kw = {"msssim": ms_ssim, "dssim": d_ssim}[name], {"clip": clip}

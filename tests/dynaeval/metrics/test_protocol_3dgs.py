@@ -405,7 +405,8 @@ def test_4dgaussians_run_records_pytorch_msssim(tmp_path):
         (tmp_path / sub).mkdir()
     for i, (_, pred, gt) in enumerate(BIG_PAIRS[:1] * 2):
         for sub, im in (("pred", pred), ("gt", gt)):
-            cv2.imwrite(str(tmp_path / sub / f"{i:05d}.png"), np.round(im * 255)[..., ::-1].astype(np.uint8))
+            png = np.round(im * 255)[..., ::-1].astype(np.uint8)
+            cv2.imwrite(str(tmp_path / sub / f"{i:05d}.png"), png)
     res = dynaeval.score(tmp_path / "pred", tmp_path / "gt", protocol="4dgaussians",
                          metrics=("psnr",), temporal=False, progress=False,
                          focus=FocusConfig(source="none", masked=False))
