@@ -108,7 +108,8 @@ def _add_score_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scene", help="scene name for the leaderboard (default: GT's folder name)")
     _add_metric_flags(p)
     p.add_argument("--lpips-net", choices=LPIPS_NETS, default=d.lpips_net,
-                   help="LPIPS backbone (default: alex, or the protocol's: vgg for 3dgs)")
+                   help="LPIPS backbone (default: alex, or the protocol's: vgg for 3dgs and "
+                        "4dgaussians, which also allows alex)")
     p.add_argument("--lpips-backend", choices=LPIPS_BACKENDS, default=d.lpips_backend,
                    help="run the LPIPS network with torch (the lpips package, default) or the same "
                         "network exported to onnxruntime (faster on CPU, equal to 1e-6)")
@@ -168,8 +169,8 @@ def _add_score_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--overwrite", action="store_true", help="replace an existing -o file")
     p.add_argument("--3dgs-json", dest="gs_json", metavar="DIR",
                    help="also write DIR/results.json and DIR/per_view.json in the shape of the "
-                        "3DGS family's metrics.py (their numbers with --protocol 3dgs; "
-                        f"{FOLDERS_RULE})")
+                        "3DGS family's metrics.py (their numbers with --protocol 3dgs, or "
+                        f"4dgaussians; {FOLDERS_RULE})")
     p.add_argument("--report", metavar="DIR",
                    help="also write an HTML report (DIR/index.html + DIR/img/): summary, per-frame "
                         f"curves, worst frames with the scored regions drawn ({FOLDERS_RULE})")
@@ -504,9 +505,9 @@ def _write_gs_json(results: dict, folder: str, *, overwrite: bool) -> None:
     paths = write_gs_json(results, folder, overwrite=overwrite)
     print(f"3DGS results written to {paths[0]} and {paths[1]}", file=sys.stderr)
     name = results["settings"]["protocol"]["name"]
-    if name != "3dgs":
+    if name not in ("3dgs", "4dgaussians"):
         print(f"dynaeval: warning: these files hold --protocol {name} numbers, not the 3DGS "
-              "family's own (pass --protocol 3dgs for those)", file=sys.stderr)
+              "family's own (pass --protocol 3dgs, or 4dgaussians, for those)", file=sys.stderr)
 
 
 def _run_score(pred: str, gt: str | None, args: argparse.Namespace, *, overwrite: bool) -> int:

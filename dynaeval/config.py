@@ -45,7 +45,7 @@ class ScoreConfig:
     (``jod``); a video file's own rate is used instead."""
     lpips_net: str | None = None
     """LPIPS backbone: ``alex`` (as most NeRF papers report) or ``vgg``; None (default): the
-    protocol's (``alex``; ``vgg`` for ``3dgs``), ``resolved_lpips_net()``."""
+    protocol's (``alex``; ``vgg`` for ``3dgs`` and ``4dgaussians``), ``resolved_lpips_net()``."""
     lpips_backend: str = "torch"
     """Runtime of the LPIPS network: ``torch`` (the lpips package) or ``onnxruntime`` (the same
     network exported, ~1.2x faster on CPU, equal to 1e-6: docs/benchmarks.md)."""
@@ -90,8 +90,8 @@ class ScoreConfig:
     shards' results combine with ``dynaeval merge`` into exactly the unsharded numbers."""
     protocol: str = "dynaeval"
     """Whose whole-frame PSNR/SSIM and 8-bit step to reproduce: ``dynaeval``, ``nerfbaselines``,
-    ``nerfstudio`` (nerfacto and siblings), ``nerfstudio-splatfacto``, ``3dgs``, ``kplanes`` or
-    ``dycheck`` (``dynaeval.metrics.protocols``; ``quantize`` then defaults to the protocol's;
+    ``nerfstudio`` (nerfacto and siblings), ``nerfstudio-splatfacto``, ``3dgs``, ``4dgaussians``,
+    ``kplanes`` or ``dycheck`` (``dynaeval.metrics.protocols``; ``quantize`` then defaults to the protocol's;
     ``kplanes`` also computes ``msssim`` and ``dssim``, ``dycheck`` its mPSNR/mSSIM/mLPIPS over
     covisibility masks)."""
     iteration: int | None = None

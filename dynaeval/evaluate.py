@@ -31,6 +31,7 @@ from typing import Any
 from dynaeval.config import ScoreConfig
 from dynaeval.io import FramePair, pair_frames
 from dynaeval.io.frames import pairs_by_camera
+from dynaeval.io.layout_3dgs import family_protocol
 from dynaeval.regions.focus import FrameRegions
 from dynaeval.runtime import worker_opencv_threads
 
@@ -129,10 +130,12 @@ def score(
     run.warnings.extend(pairing.warnings)  # damaged video files
     run.warnings.extend(mask_warnings)
     run.warnings.extend({"reason": note} for note in layout.notes)
-    if layout.name == "3dgs" and config.protocol != "3dgs":
+    own = family_protocol(layout.details["family"]) if layout.name == "3dgs" else config.protocol
+    if config.protocol != own:
         run.warnings.append({"reason": (
-            f"3DGS render folder scored under --protocol {config.protocol}: the numbers of its "
-            "own metrics.py are --protocol 3dgs / protocol='3dgs'")})
+            f"{layout.details['family']} render folder scored under --protocol "
+            f"{config.protocol}: the numbers of its own metrics.py are --protocol {own} / "
+            f"protocol='{own}'")})
     if not layout.sequence and config.temporal:
         run.warnings.append({"reason": (
             f"{layout.name} render folders hold separate test views; temporal metrics treat them "

@@ -69,6 +69,14 @@ def family_of(iteration_dir: Path) -> str:
     return "gaussian-splatting"
 
 
+def family_protocol(family: str) -> str:
+    """The ``--protocol`` of a family's own ``metrics.py``: ``4dgaussians`` for 4DGaussians'
+    (3DGS' metrics plus MS-SSIM, D-SSIM and LPIPS-alex), else ``3dgs``. A run only names it in a
+    warning and never switches to it: the family is guessed from what ``render.py`` leaves
+    (``family_of``), and numbers must not change with files beside the renders."""
+    return "4dgaussians" if family == "4DGaussians" else "3dgs"
+
+
 def _pick_iteration(split_dir: Path, iteration: int | None) -> tuple[Path, list[str]]:
     found = iterations_in(split_dir)
     if iteration is None:

@@ -19,6 +19,9 @@ torchmetrics itself). Definition, read from torchmetrics 1.9 ``functional/image/
 * ``MS-SSIM = prod_{i<4} relu(cs_i)^beta_i * relu(ssim_4)^beta_4``, betas (0.0448, 0.2856,
   0.3001, 0.2363, 0.1333).
 
+Under ``--protocol 4dgaussians`` (``Protocol.msssim == "pytorch_msssim"``) the registry's
+``msssim``/``dssim`` are 4DGaussians' instead (``dynaeval.metrics.protocol_3dgs``).
+
 It needs images of at least 176 x 176 pixels (torchmetrics: ``H // 16 > 10``); smaller ones are
 ``UndefinedMetricError`` (the frame's value is null with the reason). Only the whole frame:
 box crops are mostly smaller than that, and no paper defines a masked MS-SSIM.
@@ -118,31 +121,55 @@ def d_ssim(pred: object, gt: object, *, data_range: float = 1.0, clip: bool = Fa
     return (1.0 - ms_ssim(pred, gt, data_range=data_range, clip=clip)) / 2.0
 
 
-def _whole_only(fn: Any, ctx: Any) -> Any:
-    clip = bool(getattr(ctx.whole(), "clip", False))
+def _whole_only(name: str, ctx: Any) -> Any:
+    """``fn(pred, gt, region)`` of ``msssim`` or ``dssim`` in the protocol's MS-SSIM variant
+    (``Protocol.msssim``)."""
+    protocol = ctx.whole()
+    clip = bool(getattr(protocol, "clip", False))
+    if getattr(protocol, "msssim", "torchmetrics") == "pytorch_msssim":
+        from dynaeval.metrics import protocol_3dgs
+
+        fn = {"msssim": protocol_3dgs.msssim_4dgaussians,
+              "dssim": protocol_3dgs.dssim_4dgaussians}[name]
+        kw: dict[str, Any] = {}  # 4DGaussians does not clip
+    else:
+        fn, kw = {"msssim": ms_ssim, "dssim": d_ssim}[name], {"clip": clip}
 
     def score(pred: np.ndarray, gt: np.ndarray, region: dict[str, Any]) -> float:
         if region:
             raise InputError("MS-SSIM and D-SSIM are whole-frame metrics (no region variant)")
-        return fn(pred, gt, data_range=ctx.data_range, clip=clip)
+        return fn(pred, gt, data_range=ctx.data_range, **kw)
 
     return score
 
 
 def build_msssim(ctx: Any) -> Any:
-    """The registry's MS-SSIM for a run (whole frame; clipped when the protocol clips)."""
-    return _whole_only(ms_ssim, ctx)
+    """The registry's MS-SSIM for a run (whole frame; the protocol's variant, clipped when the
+    protocol clips)."""
+    return _whole_only("msssim", ctx)
 
 
 def build_dssim(ctx: Any) -> Any:
-    """The registry's D-SSIM for a run (whole frame; clipped when the protocol clips)."""
-    return _whole_only(d_ssim, ctx)
+    """The registry's D-SSIM for a run (whole frame; as ``build_msssim``)."""
+    return _whole_only("dssim", ctx)
 
 
 def msssim_settings(ctx: Any, enabled: bool, unavailable: str | None) -> dict[str, Any] | None:
     """What the results record of MS-SSIM / D-SSIM (None when neither was asked for)."""
     if not enabled:
         return None
+    if getattr(ctx.whole(), "msssim", "torchmetrics") == "pytorch_msssim":
+        from dynaeval.metrics.protocol_3dgs import MSSSIM_MIN_SIZE
+
+        return {
+            "variant": "pytorch_msssim 1.0 ms_ssim(data_range=1, size_average=True) defaults, "
+                       "as 4DGaussians' metrics.py calls it (its formula in float64)",
+            "win_size": 11, "sigma": 1.5, "k1": 0.01, "k2": 0.03, "betas": list(BETAS),
+            "padding": "none (valid windows at every scale)", "normalize": "relu",
+            "pooling": "2x2 average, odd sides zero-padded", "reduction": "product per channel, "
+            "then the mean over channels", "min_size": MSSSIM_MIN_SIZE, "clip": False,
+            "dssim": "(1 - msssim) / 2",
+        }
     return {
         "variant": "torchmetrics 1.9 MultiScaleStructuralSimilarityIndexMeasure defaults "
                    "(re-implemented in float64)",

@@ -17,6 +17,12 @@ tensor by ``torchvision.transforms.functional.to_tensor`` (``v / 255``) and cut 
   [0, 1] tensors *as they are*, where the network expects [-1, 1] (``lpips_unit_input``).
 
 The summary is the mean of the per-image values (``torch.tensor(values).mean()``).
+
+4DGaussians' ``metrics.py`` (``--protocol 4dgaussians``) computes the same three and reports
+LPIPS twice, ``LPIPS-vgg`` and ``LPIPS-alex`` (``lpipsPyTorch.lpips(..., net_type='alex')``: the
+``lpips`` package's v0.1 AlexNet, again on [0, 1] unscaled), and adds
+``ms_ssim(render, gt, data_range=1, size_average=True)`` of ``pytorch_msssim`` 1.0 and
+``D-SSIM = (1 - MS-SSIM) / 2`` (``msssim_4dgaussians``, ``dssim_4dgaussians``).
 """
 
 from __future__ import annotations
@@ -26,7 +32,11 @@ from typing import Any
 
 import numpy as np
 
+from dynaeval.errors import UndefinedMetricError
 from dynaeval.validation import check_data_range, check_pair
+
+MSSSIM_MIN_SIZE = 161
+"""pytorch_msssim's ``ms_ssim`` asserts ``min(H, W) > (11 - 1) * 2 ** 4``."""
 
 
 def psnr_3dgs(pred: object, gt: object, *, data_range: float = 1.0) -> float:
@@ -97,3 +107,72 @@ def whole_lpips(ctx: Any) -> Any:
                                 pretrained_backbone=ctx.pretrained_backbone)
 
     return fn
+
+
+def _pool_pytorch_msssim(z: np.ndarray) -> np.ndarray:
+    """pytorch_msssim's downsampling of (H, W, C): ``F.avg_pool2d(kernel_size=2, padding=[H %
+    2, W % 2])``: an odd side gets one zero row/column before it (the one after is never
+    reached) and the zeros count in the 2 x 2 means (``count_include_pad``)."""
+    z = np.pad(z, ((z.shape[0] % 2, 0), (z.shape[1] % 2, 0), (0, 0)))
+    return (z[0::2, 0::2] + z[0::2, 1::2] + z[1::2, 0::2] + z[1::2, 1::2]) * z.dtype.type(0.25)
+
+
+def msssim_4dgaussians(pred: object, gt: object, *, data_range: float = 1.0,
+                       precision: str = "float64") -> float:
+    """MS-SSIM as 4DGaussians' ``metrics.py`` calls it: ``pytorch_msssim.ms_ssim(render, gt,
+    data_range=1, size_average=True)`` (pytorch_msssim 1.0, every other argument default).
+
+    Per scale and channel: valid Gaussian windows (11 float32 taps, sigma 1.5, separable, no
+    padding), no clamp, ``cs`` and ``ssim`` the means of their maps; between the 5 scales both
+    images are 2 x 2 average-pooled with an odd side zero-padded (``_pool_pytorch_msssim``);
+    ``relu(cs_0..3)`` and ``relu(ssim_4)`` are combined with the betas (0.0448, 0.2856, 0.3001,
+    0.2363, 0.1333) *per channel*, then the channels averaged. (torchmetrics, the ``kplanes``
+    MS-SSIM, reflect-pads, drops odd rows and averages the channels before the product.)
+
+    Args:
+        pred, gt: (H, W) or (H, W, C) arrays/tensors in [0, data_range], min(H, W) >= 161.
+        data_range: L in ``C1 = (0.01 L)^2``, ``C2 = (0.03 L)^2`` (4DGaussians: 1).
+        precision: ``float64`` (default): the exact value of their formula, from which their
+            float32 run departs by its own rounding (< 1e-6 on the photos of the tests); or
+            ``float32``, as they run it, whose different rounding lands up to 3e-6 away from
+            theirs on smooth images (a variance cancellation, as for SSIM).
+
+    Returns:
+        MS-SSIM in [0, 1], a Python float.
+
+    Raises:
+        InputError: bad shapes or values. UndefinedMetricError: a side under 161 px
+            (pytorch_msssim fails an assert there).
+    """
+    from dynaeval.metrics.protocol_nerfstudio import msssim_window
+    from dynaeval.metrics.protocols import _as_hwc, window_statistics
+
+    data_range = check_data_range(data_range)
+    p, g = check_pair(pred, gt)
+    dtype = np.dtype(precision)
+    x, y = (_as_hwc(a).astype(np.float32).astype(dtype) for a in (p, g))
+    if min(x.shape[:2]) < MSSSIM_MIN_SIZE:
+        raise UndefinedMetricError(
+            f"4DGaussians' MS-SSIM (pytorch_msssim) needs images of at least {MSSSIM_MIN_SIZE} px "
+            f"on the shorter side (5 scales of an 11-tap window); got {x.shape[0]}x{x.shape[1]} "
+            "(HxW): MS-SSIM and D-SSIM are undefined for this image (recorded as null)")
+    c1, c2 = dtype.type((0.01 * data_range) ** 2), dtype.type((0.03 * data_range) ** 2)
+    betas = np.array([0.0448, 0.2856, 0.3001, 0.2363, 0.1333], dtype)
+    terms = []  # (scale, channel)
+    for scale in range(len(betas)):
+        stats = window_statistics(x, y, window=msssim_window())
+        cs = [(2 * sxy + c2) / (sxx + syy + c2) for _, _, sxx, syy, sxy in stats]
+        if scale < len(betas) - 1:
+            terms.append([np.mean(m, dtype=dtype) for m in cs])
+            x, y = _pool_pytorch_msssim(x), _pool_pytorch_msssim(y)
+        else:
+            terms.append([np.mean((2 * mx * my + c1) / (mx * mx + my * my + c1) * m, dtype=dtype)
+                          for (mx, my, *_), m in zip(stats, cs, strict=True)])
+    per_channel = np.prod(np.maximum(np.array(terms, dtype), 0) ** betas[:, None], axis=0)
+    return float(np.mean(per_channel, dtype=dtype))
+
+
+def dssim_4dgaussians(pred: object, gt: object, *, data_range: float = 1.0) -> float:
+    """4DGaussians' ``D-SSIM = (1 - MS-SSIM) / 2`` (``msssim_4dgaussians``), in [0, 0.5],
+    lower is better; same arguments and errors."""
+    return (1.0 - msssim_4dgaussians(pred, gt, data_range=data_range)) / 2.0

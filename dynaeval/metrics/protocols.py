@@ -30,6 +30,9 @@ comes from; in short:
 * ``3dgs`` (gaussian-splatting, 4DGaussians, Deformable-3DGS ``metrics.py``): PSNR
   ``20 log10(1 / sqrt(MSE))`` in float32, SSIM with zero padding (every pixel's window, float32),
   LPIPS VGG fed the [0, 1] images unscaled — ``dynaeval.metrics.protocol_3dgs``.
+* ``4dgaussians``: ``3dgs`` plus what 4DGaussians' ``metrics.py`` adds: MS-SSIM and D-SSIM of
+  ``pytorch_msssim.ms_ssim(data_range=1)`` (``Protocol.msssim``), and its ``LPIPS-alex`` beside
+  ``LPIPS-vgg`` (``--lpips-net alex``, again on unscaled [0, 1] input).
 * ``dycheck``: 8-bit truncation, float32 squared error, DyCheck's SSIM (valid windows, variances
   clamped at 0), LPIPS AlexNet as the mean of its spatial map; with covisibility masks also
   ``mpsnr``/``mssim``/``mlpips`` as DyCheck defines them (``dynaeval.metrics.protocol_dycheck``).
@@ -58,7 +61,7 @@ from dynaeval.metrics.protocol_kplanes import KPLANES_CHOICES, KPLANES_REFERENCE
 from dynaeval.validation import check_data_range, check_pair
 
 PROTOCOL_NAMES = ("dynaeval", "nerfbaselines", "nerfstudio", "kplanes", "nerfstudio-splatfacto",
-                  "3dgs", "dycheck")
+                  "3dgs", "4dgaussians", "dycheck")
 
 
 def _as_hwc(p: np.ndarray) -> np.ndarray:
@@ -130,9 +133,7 @@ def ssim_variant(
     Raises:
         InputError: bad shapes, values, size below 11 px, or unknown border/clamp/precision.
     """
-    import cv2
-
-    from dynaeval.metrics.structural import K1, K2, RADIUS, _check_size, gaussian_window
+    from dynaeval.metrics.structural import K1, K2, _check_size
 
     for arg, value, allowed in (("border", border, SSIM_BORDERS), ("clamp", clamp, SSIM_CLAMPS),
                                 ("precision", precision, ("float32", "float64"))):
@@ -146,6 +147,36 @@ def ssim_variant(
         p, g = np.clip(p, 0, 1), np.clip(g, 0, 1)
     p, g = p.astype(dtype), g.astype(dtype)
     _check_size(*p.shape[:2])
+    c1 = dtype.type((K1 * data_range) ** 2)
+    c2 = dtype.type((K2 * data_range) ** 2)
+    maps = []
+    for mx, my, sxx, syy, sxy in window_statistics(p, g, border=border, clamp=clamp, window=window):
+        num = (2 * mx * my + c1) * (2 * sxy + c2)
+        den = (mx * mx + my * my + c1) * (sxx + syy + c2)
+        maps.append(num / den)
+    return float(np.mean(np.stack(maps), dtype=np.float64))
+
+
+def window_statistics(
+    p: np.ndarray, g: np.ndarray, *, border: str = "valid", clamp: str = "none",
+    window: np.ndarray | None = None,
+) -> list[tuple[np.ndarray, ...]]:
+    """SSIM's local statistics under the 11-tap Gaussian window, per channel.
+
+    Args:
+        p, g: (H, W, C) float32 or float64 arrays of one shape, H, W >= 11 (checked by the
+            callers); the statistics are computed in their dtype.
+        border, clamp, window: as ``ssim_variant`` (checked there).
+
+    Returns:
+        One ``(mu_x, mu_y, var_x, var_y, cov_xy)`` of maps per channel, (H - 10, W - 10) for
+        ``border="valid"``, else (H, W), in the images' dtype.
+    """
+    import cv2
+
+    from dynaeval.metrics.structural import RADIUS, gaussian_window
+
+    dtype = p.dtype
     k = (gaussian_window() if window is None else np.asarray(window)).astype(dtype)
     r = RADIUS
     depth = cv2.CV_32F if dtype == np.float32 else cv2.CV_64F
@@ -158,9 +189,7 @@ def ssim_variant(
             return cv2.sepFilter2D(a, depth, k, k, borderType=cv2.BORDER_CONSTANT)
         return cv2.sepFilter2D(a, depth, k, k, borderType=cv2.BORDER_REFLECT)[r:-r, r:-r]
 
-    c1 = dtype.type((K1 * data_range) ** 2)
-    c2 = dtype.type((K2 * data_range) ** 2)
-    maps = []
+    out = []
     for c in range(p.shape[2]):
         x, y = p[..., c], g[..., c]
         mx, my = blur(x), blur(y)
@@ -174,10 +203,8 @@ def ssim_variant(
             sxx = np.maximum(eps, sxx)
             syy = np.maximum(eps, syy)
             sxy = np.sign(sxy) * np.minimum(np.sqrt(sxx * syy), np.abs(sxy))
-        num = (2 * mx * my + c1) * (2 * sxy + c2)
-        den = (mx * mx + my * my + c1) * (sxx + syy + c2)
-        maps.append(num / den)
-    return float(np.mean(np.stack(maps), dtype=np.float64))
+        out.append((mx, my, sxx, syy, sxy))
+    return out
 
 
 @dataclass(frozen=True)
@@ -228,6 +255,13 @@ class Protocol:
     lpips_reduce: str = "network"
     """Whole-frame LPIPS: ``network`` (the package's own spatial average per layer) or
     ``spatial-mean`` (mean of the ``spatial=True`` map, upsampled per layer: DyCheck)."""
+    msssim: str = "torchmetrics"
+    """Which MS-SSIM ``msssim``/``dssim`` compute: ``torchmetrics`` (1.9, K-Planes' call:
+    ``dynaeval.metrics.multiscale``) or ``pytorch_msssim`` (1.0 ``ms_ssim``, 4DGaussians':
+    ``dynaeval.metrics.protocol_3dgs.msssim_4dgaussians``)."""
+    lpips_nets: tuple[str, ...] = ()
+    """Other LPIPS backbones the evaluator also reports (``--lpips-net`` may choose them);
+    ``lpips_net`` is the default."""
 
     def describe(self) -> dict[str, Any]:
         """Settings for the results JSON: every choice the protocol implies. The fields after
@@ -244,9 +278,11 @@ class Protocol:
             out["choices"] = dict(self.choices)
         for key, default in (("ssim_data_range", "fixed"), ("lpips_input", "signed"),
                              ("family", ""), ("decode", "dynaeval"), ("masks", "region"),
-                             ("lpips_reduce", "network")):
+                             ("lpips_reduce", "network"), ("msssim", "torchmetrics")):
             if getattr(self, key) != default:
                 out[key] = getattr(self, key)
+        if self.lpips_nets:
+            out["lpips_nets"] = list(self.lpips_nets)
         return out
 
     def _weighted(self, pred: object, gt: object, weights: object) -> tuple[object, object]:
@@ -370,6 +406,14 @@ PROTOCOLS: dict[str, Protocol] = {
         lpips_input="unit",
         family="gaussian-splatting, 4DGaussians, Deformable-3DGS",
     ),
+    "4dgaussians": Protocol(
+        "4dgaussians", "none", "3dgs", "3dgs", False, "vgg",
+        "4DGaussians metrics.py (utils/image_utils.psnr, utils/loss_utils.ssim, "
+        "pytorch_msssim.ms_ssim(data_range=1, size_average=True), D-SSIM = (1 - MS-SSIM) / 2, "
+        "lpipsPyTorch.lpips(net_type='vgg' and 'alex') on [0, 1] images)",
+        metrics=("msssim", "dssim"), lpips_input="unit", family="4DGaussians",
+        msssim="pytorch_msssim", lpips_nets=("alex",),
+    ),
     "kplanes": Protocol("kplanes", "none", "float32", "mipnerf", True, "alex", KPLANES_REFERENCE,
                         metrics=("msssim", "dssim"), background="white", choices=KPLANES_CHOICES),
     "dycheck": Protocol(
@@ -412,8 +456,8 @@ def resolve_quantize(protocol: Protocol, quantize: str | None) -> str:
 
 
 def check_lpips_net(protocol: Protocol, net: str) -> None:
-    """Raise InputError when ``net`` is not the LPIPS backbone the protocol reports."""
-    if protocol.name != "dynaeval" and net != protocol.lpips_net:
+    """Raise InputError when ``net`` is not an LPIPS backbone the protocol reports."""
+    if protocol.name != "dynaeval" and net not in (protocol.lpips_net, *protocol.lpips_nets):
         raise InputError(
             f"protocol {protocol.name} reports LPIPS with the {protocol.lpips_net} backbone, not "
             f"{net}; drop --lpips-net or use --protocol dynaeval"

@@ -6,7 +6,11 @@ per model folder, ``json.dump(..., indent=True)`` of::
     results.json   {"ours_30000": {"SSIM": mean, "PSNR": mean, "LPIPS": mean}}
     per_view.json  {"ours_30000": {"SSIM": {"00000.png": v, ...}, "PSNR": {...}, "LPIPS": {...}}}
 
-one key per ``MODEL/test/ours_<N>`` scored, image names as ``os.listdir`` gives them, means of the
+4DGaussians' ``metrics.py`` writes the same two files with the keys ``SSIM``, ``PSNR``,
+``LPIPS-vgg``, ``LPIPS-alex``, ``MS-SSIM``, ``D-SSIM``; a ``--protocol 4dgaussians`` run writes
+those (``gs_keys``), its LPIPS under the backbone it ran (``--lpips-net``, default ``LPIPS-vgg``).
+
+One key per ``MODEL/test/ours_<N>`` scored, image names as ``os.listdir`` gives them, means of the
 per-image values. ``gs_documents`` builds the same two documents from one dynaeval run (the key is
 the scored ``ours_<N>``, or the run's method for other layouts), so scripts that read them keep
 working. Their numbers are 3DGS' own only with ``--protocol 3dgs``. A metric not computed is left
@@ -27,6 +31,17 @@ GS_KEYS = {"SSIM": "ssim", "PSNR": "psnr", "LPIPS": "lpips"}
 """Their key -> dynaeval's whole-frame metric, in their order."""
 
 
+def gs_keys(results: dict[str, Any]) -> dict[str, str]:
+    """Their key -> dynaeval's metric for this run: ``GS_KEYS``, or 4DGaussians' keys under
+    ``--protocol 4dgaussians`` (LPIPS named by the run's backbone, MS-SSIM and D-SSIM added)."""
+    settings = results.get("settings") or {}
+    if (settings.get("protocol") or {}).get("name") != "4dgaussians":
+        return GS_KEYS
+    net = (settings.get("lpips") or {}).get("net", "vgg")
+    return {"SSIM": "ssim", "PSNR": "psnr", f"LPIPS-{net}": "lpips", "MS-SSIM": "msssim",
+            "D-SSIM": "dssim"}
+
+
 def gs_run_key(results: dict[str, Any]) -> str:
     """The top-level key of the two files: ``ours_<N>`` for a 3DGS render, else the method."""
     layout = results.get("inputs", {}).get("layout") or {}
@@ -42,7 +57,8 @@ def gs_documents(results: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any
         InputError: none of SSIM/PSNR/LPIPS was computed, or two frames share an image name
             (their per-view files are keyed by file name only).
     """
-    present = [(theirs, ours) for theirs, ours in GS_KEYS.items() if ours in results["summary"]]
+    present = [(theirs, ours) for theirs, ours in gs_keys(results).items()
+               if ours in results["summary"]]
     if not present:
         raise InputError("the 3DGS results files hold SSIM, PSNR and LPIPS; this run computed "
                          "none of them")

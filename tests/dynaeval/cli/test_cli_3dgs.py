@@ -71,3 +71,71 @@ def test_3dgs_json_shape_and_no_clobber(model, tmp_path, capsys):
     assert (out / "results.json").read_text() == before
     code, _, err = run(capsys, "score", model, "--3dgs-json", out, "--overwrite", *FAST)
     assert code == 0 and "not the 3DGS family's own" in err
+
+
+@pytest.fixture
+def model_4dgs(tmp_path):
+    """A 4DGaussians MODEL (``test/ours_14000`` + the ``video_rgb.mp4`` its render.py leaves) of
+    two 170 x 176 frames: large enough for pytorch_msssim's MS-SSIM (161 px)."""
+    import cv2
+    import numpy as np
+
+    ours = tmp_path / "coffee_martini" / "test" / "ours_14000"
+    rng = np.random.default_rng(5)
+    for sub in ("renders", "gt"):
+        (ours / sub).mkdir(parents=True)
+    base = cv2.GaussianBlur(rng.integers(0, 255, (170, 176, 3), dtype=np.uint8), (7, 7), 2)
+    for i in range(2):
+        gt = np.roll(base, 3 * i, axis=1)
+        noisy = np.clip(gt + rng.normal(0, 6, gt.shape), 0, 255).astype(np.uint8)
+        cv2.imwrite(str(ours / "gt" / f"{i:05d}.png"), gt)
+        cv2.imwrite(str(ours / "renders" / f"{i:05d}.png"), noisy)
+    (ours / "video_rgb.mp4").write_bytes(b"")
+    return ours.parent.parent
+
+
+def test_4dgaussians_model_names_its_protocol_and_keeps_the_asked_one(model_4dgs, tmp_path, capsys):
+    """The protocol is never picked from the folder (numbers must not change with the files
+    beside the renders): the run says which one matches 4DGaussians' metrics.py."""
+    code, _, err = run(capsys, "score", model_4dgs, "-o", tmp_path / "r.json", *FAST)
+    assert code == 0, err
+    assert "4DGaussians render folder scored under --protocol dynaeval" in err
+    assert "own metrics.py are --protocol 4dgaussians" in err
+    doc = json.loads((tmp_path / "r.json").read_text())
+    assert doc["settings"]["protocol"]["name"] == "dynaeval" and "msssim" not in doc["summary"]
+    code, _, err = run(capsys, "score", model_4dgs, "--protocol", "3dgs", *FAST)
+    assert code == 0 and "own metrics.py are --protocol 4dgaussians" in err
+    code, _, err = run(capsys, "score", model_4dgs, "--protocol", "4dgaussians", *FAST)
+    assert code == 0 and "own metrics.py" not in err
+
+
+def test_4dgaussians_json_has_its_keys(model_4dgs, tmp_path, capsys, random_lpips):
+    """``--protocol 4dgaussians --3dgs-json``: 4DGaussians' keys, LPIPS named by the backbone
+    (``--lpips-net alex`` is allowed, as its metrics.py reports LPIPS-alex)."""
+    pm = pytest.importorskip("pytorch_msssim")
+    import torch
+
+    from dynaeval.io.images import read_image
+
+    out = tmp_path / "out"
+    out.mkdir()
+    fast = [a for a in FAST if a != "--no-lpips"]
+    code, _, err = run(capsys, "score", model_4dgs, "--protocol", "4dgaussians", "--lpips-net",
+                       "alex", "--3dgs-json", out, "-o", tmp_path / "r.json", *fast)
+    assert code == 0, err
+    assert "not the 3DGS family's own" not in err
+    results = json.loads((out / "results.json").read_text())["ours_14000"]
+    assert list(results) == ["SSIM", "PSNR", "LPIPS-alex", "MS-SSIM", "D-SSIM"]
+    per_view = json.loads((out / "per_view.json").read_text())["ours_14000"]
+    ours = model_4dgs / "test" / "ours_14000"
+    p, g = (read_image(ours / d / "00001.png") for d in ("renders", "gt"))
+    t = lambda a: torch.from_numpy(a.transpose(2, 0, 1).copy())[None].float()  # noqa: E731
+    ref = float(pm.ms_ssim(t(p), t(g), data_range=1, size_average=True))
+    assert per_view["MS-SSIM"]["00001.png"] == pytest.approx(ref, abs=2e-6)
+    assert per_view["D-SSIM"]["00001.png"] == pytest.approx((1 - ref) / 2, abs=1e-6)
+    doc = json.loads((tmp_path / "r.json").read_text())
+    assert results["LPIPS-alex"] == pytest.approx(doc["summary"]["lpips"])
+    assert doc["settings"]["lpips"]["net"] == "alex"
+    code, _, err = run(capsys, "score", model_4dgs, "--protocol", "3dgs", "--lpips-net", "alex",
+                       *fast)
+    assert code == 2 and "reports LPIPS with the vgg backbone, not alex" in err

@@ -27,20 +27,22 @@ F = torch.nn.functional
 CROPS = {"astronaut": (101, 131), "chelsea": (97, 143), "coffee": (121, 89), "rocket": (77, 163)}
 
 
-def photo_pairs():
-    """(name, pred, gt): real photos cut to odd sizes, ``gt`` 8-bit as 3DGS' PNGs, ``pred`` the
-    same with noise (8 bit), and a dim render whose values span 0.6 (a range < 1)."""
+def photo_pairs(crops: dict = CROPS, seed: int = 3, dim: bool = True):
+    """(name, pred, gt): real photos cut to ``crops`` (odd sizes), ``gt`` 8-bit as 3DGS' PNGs,
+    ``pred`` the same with noise (8 bit), and (``dim``) a dim render whose values span 0.6 (a
+    range < 1)."""
     data = pytest.importorskip("skimage.data")
-    rng = np.random.default_rng(3)
+    rng = np.random.default_rng(seed)
     out = []
-    for name, (h, w) in CROPS.items():
+    for name, (h, w) in crops.items():
         gt8 = getattr(data, name)()[:h, :w, :3]
         pred8 = np.clip(gt8 + rng.normal(0, 8, gt8.shape), 0, 255).astype(np.uint8)
         gt, pred = gt8.astype(np.float32) / 255, pred8.astype(np.float32) / 255
         out.append((name, pred, gt))
-        dim_gt = (np.float32(0.2) + np.float32(0.6) * gt).astype(np.float32)
-        dim_pred = np.clip(dim_gt + rng.normal(0, 0.04, gt.shape), 0.2, 0.8).astype(np.float32)
-        out.append((name + "-dim", dim_pred, dim_gt))
+        if dim:
+            dim_gt = (np.float32(0.2) + np.float32(0.6) * gt).astype(np.float32)
+            dim_pred = np.clip(dim_gt + rng.normal(0, 0.04, gt.shape), 0.2, 0.8).astype(np.float32)
+            out.append((name + "-dim", dim_pred, dim_gt))
     return out
 
 
@@ -145,30 +147,40 @@ def random_vgg(monkeypatch):
     return home / "hub" / "checkpoints" / VGG_FILE.name
 
 
-class LpipsPyTorchVGG(torch.nn.Module):
-    """lpipsPyTorch's LPIPS('vgg', '0.1') re-written from its source: torchvision vgg16
-    ``features``, z-score with shift (-0.030, -0.088, -0.188) / scale (0.458, 0.448, 0.450),
-    outputs after layers 4, 9, 16, 23, 30 (1-based enumeration), each divided by
-    (its channel norm + 1e-10), squared differences through the v0.1 1x1 linear layers
-    (``richzhang/PerceptualSimilarity`` ``lpips/weights/v0.1/vgg.pth``, keys renamed), spatial
-    mean, summed."""
+LPIPSPYTORCH_TARGETS = {"alex": (2, 5, 8, 10, 12), "vgg": (4, 9, 16, 23, 30)}
+"""lpipsPyTorch's ``target_layers``: 1-based module numbers of ``features`` whose outputs count
+(alex: relu1..relu5; vgg: relu1_2, relu2_2, relu3_3, relu4_3, relu5_3)."""
 
-    def __init__(self, backbone: Path):
+
+class LpipsPyTorch(torch.nn.Module):
+    """lpipsPyTorch's ``LPIPS(net_type, '0.1')`` re-written from its source (gaussian-splatting's
+    and 4DGaussians' ``lpipsPyTorch/modules/{lpips,networks,utils}.py`` are the same), in float64:
+    torchvision ``alexnet``/``vgg16`` ``features`` with the given weights, z-score with shift
+    (-0.030, -0.088, -0.188) / scale (0.458, 0.448, 0.450), the outputs of
+    ``LPIPSPYTORCH_TARGETS[net]`` (enumeration from 1, stopping after the last), each divided by
+    (its channel norm + 1e-10), squared differences through the v0.1 1x1 linear layers
+    (``richzhang/PerceptualSimilarity`` ``lpips/weights/v0.1/<net>.pth``, keys renamed), spatial
+    mean, summed. No input scaling: it is given [0, 1] tensors as they are."""
+
+    def __init__(self, net: str, features: dict):
         import lpips
         import torchvision
 
         super().__init__()
-        vgg = torchvision.models.vgg16(weights=None)
-        vgg.load_state_dict(torch.load(backbone, map_location="cpu", weights_only=True))
-        self.layers = vgg.features.eval()
-        self.register_buffer("mean", torch.tensor([-0.030, -0.088, -0.188])[None, :, None, None])
-        self.register_buffer("std", torch.tensor([0.458, 0.448, 0.450])[None, :, None, None])
-        lin = torch.load(Path(lpips.__file__).parent / "weights" / "v0.1" / "vgg.pth",
+        build = {"alex": torchvision.models.alexnet, "vgg": torchvision.models.vgg16}[net]
+        self.layers = build(weights=None).features.eval()
+        self.layers.load_state_dict(features)
+        self.layers.double().requires_grad_(False)
+        self.targets = LPIPSPYTORCH_TARGETS[net]
+        f64 = torch.float64
+        self.mean = torch.tensor([-0.030, -0.088, -0.188], dtype=f64)[None, :, None, None]
+        self.std = torch.tensor([0.458, 0.448, 0.450], dtype=f64)[None, :, None, None]
+        lin = torch.load(Path(lpips.__file__).parent / "weights" / "v0.1" / f"{net}.pth",
                          map_location="cpu", weights_only=True)
-        self.lins = [lin[f"lin{i}.model.1.weight"] for i in range(5)]
+        self.lins = [lin[f"lin{i}.model.1.weight"].double() for i in range(5)]
 
     def forward(self, x, y):
-        fx, fy = self._features(x), self._features(y)
+        fx, fy = self._features(x.double()), self._features(y.double())
         res = [F.conv2d((a - b) ** 2, w).mean((2, 3), True) for a, b, w in zip(fx, fy, self.lins, strict=True)]
         return torch.sum(torch.cat(res, 0), 0, True)
 
@@ -177,9 +189,23 @@ class LpipsPyTorchVGG(torch.nn.Module):
         out = []
         for i, layer in enumerate(self.layers, 1):
             x = layer(x)
-            if i in (4, 9, 16, 23, 30):
+            if i in self.targets:
                 out.append(x / (torch.sqrt(torch.sum(x**2, dim=1, keepdim=True)) + 1e-10))
+            if len(out) == len(self.targets):
+                break
         return out
+
+
+def checkpoint_features(path: Path) -> dict:
+    """``features.*`` of a torchvision checkpoint, keyed as ``features``' own state dict."""
+    state = torch.load(path, map_location="cpu", weights_only=True)
+    return {k.split(".", 1)[1]: v for k, v in state.items() if k.startswith("features.")}
+
+
+def package_features(model) -> dict:
+    """The backbone of an ``lpips.LPIPS`` (``net.sliceK.N.*``) keyed as torchvision's
+    ``features`` (``N.*``): the slices keep torchvision's module numbers."""
+    return {k.split(".", 1)[1]: v for k, v in model.net.state_dict().items()}
 
 
 def test_lpipspytorch_vgg_is_the_lpips_package_vgg_fed_unit_images(random_vgg):
@@ -187,7 +213,7 @@ def test_lpipspytorch_vgg_is_the_lpips_package_vgg_fed_unit_images(random_vgg):
 
     from dynaeval.metrics.protocol_3dgs import lpips_unit_input
 
-    theirs = LpipsPyTorchVGG(random_vgg)
+    theirs = LpipsPyTorch("vgg", checkpoint_features(random_vgg))
     package = lpips_pkg.LPIPS(net="vgg", pnet_rand=True, verbose=False).eval()
     package.net.load_state_dict(_sliced(random_vgg, package.net.state_dict()), strict=True)
     for _, pred, gt in PAIRS[:4]:
@@ -305,3 +331,108 @@ def test_3dgs_lpips_onnxruntime_backend_equals_torch(random_lpips):
     ref = lpips_unit_input(pred, gt, net="vgg")
     assert lpips_unit_input(pred, gt, net="vgg", backend="onnxruntime") == pytest.approx(
         ref, rel=1e-5, abs=1e-7)
+
+
+# --- 4DGaussians: MS-SSIM / D-SSIM of pytorch_msssim, LPIPS-alex of lpipsPyTorch ----------------
+
+BIG_CROPS = {"astronaut": (181, 203), "chelsea": (300, 451), "coffee": (201, 161),
+             "rocket": (178, 240)}
+"""At least 161 px (pytorch_msssim's MS-SSIM), odd and even sides (its zero-padded pooling)."""
+
+
+BIG_PAIRS = photo_pairs(BIG_CROPS, seed=4, dim=False)
+
+
+@pytest.mark.parametrize("name,pred,gt", BIG_PAIRS, ids=[p[0] for p in BIG_PAIRS])
+def test_4dgaussians_msssim_is_pytorch_msssim(name, pred, gt):
+    """metrics.py: ``ms_ssim(renders[idx], gts[idx], data_range=1, size_average=True)``, and
+    ``(1 - that) / 2``. Against their float32 run: 2e-6 (measured <= 6e-7, their own float32
+    rounding; dynaeval's float32 variant: <= 8e-7 here, 3e-6 on smooth images); the formula
+    against pytorch_msssim on float64 tensors: 1e-12 (measured 4e-16)."""
+    pm = pytest.importorskip("pytorch_msssim")
+    from dynaeval.metrics.multiscale import ms_ssim as torchmetrics_msssim
+    from dynaeval.metrics.protocol_3dgs import dssim_4dgaussians, msssim_4dgaussians
+
+    ref = float(pm.ms_ssim(nchw(pred), nchw(gt), data_range=1, size_average=True))
+    ours = msssim_4dgaussians(pred, gt)
+    assert ours == pytest.approx(ref, abs=2e-6)
+    assert dssim_4dgaussians(pred, gt) == pytest.approx((1 - ref) / 2, abs=1e-6)
+    f64 = pm.ms_ssim(nchw(pred, torch.float64), nchw(gt, torch.float64), data_range=1)
+    assert ours == pytest.approx(float(f64), abs=1e-12)
+    assert msssim_4dgaussians(pred, gt, precision="float32") == pytest.approx(ref, abs=2e-6)
+    # not the torchmetrics MS-SSIM of --protocol kplanes / --msssim (measured 2e-4 .. 2e-3)
+    if min(pred.shape[:2]) >= 176:
+        assert abs(ours - torchmetrics_msssim(pred, gt)) > 1e-4
+
+
+def test_4dgaussians_msssim_below_161_px_is_undefined():
+    from dynaeval.metrics.protocol_3dgs import msssim_4dgaussians
+
+    _, pred, gt = BIG_PAIRS[2]  # 201 x 161: the smallest that works
+    msssim_4dgaussians(pred, gt)
+    with pytest.raises(UndefinedMetricError, match=r"at least 161 px .* got 201x160"):
+        msssim_4dgaussians(pred[:, :160], gt[:, :160])
+
+
+def test_4dgaussians_protocol_is_3dgs_plus_its_msssim_and_alex():
+    from dynaeval.config import ScoreConfig
+    from dynaeval.errors import InputError
+    from dynaeval.metrics.protocols import PROTOCOL_NAMES, run_metrics
+
+    g4, g3 = get_protocol("4dgaussians"), get_protocol("3dgs")
+    assert "4dgaussians" in PROTOCOL_NAMES
+    _, pred, gt = BIG_PAIRS[0]
+    assert g4.whole_ssim(pred, gt) == g3.whole_ssim(pred, gt)
+    assert g4.whole_psnr(pred, gt) == g3.whole_psnr(pred, gt)
+    assert run_metrics(g4, ("psnr",)) == ("psnr", "msssim", "dssim")
+    d = g4.describe()
+    assert (d["msssim"], d["lpips_nets"], d["lpips_net"], d["lpips_input"]) == (
+        "pytorch_msssim", ["alex"], "vgg", "unit")
+    assert ScoreConfig(protocol="4dgaussians").resolved_lpips_net() == "vgg"
+    assert ScoreConfig(protocol="4dgaussians", lpips_net="alex").resolved_lpips_net() == "alex"
+    with pytest.raises(InputError, match="reports LPIPS with the vgg backbone, not alex"):
+        ScoreConfig(protocol="3dgs", lpips_net="alex")
+
+
+def test_4dgaussians_run_records_pytorch_msssim(tmp_path):
+    """``score(protocol="4dgaussians")`` adds msssim/dssim as pytorch_msssim computes them."""
+    import cv2
+
+    import dynaeval
+    from dynaeval.regions.focus import FocusConfig
+
+    for sub in ("pred", "gt"):
+        (tmp_path / sub).mkdir()
+    for i, (_, pred, gt) in enumerate(BIG_PAIRS[:1] * 2):
+        for sub, im in (("pred", pred), ("gt", gt)):
+            png = np.round(im * 255)[..., ::-1].astype(np.uint8)
+            cv2.imwrite(str(tmp_path / sub / f"{i:05d}.png"), png)
+    res = dynaeval.score(tmp_path / "pred", tmp_path / "gt", protocol="4dgaussians",
+                         metrics=("psnr",), temporal=False, progress=False,
+                         focus=FocusConfig(source="none", masked=False))
+    pm = pytest.importorskip("pytorch_msssim")
+    from dynaeval.io.images import read_image
+
+    row = res["frames"][0]
+    p, g = read_image(row["pred"]), read_image(row["gt"])
+    ref = float(pm.ms_ssim(nchw(p), nchw(g), data_range=1, size_average=True))
+    assert row["msssim"] == pytest.approx(ref, abs=2e-6)
+    assert row["dssim"] == pytest.approx((1 - ref) / 2, abs=1e-6)
+    assert res["settings"]["msssim"]["variant"].startswith("pytorch_msssim 1.0 ms_ssim")
+
+
+def test_4dgaussians_lpips_alex_is_lpipspytorch_alex(random_lpips):
+    """metrics.py: ``lpips(render, gt, net_type='alex')`` of lpipsPyTorch on [0, 1] tensors,
+    against the float64 re-implementation on the same random-weight AlexNet (rel 1e-5: float32);
+    the package's usual [-1, 1] value differs."""
+    from dynaeval.metrics import perceptual
+    from dynaeval.metrics.protocol_3dgs import lpips_unit_input
+
+    package = perceptual.load_lpips("alex")  # the fixture's random backbone, real linear layers
+    theirs = LpipsPyTorch("alex", package_features(package))
+    for _, pred, gt in PAIRS[:4]:
+        with torch.no_grad():
+            ref = float(theirs(nchw(pred), nchw(gt)))
+        ours = lpips_unit_input(pred, gt, net="alex", pretrained_backbone=False)
+        assert ours == pytest.approx(ref, rel=1e-5, abs=1e-7)
+        assert abs(perceptual.lpips(pred, gt, net="alex") - ref) > 1e-3 * ref

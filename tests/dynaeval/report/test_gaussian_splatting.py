@@ -35,3 +35,18 @@ def test_errors_and_atomic_refusal(tmp_path):
     assert not (tmp_path / "results.json").exists()  # neither file written
     paths = write_gs_json(_results(), tmp_path, overwrite=True)
     assert json.loads(paths[1].read_text())["m"]["LPIPS"]["00001.png"] == 0.1
+
+
+def test_4dgaussians_documents_use_its_keys():
+    """4DGaussians' metrics.py: SSIM, PSNR, LPIPS-vgg, LPIPS-alex, MS-SSIM, D-SSIM; a run has
+    one LPIPS, named by its backbone."""
+    res = _results(layout={"name": "3dgs", "iteration": 14000})
+    res["summary"].update(msssim=0.95, dssim=0.025)
+    res["settings"] = {"protocol": {"name": "4dgaussians"}, "lpips": {"net": "alex"}}
+    summary = gs_documents(res)[0]["ours_14000"]
+    assert summary == {"SSIM": None, "PSNR": 30.5, "LPIPS-alex": 0.1, "MS-SSIM": 0.95,
+                       "D-SSIM": 0.025}
+    res["settings"]["lpips"]["net"] = "vgg"
+    assert list(gs_documents(res)[0]["ours_14000"])[2] == "LPIPS-vgg"
+    res["settings"]["protocol"]["name"] = "3dgs"  # 3DGS' keys, its MS-SSIM not among them
+    assert list(gs_documents(res)[0]["ours_14000"]) == ["SSIM", "PSNR", "LPIPS"]
