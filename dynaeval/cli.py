@@ -172,8 +172,9 @@ def _add_score_options(p: argparse.ArgumentParser) -> None:
                         "3DGS family's metrics.py (their numbers with --protocol 3dgs, or "
                         f"4dgaussians; {FOLDERS_RULE})")
     p.add_argument("--report", metavar="DIR",
-                   help="also write an HTML report (DIR/index.html + DIR/img/): summary, per-frame "
-                        f"curves, worst frames with the scored regions drawn ({FOLDERS_RULE})")
+                   help="also write an HTML report, DIR/index.html (one file, its images inlined): "
+                        "summary, per-frame curves, worst frames with the scored regions drawn "
+                        f"({FOLDERS_RULE})")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.add_argument("--prepared", metavar="PREP",
                    help="a ground truth prepared with 'dynaeval prepare GT -o PREP': its regions "
