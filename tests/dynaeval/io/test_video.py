@@ -82,3 +82,16 @@ def test_unreadable_video_is_named(tmp_path, monkeypatch):
     monkeypatch.setattr(builtins, "open", refuse)
     with pytest.raises(InputError, match=r"v\.mp4: cannot read the video file: permission denied"):
         scan_video(path)
+
+
+def test_reader_reads_past_a_damaged_frame(tmp_path):
+    """OpenCV 5.1 fails the grab of a damaged frame and decodes the next ones on later calls:
+    the reader takes the frames after it (19 of 20), the same frames the scan counts."""
+    from dynaeval.io.video import VideoReader
+
+    bad = _damaged(_video(tmp_path / "v.mp4"), tmp_path / "bad.mp4")
+    reader = VideoReader(bad)
+    frames = [reader.read(i) for i in range(scan_video(bad).n_frames)]
+    assert len(frames) == 19 and frames[-1].shape == (48, 64, 3)
+    with pytest.raises(InputError, match="frame 19"):
+        reader.read(19)
