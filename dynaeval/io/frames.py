@@ -265,6 +265,24 @@ def pairs_by_camera(pairs: list[FramePair]) -> dict[str, list[FramePair]]:
     return out
 
 
+def consecutive_pairs(pairing: Pairing) -> dict[str, dict]:
+    """Per camera with ground-truth frames left out (``Pairing.skipped``, ``allow_missing``):
+    ``{"scored": pairs of consecutive frames present, "expected": pairs of its ground truth,
+    "missing_frames": [frame names]}``, what its temporal terms can use; {} when none is missing.
+    """
+    missing: dict[str, list[str]] = {}
+    for s in pairing.skipped:
+        missing.setdefault(s["camera"], []).append(s["frame"])
+    out = {}
+    for cam, cam_pairs in pairs_by_camera(pairing.pairs).items():
+        if cam in missing:
+            n_gt = len(cam_pairs) + len(missing[cam])
+            scored = sum(b.index == a.index + 1 for a, b in zip(cam_pairs, cam_pairs[1:]))
+            out[cam] = {"scored": scored, "expected": max(0, n_gt - 1),
+                        "missing_frames": missing[cam]}
+    return out
+
+
 def parse_shard(spec: str) -> tuple[int, int]:
     """``"I/N"`` (1 <= I <= N) -> (I, N); InputError otherwise."""
     try:
