@@ -88,13 +88,13 @@ def test_same_ordinary_folder_twice_is_scored_as_given(tmp_path):
 
 def test_library_reads_a_render_folder_like_the_cli(tmp_path, rng):
     """``dynaeval.score(RUN)`` finds the layout itself (no CLI needed), names the run after the
-    folder, records the layout and warns, as a Python warning too, that temporal metrics treat
-    separate test views as a sequence."""
+    folder, records the layout and warns, as a Python warning too, that its separate test views
+    are scored per frame only (issue 32: they were scored as a sequence)."""
     import dynaeval
     from dynaeval.evaluate import DynaevalWarning
 
     run = _run(tmp_path / "myrun", "color", "gt-color", rng)
-    with pytest.warns(DynaevalWarning, match="render folders hold separate test views"):
+    with pytest.warns(DynaevalWarning, match="frames are separate test views, not a video"):
         res = dynaeval.score(run, metrics=("psnr", "ssim"), progress=False)
     assert res["method"] == res["scene"] == "myrun"
     assert res["inputs"]["layout"] == {"name": "nerfbaselines", "root": str(run)}
