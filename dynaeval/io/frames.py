@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from dynaeval.errors import InputError
-from dynaeval.io.images import IMAGE_EXTENSIONS, read_image
+from dynaeval.io.images import IMAGE_EXTENSIONS, frame_name_parts, read_image
 from dynaeval.io.video import VIDEO_EXTENSIONS, read_video_frame, scan_video
 
 ROOT_CAMERA = "."
@@ -145,10 +145,9 @@ def find_frames(root: str | Path, *, role: str = "input") -> dict[str, Camera]:
             if name.startswith("."):
                 continue
             path = Path(dirpath) / name
-            ext = path.suffix.lower()
+            stem, ext = frame_name_parts(path)
             if ext in IMAGE_EXTENSIONS:
                 cam = images.setdefault(rel, {})
-                stem = path.stem
                 if stem in cam:
                     raise InputError(
                         f"two {role} files share the frame name {stem!r}: {cam[stem].name} and "

@@ -8,7 +8,12 @@ Rules (docs/integration.md repeats them with examples):
    * NeRFBaselines (``nerfbaselines render`` / ``evaluate`` output): ``color/`` (predictions) and
      ``gt-color/`` (ground truth), same relative file names;
    * nerfstudio ``ns-render dataset --rendered-output-names rgb gt-rgb``: ``rgb/`` and ``gt-rgb/``
-     (ns-render writes them under ``OUT/<split>/``, hence the one level of sub-folders).
+     (ns-render writes them under ``OUT/<split>/``, hence the one level of sub-folders);
+   * the same with ``raw-rgb raw-gt-rgb`` (``nerfstudio-raw``): ``raw-rgb/`` and ``raw-gt-rgb/``
+     of ``<frame>.npy.gz`` files, each the float render or ground-truth tensor ``np.save``'d into
+     ``gzip.open`` (nerfstudio ``scripts/render.py`` ``DatasetRender``: ``(H, W, 3)`` float32 in
+     [0, 1], read under the float-file range rule of ``dynaeval.io.images``); with ``rgb/`` +
+     ``gt-rgb/`` beside them in the same folder, the float ones are scored (a note says so).
 
    Several matches (e.g. ``test/`` and ``train/`` splits) are an error listing them: point at one.
    The 3DGS family (gaussian-splatting, 4DGaussians, Deformable-3DGS: ``MODEL/<split>/ours_<N>/
@@ -33,7 +38,7 @@ Frames in these folders are usually *different test views*, not a video: the lay
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -42,6 +47,7 @@ from dynaeval.errors import InputError
 LAYOUTS: dict[str, tuple[str, str]] = {
     "nerfbaselines": ("color", "gt-color"),
     "nerfstudio": ("rgb", "gt-rgb"),
+    "nerfstudio-raw": ("raw-rgb", "raw-gt-rgb"),
 }
 """Layout name -> (prediction folder, ground-truth folder), siblings in one render folder."""
 
@@ -70,11 +76,18 @@ class RenderLayout:
 
 
 def _pairs_in(folder: Path) -> list[RenderLayout]:
-    found = []
+    found = {}
     for name, (pred, gt) in LAYOUTS.items():
         if (folder / pred).is_dir() and (folder / gt).is_dir():
-            found.append(RenderLayout(name, folder / pred, folder / gt, folder, sequence=False))
-    return found
+            found[name] = RenderLayout(name, folder / pred, folder / gt, folder, sequence=False)
+    if "nerfstudio" in found and "nerfstudio-raw" in found:  # one ns-render: its float frames
+        raw = found.pop("nerfstudio-raw")
+        found["nerfstudio"] = replace(raw, notes=(
+            f"ns-render wrote both 8-bit ({found['nerfstudio'].pred}/) and float (raw-rgb/) "
+            "frames here: the float ones are scored (ns-eval's metrics are on the float render); "
+            f"pass {found['nerfstudio'].pred} {found['nerfstudio'].gt} as PRED GT for the 8-bit "
+            "files",))
+    return list(found.values())
 
 
 def _check_not_ns_eval(folder: Path) -> None:
