@@ -99,6 +99,10 @@ def score(
         from dynaeval.io.kplanes import pair_stack
 
         pairing = pair_stack(layout.pred)
+    elif layout.name == "dycheck":
+        from dynaeval.io.dycheck import pair_renders
+
+        pairing = pair_renders(layout.pred)
     else:
         from dynaeval.io.dycheck import pair_dycheck
 

@@ -28,7 +28,10 @@ Rules (docs/integration.md repeats them with examples):
    folder (no layout above), whose latest ``step<N>.mp4`` (else ``step<N>-*.png`` set) is read:
    each frame stacks prediction, ground truth and an error map vertically
    (``dynaeval.io.kplanes``); its pairs come from ``kplanes.pair_stack``.
-4. nerfstudio ``ns-eval --render-output-path`` writes ``NNNNNN-img.jpg`` files that hold the ground
+4. DyCheck's own render folder ``WORK/renders/novel_view/<split>/<frame>.png`` (ground truth,
+   prediction and masked prediction side by side), read at any of its levels: its pairs come
+   from ``dycheck.pair_renders`` (``dynaeval.io.dycheck``).
+5. nerfstudio ``ns-eval --render-output-path`` writes ``NNNNNN-img.jpg`` files that hold the ground
    truth and the prediction side by side in one 8-bit JPEG: they are refused with a message
    (JPEG loss and the shared file make them unfit for scoring); render with ``ns-render`` instead.
 
@@ -57,9 +60,10 @@ class RenderLayout:
     """Where predictions and ground truth of one run are, and what wrote them."""
 
     name: str
-    """``nerfbaselines``, ``nerfstudio``, ``3dgs``, ``kplanes`` (a stack file or a K-Planes log
-    folder: ``pred`` and ``gt`` are that path, ``kplanes.pair_stack`` pairs it) or ``folders``
-    (PRED and GT as given)."""
+    """``nerfbaselines``, ``nerfstudio``, ``nerfstudio-raw``, ``3dgs``, ``kplanes`` (a stack file
+    or a K-Planes log folder: ``pred`` and ``gt`` are that path, ``kplanes.pair_stack`` pairs
+    it), ``dycheck`` (a ``novel_view/<split>`` folder, ``pred`` and ``gt`` both, paired by
+    ``dycheck.pair_renders``) or ``folders`` (PRED and GT as given)."""
     pred: Path
     """Folder of predictions."""
     gt: Path
@@ -168,6 +172,12 @@ def detect_layout(pred: str | Path, gt: str | Path | None = None, *,
     if layout is not None:
         return layout
     _check_no_selection(iteration, split, pred)
+    from dynaeval.io.dycheck import find_renders
+
+    renders = find_renders(pred)
+    if renders is not None:  # DyCheck's panels: pairs from dycheck.pair_renders
+        return RenderLayout("dycheck", renders, renders, renders, sequence=False,
+                            details={"split": renders.name})
     found = _pairs_in(pred)
     if not found:
         for sub in sorted(p for p in pred.iterdir() if p.is_dir() and not p.name.startswith(".")):
@@ -184,7 +194,8 @@ def detect_layout(pred: str | Path, gt: str | Path | None = None, *,
     if same and not found:  # PRED and GT are one ordinary folder: a self-check, scored as given
         return RenderLayout("folders", pred, pred)
     known = "; ".join([*(f"{n}: {p}/ + {g}/" for n, (p, g) in LAYOUTS.items()),
-                       "3dgs: MODEL/<split>/ours_<N>/renders/ + gt/"])
+                       "3dgs: MODEL/<split>/ours_<N>/renders/ + gt/",
+                       "dycheck: renders/novel_view/<split>/<frame>.png"])
     if not found:
         raise InputError(
             f"one folder was given but it holds no known render layout ({known}), neither directly "
