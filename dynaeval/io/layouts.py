@@ -207,3 +207,28 @@ def detect_layout(pred: str | Path, gt: str | Path | None = None, *,
     raise InputError(
         f"several render layouts found: {listing}; point at one of these folders", path=pred
     )
+
+
+def part_ref_from_text(text: str) -> Any:
+    """The frame reference written as ``str(ref)`` for one part of a file that holds several
+    (``"step30000.mp4#4 (prediction)"``: a K-Planes stack; ``"1_00000.png (ground truth)"``: a
+    DyCheck render), read back so a report can show it; None for any other text.
+
+    Raises:
+        InputError: as ``kplanes.check_stack`` / ``dycheck.render_panels`` for the file.
+    """
+    from dynaeval.io.dycheck import RENDER_PANELS, PanelFrameRef, render_panels
+    from dynaeval.io.kplanes import STACK_PARTS, StackedFrameRef, check_stack, is_stack_file
+
+    where, sep, part = text.rpartition(" (")
+    file, _, index = where.rpartition("#") if "#" in where else (where, "", "")
+    path, part = Path(file), part[:-1] if part.endswith(")") else None
+    if not sep or part is None or not path.is_file() or (index and not index.isdigit()):
+        return None
+    if is_stack_file(path) and part in STACK_PARTS:
+        return StackedFrameRef(path, int(index) if index else None,
+                               part=STACK_PARTS.index(part), rows=check_stack(path)[0])
+    if not index and part in RENDER_PANELS:
+        panels, width = render_panels(path)
+        return PanelFrameRef(path, panel=RENDER_PANELS.index(part), width=width, panels=panels)
+    return None

@@ -125,3 +125,21 @@ def test_dycheck_render_of_a_width_not_3_panels_or_another_width_is_exit_2(tmp_p
         from dynaeval.io.layouts import detect_layout
 
         detect_layout(tmp_path / "work")
+
+
+def test_dycheck_render_report_reads_the_panels_back(tmp_path):
+    """The report reads the worst frames from the results' ``pred``/``gt`` text, which for a
+    panel is ``"FILE (prediction)"``: read back as that panel (was: "frame ... is gone")."""
+    import numpy as np
+
+    from dynaeval.cli import main
+    from dynaeval.io.layouts import part_ref_from_text
+
+    split, preds, gts = _dycheck_renders(tmp_path / "work", np.random.default_rng(3), h=40, w=48)
+    ref = part_ref_from_text(f"{split / '1_00001.png'} (prediction)")
+    assert np.array_equal(ref.read(), preds[1] / np.float32(255))
+    assert part_ref_from_text(f"{split / '1_00001.png'} (error map)") is None
+    assert part_ref_from_text(str(split / "nope.png (prediction)")) is None
+    assert main(["score", str(split), "--no-lpips", "--focus", "none", "-q",
+                 "--report", str(tmp_path / "rep")]) == 0
+    assert (tmp_path / "rep" / "index.html").is_file()
