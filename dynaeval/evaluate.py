@@ -30,7 +30,7 @@ from typing import Any
 
 from dynaeval.config import ScoreConfig
 from dynaeval.io import FramePair, pair_frames
-from dynaeval.io.frames import consecutive_pairs, pairs_by_camera
+from dynaeval.io.frames import consecutive_pairs, missing_frames_warning, pairs_by_camera
 from dynaeval.regions.focus import FrameRegions
 from dynaeval.runtime import worker_opencv_threads
 
@@ -232,24 +232,6 @@ def _given_masks(config: ScoreConfig, layout: Any, pairs: list[FramePair]) -> tu
             f"protocol {protocol.name}: no covisibility masks found, so mpsnr, mssim and mlpips "
             "are not computed; pass --masks DATASET/covisible/<factor>x/<split>")})
     return masks, warnings
-
-
-def missing_frames_warning(gaps: dict[str, dict], temporal: bool, most: int = 8) -> dict:
-    """The one run-level warning (printed on the console) of ``--allow-missing`` runs that left
-    frames out: which, per camera (``dynaeval.io.frames.consecutive_pairs``), and how many pairs
-    of consecutive frames the temporal terms scored."""
-    parts = []
-    for cam, g in list(gaps.items())[:most]:
-        names = g["missing_frames"]
-        shown = ", ".join(names[:8]) + (f", ... ({len(names)} in all)" if len(names) > 8 else "")
-        pairs = f"; temporal pairs {g['scored']} of {g['expected']}" if temporal else ""
-        parts.append(f"camera {cam}: {shown}{pairs}")
-    more = f"; {len(gaps) - most} more camera(s) in inputs.skipped_frames" if len(gaps) > most else ""
-    n = sum(len(g["missing_frames"]) for g in gaps.values())
-    return {"reason": (f"--allow-missing: {n} ground-truth frame(s) have no prediction and are "
-                       f"not scored ({'; '.join(parts)}{more})"
-                       + ("; temporal terms use the pairs of consecutive frames present"
-                          if temporal else ""))}
 
 
 def warning_text(warning: dict[str, Any]) -> str:

@@ -282,6 +282,28 @@ def consecutive_pairs(pairing: Pairing) -> dict[str, dict]:
     return out
 
 
+MISSING_FRAMES = "--allow-missing"
+"""How ``missing_frames_warning``'s text starts (``dynaeval merge`` writes it again)."""
+
+
+def missing_frames_warning(gaps: dict[str, dict], temporal: bool, most: int = 8) -> dict:
+    """The one run-level warning (printed on the console) of ``--allow-missing`` runs that left
+    frames out: which, per camera (``gaps``: ``consecutive_pairs``' output), and how many pairs
+    of consecutive frames the temporal terms scored (``temporal``: they ran)."""
+    parts = []
+    for cam, g in list(gaps.items())[:most]:
+        names = g["missing_frames"]
+        shown = ", ".join(names[:8]) + (f", ... ({len(names)} in all)" if len(names) > 8 else "")
+        pairs = f"; temporal pairs {g['scored']} of {g['expected']}" if temporal else ""
+        parts.append(f"camera {cam}: {shown}{pairs}")
+    more = f"; {len(gaps) - most} more camera(s) in inputs.skipped_frames" if len(gaps) > most else ""
+    n = sum(len(g["missing_frames"]) for g in gaps.values())
+    return {"reason": (f"{MISSING_FRAMES}: {n} ground-truth frame(s) have no prediction and are "
+                       f"not scored ({'; '.join(parts)}{more})"
+                       + ("; temporal terms use the pairs of consecutive frames present"
+                          if temporal else ""))}
+
+
 def parse_shard(spec: str) -> tuple[int, int]:
     """``"I/N"`` (1 <= I <= N) -> (I, N); InputError otherwise."""
     try:
