@@ -218,7 +218,8 @@ def _given_masks(config: ScoreConfig, layout: Any, pairs: list[FramePair]) -> tu
         if len(gt_files) != len(pairs):
             raise InputError("given masks need ground truth as image files, not video frames",
                              path=masks.folder)
-        masks = check_masks(masks, [(g, None) for g in gt_files])
+        masks = check_masks(masks, [(p.gt.path, p.gt.size() if hasattr(p.gt, "size") else None)
+                                    for p in pairs])  # a DyCheck render's panel: its own size
     warnings = []
     roots = [layout.pred, layout.gt, *([layout.root] if layout.root is not None else [])]
     for folder in unused_mask_folders(masks, roots):

@@ -119,6 +119,12 @@ class PanelFrameRef(FrameRef):
                 f"{full.shape[1]} px wide: render the split again", path=self.path)
         return np.ascontiguousarray(full[:, self.panel * self.width:(self.panel + 1) * self.width])
 
+    def size(self) -> tuple[int, int]:
+        """(H, W) of the panel, from the file's header (a mask of this frame has this size)."""
+        from dynaeval.io.masks import image_size
+
+        return image_size(self.path)[0], self.width
+
     def __str__(self) -> str:
         return f"{self.path} ({RENDER_PANELS[self.panel]})"
 

@@ -143,3 +143,28 @@ def test_dycheck_render_report_reads_the_panels_back(tmp_path):
     assert main(["score", str(split), "--no-lpips", "--focus", "none", "-q",
                  "--report", str(tmp_path / "rep")]) == 0
     assert (tmp_path / "rep" / "index.html").is_file()
+
+
+def test_dycheck_render_with_the_datasets_covisible_masks_gives_the_masked_numbers(tmp_path):
+    """``--masks DATA/covisible/2x/val`` on a render folder: the masks are the panels' size
+    (was: "mask is 30x24 px but its frame ... is 90x24 px")."""
+    import cv2
+    import numpy as np
+
+    import dynaeval
+    from dynaeval.metrics import psnr
+    from dynaeval.regions.focus import FocusConfig
+
+    split, preds, gts = _dycheck_renders(tmp_path / "work", np.random.default_rng(4))
+    cov = tmp_path / "covisible" / "2x" / "val"
+    cov.mkdir(parents=True)
+    for f in sorted(split.glob("*.png")):
+        m = np.zeros((24, 30), np.uint8)
+        m[:, :15] = 255
+        cv2.imwrite(str(cov / f.name), m)
+    res = dynaeval.score(split, masks=str(cov), protocol="dycheck", metrics=("psnr",),
+                         focus=FocusConfig(source="none"), progress=False)
+    want = [psnr(p[:, :15] / np.float32(255), g[:, :15] / np.float32(255))
+            for p, g in zip(preds, gts)]
+    assert [r["masked_psnr"] for r in res["frames"]] == pytest.approx(want, rel=1e-6)
+    assert res["summary"]["mpsnr"] is not None
