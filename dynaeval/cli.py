@@ -153,6 +153,10 @@ def _add_score_options(p: argparse.ArgumentParser) -> None:
                         "tight_psnr_*)")
     p.add_argument("--no-temporal", action="store_true",
                    help="skip the temporal metrics (warp_error, tof, tlp, flicker)")
+    p.add_argument("--frames-are-video", action="store_true",
+                   help="score a render folder's frames (NeRFBaselines, ns-render, "
+                        "gaussian-splatting: separate test views, scored per frame only by "
+                        "default) as one video per camera: temporal terms and motion masks")
     p.add_argument("--flow", choices=FLOW_METHODS, default=d.flow,
                    help=f"optical flow for the temporal metrics (default: {d.flow})")
     p.add_argument("--workers", type=int, default=d.workers, metavar="N",
@@ -246,6 +250,7 @@ def config_from_args(args: argparse.Namespace) -> Any:
         flow=opt("flow"), protocol=opt("protocol"), masks=opt("masks"),
         iteration=getattr(args, "iteration", None), split=getattr(args, "split", None),
         prepared=getattr(args, "prepared", None),
+        frames_are_video=True if getattr(args, "frames_are_video", False) else None,
     )
     named = [*(getattr(args, "metrics", None) or ()),
              *(("lpips",) if getattr(args, "lpips_net", None) else ())]

@@ -106,6 +106,14 @@ class ScoreConfig:
     protocol uses their weights as its source does (``nerfbaselines``: whole-frame metrics of
     the mask-multiplied images; ``dycheck``: ``mpsnr``/``mssim``/``mlpips``). None: a
     NeRFBaselines render folder's ``mask/`` or DyCheck's ``covisible/`` when found, else none."""
+    frames_are_video: bool | None = None
+    """Whether each camera's frames are one video (consecutive time steps), which the temporal
+    terms and motion masks need. None (default): the layout decides: render folders of separate
+    test views (NeRFBaselines, ns-render, gaussian-splatting, a K-Planes PNG set:
+    ``RenderLayout.sequence`` False) are scored per frame only (no temporal terms, no motion
+    masks or ``masked_*`` over them), ordinary folders and videos as videos; True: scored as a
+    video whatever the layout (``--frames-are-video``); False: per frame only. Recorded as
+    ``settings["sequence"]`` when the layout's frames are not a video or this is set."""
     prepared: str | None = None
     """A prepared ground truth (``dynaeval prepare GT -o PREP``, ``dynaeval.prepare``): its
     regions and ground-truth flows are read instead of computed. Checked against the ground-truth
@@ -146,6 +154,9 @@ class ScoreConfig:
         from dynaeval.metrics.protocols import check_background, check_lpips_net, get_protocol
 
         FlowConfig(method=self.flow)  # raises InputError for an unknown method
+        if self.frames_are_video not in (None, True, False):
+            raise InputError(f"frames_are_video must be True, False or None (the layout "
+                             f"decides), got {self.frames_are_video!r}")
         if self.masks is not None and not isinstance(self.masks, (str, PathLike)):
             raise InputError(f"masks must be a folder path or None, got {self.masks!r}")
         protocol = get_protocol(self.protocol)

@@ -30,7 +30,7 @@ from typing import Any
 
 from dynaeval.config import ScoreConfig
 from dynaeval.io import FramePair, pair_frames
-from dynaeval.io.frames import pairs_by_camera
+from dynaeval.io.frames import consecutive_pairs, missing_frames_warning, pairs_by_camera
 from dynaeval.io.layout_3dgs import family_protocol
 from dynaeval.regions.focus import FrameRegions
 from dynaeval.runtime import worker_opencv_threads
@@ -101,6 +101,10 @@ def score(
         from dynaeval.io.kplanes import pair_stack
 
         pairing = pair_stack(layout.pred)
+    elif layout.name == "dycheck":
+        from dynaeval.io.dycheck import pair_renders
+
+        pairing = pair_renders(layout.pred)
     else:
         from dynaeval.io.dycheck import pair_dycheck
 
@@ -112,9 +116,10 @@ def score(
         pairing = select_shard(pairing, *config.shard)
     from dynaeval.scoring import prepare_run
 
+    masks, mask_warnings = _given_masks(config, layout, pairing.pairs)
+    config, sequence = per_frame_only(config, layout, masks)
     progress = run_progress(pairing.pairs, config)  # drawn now, before the metrics load
     try:
-        masks, mask_warnings = _given_masks(config, layout, pairing.pairs)
         run = prepare_run(config, masks)
         if config.prepared is not None:  # checked against the files and settings before the work
             from dynaeval.prepare import open_prepared
@@ -130,25 +135,73 @@ def score(
     run.warnings.extend(pairing.warnings)  # damaged video files
     run.warnings.extend(mask_warnings)
     run.warnings.extend({"reason": note} for note in layout.notes)
+    gaps = consecutive_pairs(pairing)
+    if gaps:
+        run.warnings.append(missing_frames_warning(gaps, config.temporal))
     own = family_protocol(layout.details["family"]) if layout.name == "3dgs" else config.protocol
     if config.protocol != own:
         run.warnings.append({"reason": (
             f"{layout.details['family']} render folder scored under --protocol "
             f"{config.protocol}: the numbers of its own metrics.py are --protocol {own} / "
             f"protocol='{own}'")})
-    if not layout.sequence and config.temporal:
-        run.warnings.append({"reason": (
-            f"{layout.name} render folders hold separate test views; temporal metrics treat them "
-            "as a sequence (pass temporal=False / --no-temporal unless they are one)")})
+    if sequence is not None:
+        run.settings["sequence"] = sequence
+        if sequence["skipped"]:
+            run.warnings.append({"reason": sequence["reason"]})
     rows, warnings, temporal, regions = _score_cameras(pairing.pairs, run, on_regions, progress)
     run_name = None if layout.name == "folders" else (
         layout.root if layout.name == "kplanes" else Path(layout.details.get("model", pred_dir))
     ).resolve().name
     results = _assemble(layout, run_name, pairing, run, rows, warnings, temporal, t_start, regions)
+    if gaps and config.temporal:
+        results["inputs"]["temporal_pairs"] = {
+            c: {"scored": g["scored"], "expected": g["expected"]} for c, g in gaps.items()}
     for w in results["warnings"]:
         if "camera" not in w:
             pywarnings.warn(warning_text(w), DynaevalWarning, stacklevel=2)
     return results
+
+
+def per_frame_only(config: ScoreConfig, layout: Any,
+                   masks: Any) -> tuple[ScoreConfig, dict[str, Any] | None]:
+    """The run's settings when its frames are separate views, not a video, and the results'
+    ``settings["sequence"]`` (None for frames that are a video by default: nothing changes).
+
+    Separate views (``layout.sequence`` False unless ``config.frames_are_video``, or
+    ``frames_are_video=False``) are scored per frame: no temporal terms, no motion masks (and no
+    ``masked_*`` unless ``masks``, given masks, are there), since neither means anything across
+    unrelated photos. ``sequence`` = ``{"video", "reason", "skipped"}``.
+
+    Raises:
+        InputError: ``--focus motion`` or a video metric (``jod``) asked for on separate views.
+    """
+    from dynaeval.errors import InputError
+    from dynaeval.metrics.registry import SPECS
+
+    video = layout.sequence if config.frames_are_video is None else config.frames_are_video
+    what = (f"the {layout.name} render folder's frames" if layout.name != "folders"
+            else "the frames")
+    if video:
+        return config, None if layout.sequence else {
+            "video": True, "skipped": [],
+            "reason": f"frames_are_video: {what} are scored as one video per camera"}
+    why = ("are separate test views, not a video" if config.frames_are_video is None
+           else "are scored as separate views (frames_are_video=False)")
+    fix = ("pass --frames-are-video (frames_are_video=True) if they are one camera's video"
+           if config.frames_are_video is None else "drop frames_are_video=False")
+    video_metrics = [n for n in config.metrics if SPECS[n].kind == "camera"]
+    if config.focus.source == "motion" or video_metrics:
+        asked = "--focus motion" if config.focus.source == "motion" else f"--{video_metrics[0]}"
+        raise InputError(f"{asked} needs each camera's frames as a video, but {what} {why}; "
+                         f"{fix}, or drop {asked}", path=layout.pred)
+    masked = config.focus.masked and masks is not None  # over the given masks only
+    skipped = [*(["temporal terms"] if config.temporal else []),
+               *(["motion masks and masked_*"] if config.focus.masked and not masked else [])]
+    reason = (f"{what} {why}: scored per frame only"
+              + (f" ({' and '.join(skipped)} skipped, meaningless across unrelated views); {fix}"
+                 if skipped else ""))
+    config = replace(config, temporal=False, focus=replace(config.focus, masked=masked))
+    return config, {"video": False, "skipped": skipped, "reason": reason}
 
 
 def _given_masks(config: ScoreConfig, layout: Any, pairs: list[FramePair]) -> tuple[Any, list[dict]]:
@@ -169,7 +222,8 @@ def _given_masks(config: ScoreConfig, layout: Any, pairs: list[FramePair]) -> tu
         if len(gt_files) != len(pairs):
             raise InputError("given masks need ground truth as image files, not video frames",
                              path=masks.folder)
-        masks = check_masks(masks, [(g, None) for g in gt_files])
+        masks = check_masks(masks, [(p.gt.path, p.gt.size() if hasattr(p.gt, "size") else None)
+                                    for p in pairs])  # a DyCheck render's panel: its own size
     warnings = []
     roots = [layout.pred, layout.gt, *([layout.root] if layout.root is not None else [])]
     for folder in unused_mask_folders(masks, roots):

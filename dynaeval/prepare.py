@@ -160,11 +160,12 @@ def prepare(gt_dir: str | Path, out: str | Path, config: ScoreConfig | None = No
 def _save_decoded(path: Path, digest: str, folder: Path) -> str | None:
     """An 8-bit image file's decoding (``dynaeval.io.images.decode_file``: uint8, as OpenCV
     returns it) as ``folder/<digest>.npy``, so that scoring skips its decoding; its path relative
-    to the prepared folder, or None for files of other depths (16-bit, float, EXR)."""
-    from dynaeval.io.images import decode_file
+    to the prepared folder, or None for files of other depths (16-bit, float, EXR) or stored
+    as RGB arrays (``.npy.gz``)."""
+    from dynaeval.io.images import STORED_RGB, decode_file
 
     image, kind = decode_file(path)
-    if kind == "exr" or image.dtype != np.uint8:
+    if kind in STORED_RGB or image.dtype != np.uint8:
         return None
     target = folder / f"{digest}.npy"
     if not target.exists():  # files of equal content share one

@@ -541,6 +541,26 @@ def _temporal_or_reason(camera: str, pairs: list[FramePair], regions: list[Frame
                          path=str(pairs[0].pred.path.parent)) from err
 
 
+def gap_positions(pairs: list[FramePair]) -> list[int]:
+    """Positions ``k`` of the neighbours ``(pairs[k], pairs[k + 1])`` of a camera that are not
+    consecutive frames (ground-truth frames left out between them: ``--allow-missing``)."""
+    return [k for k in range(len(pairs) - 1) if pairs[k + 1].index != pairs[k].index + 1]
+
+
+def _name_gaps(pairs: list[FramePair], temporal: dict[str, dict]) -> None:
+    """Give the per-pair entries the reason of each gap's null value (``pair_reasons``: pair
+    position -> reason, read by ``dynaeval.report.results.place_temporal``), in place."""
+    gaps = gap_positions(pairs)
+    if not gaps:
+        return
+    reasons = {k: (f"not a pair of consecutive frames: the ground-truth frame(s) between "
+                   f"{pairs[k].frame!r} and {pairs[k + 1].frame!r} have no prediction "
+                   "(--allow-missing)") for k in gaps}
+    for entry in temporal.values():
+        if entry.get("per_pair"):
+            entry["pair_reasons"] = reasons
+
+
 def _small_for_tlp(run: Run, h: int, w: int) -> str | None:
     """Why tLP is undefined for frames of (h, w), or None (LPIPS's backbone has a minimum)."""
     from dynaeval.metrics.perceptual import MIN_SIZE
@@ -574,9 +594,6 @@ def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], run:
     from dynaeval.regions.focus import same_shape
 
     config = run.config
-    if not consecutive(pairs):
-        reason = "frames are not consecutive (some were skipped): temporal terms need a sequence"
-        return {n: {"value": None, "reason": reason} for n in temporal_keys()}
     static = static_pixels(regions, config)
     region_masks = None  # a frame without boxes: None, the pairs with it have no focused value
     if config.focus.source != "none":
@@ -596,7 +613,9 @@ def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], run:
         on_pair=on_pair,
         gt_static_std=None if static is None or run.prepared is None
         else run.prepared.gt_static_std(pairs[0].camera, static),
+        frame_indices=[p.index for p in pairs],
     )
+    _name_gaps(pairs, out)
     if small is not None:
         out.update({k: {"value": None, "reason": small, "per_pair": []} for k in SPECS["tlp"].keys()})
     return out

@@ -1,21 +1,38 @@
-"""DyCheck's dataset layout as ground truth: ``DATA/rgb/<factor>x/`` holds every frame (training
-and test views), ``DATA/splits/<split>.json`` lists each split's ``frame_names``.
+"""DyCheck's layouts: its dataset as ground truth, and its own render folder.
 
-Predictions of one split (``1_00000.png``, ...) are paired with that split's ground truth only:
-``pair_dycheck`` pairs them when the predicted frames all belong to exactly one split, so the
-training frames are neither an error nor "skipped"; a frame of the split with no prediction is
-still an error (unless ``allow_missing``). Covisibility masks: ``dynaeval.io.masks``.
+**Dataset** ``DATA/rgb/<factor>x/`` holds every frame (training and test views),
+``DATA/splits/<split>.json`` lists each split's ``frame_names``. Predictions of one split
+(``1_00000.png``, ...) are paired with that split's ground truth only: ``pair_dycheck`` pairs
+them when the predicted frames all belong to exactly one split, so the training frames are
+neither an error nor "skipped"; a frame of the split with no prediction is still an error
+(unless ``allow_missing``). Covisibility masks: ``dynaeval.io.masks``.
+
+**Render folder** ``WORK/renders/novel_view/<split>/<frame>.png``, written by DyCheck's
+``NovelView.finalize`` (``dycheck/core/tasks/novel_view.py``, read for the facts): each PNG is
+``np.concatenate([gt, pred, masked_pred], axis=1)``, panels side by side of one width W, the
+ground truth first, the prediction second, both quantised to 8 bit (``to_quantized_float32``)
+and written as uint8 by truncation; the third panel exists only when the split has covisibility
+masks: ``cov * pred + (1 - cov) * (1 + pred) / 2`` (the prediction, lightened to white outside
+the covisible region), so a file is 3W wide, or 2W without masks. ``<split>/checkpoints/``
+(training-time snapshots), ``metrics_dict.npz`` and ``mean_metrics_dict.json`` are not frames.
+``find_renders`` finds the split folder (given at any level: ``WORK``, ``WORK/renders``,
+``.../novel_view`` or the split), ``pair_renders`` pairs panel 2 (prediction) with panel 1
+(ground truth). The third panel is not scored: the first file's is only used to tell three
+panels from two; for DyCheck's masked numbers pass the dataset's masks (``--masks
+DATA/covisible/<factor>x/<split> --protocol dycheck``): its frame names are the files'.
 """
 
 from __future__ import annotations
 
 import json
 import re
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
+import numpy as np
+
 from dynaeval.errors import InputError
-from dynaeval.io.frames import Pairing, pair_frames
+from dynaeval.io.frames import FramePair, FrameRef, Pairing, natural_key, pair_frames
 
 _FACTOR = re.compile(r"^\d+x$")
 
@@ -62,3 +79,128 @@ def pair_dycheck(pred_root: str | Path, gt_root: str | Path, *, allow_missing: b
                          path=pred_root)
     skipped = [s for s in pairing.skipped if s["frame"] in split]
     return replace(pairing, skipped=skipped)
+
+
+# --------------------------------------------------------------------------------------------
+# DyCheck's render folder: renders/novel_view/<split>/<frame>.png = gt | pred [| masked pred]
+
+RENDER_PANELS = ("ground truth", "prediction", "prediction masked by covisibility")
+"""The panels of a DyCheck novel-view render, left to right (the third only with masks)."""
+MASKED_PANEL_MATCH = 0.98
+"""Share of the first file's third-panel values that must be the prediction's or the
+prediction lightened to white, ``(255 + p) / 2``, within 1 (8-bit truncation), for it to be
+read as three panels (else two)."""
+
+
+@dataclass(frozen=True)
+class PanelFrameRef(FrameRef):
+    """One panel of a DyCheck render PNG, panels of ``width`` pixels side by side."""
+
+    panel: int = 0
+    """0: ground truth, 1: prediction (``RENDER_PANELS``)."""
+    width: int = 0
+    """Width of one panel in pixels."""
+    panels: int = 3
+    """Panels in the file (3 with covisibility masks, else 2): its width is ``panels * width``."""
+
+    def read(self, background: str | float = "white", decode: str = "dynaeval") -> np.ndarray:
+        """The panel as (H, width, C) float32 in [0, 1].
+
+        Raises:
+            InputError: the file is not ``panels * width`` wide (not like the first render).
+        """
+        from dynaeval.io.images import read_image
+
+        full = read_image(self.path, background=background, decode=decode)
+        if full.shape[1] != self.panels * self.width:
+            raise InputError(
+                f"a DyCheck render here is {self.panels} panels of {self.width} px side by side "
+                f"({self.panels * self.width} px wide, as the first file), this one is "
+                f"{full.shape[1]} px wide: render the split again", path=self.path)
+        return np.ascontiguousarray(full[:, self.panel * self.width:(self.panel + 1) * self.width])
+
+    def size(self) -> tuple[int, int]:
+        """(H, W) of the panel, from the file's header (a mask of this frame has this size)."""
+        from dynaeval.io.masks import image_size
+
+        return image_size(self.path)[0], self.width
+
+    def __str__(self) -> str:
+        return f"{self.path} ({RENDER_PANELS[self.panel]})"
+
+
+def _split_dirs(folder: Path) -> list[Path]:
+    return sorted((p for p in folder.iterdir() if p.is_dir() and not p.name.startswith(".")
+                   and any(p.glob("*.png"))), key=lambda p: natural_key(p.name))
+
+
+def find_renders(folder: str | Path) -> Path | None:
+    """The ``novel_view/<split>`` folder of a DyCheck render folder given at any level
+    (``WORK``, ``WORK/renders``, ``WORK/renders/novel_view``, the split folder), or None when
+    ``folder`` is none of these.
+
+    Raises:
+        InputError: several splits rendered (naming them), or a ``novel_view`` with none.
+    """
+    folder = Path(folder)
+    if folder.parent.name == "novel_view" and any(folder.glob("*.png")):
+        return folder
+    for novel in (folder, folder / "novel_view", folder / "renders" / "novel_view"):
+        if novel.name == "novel_view" and novel.is_dir():
+            splits = _split_dirs(novel)
+            if len(splits) == 1:
+                return splits[0]
+            if not splits:
+                raise InputError("DyCheck render folder with no rendered split (novel_view/"
+                                 "<split>/<frame>.png)", path=novel)
+            raise InputError(f"DyCheck render folder with several splits: "
+                             f"{', '.join(p.name for p in splits)}; point at one of them, "
+                             f"e.g. {splits[0]}", path=novel)
+    return None
+
+
+def render_panels(path: Path) -> tuple[int, int]:
+    """``(panels, panel width)`` of a DyCheck render PNG, from its content: three panels when
+    its width is divisible by 3 and the third panel is the masked prediction, else two.
+
+    Raises:
+        InputError: a width that is not 2 or 3 panels of one width (naming the file).
+    """
+    from dynaeval.io.images import decode_file
+
+    image, _ = decode_file(path)
+    w = image.shape[1]
+    if w % 3 == 0 and w >= 3:
+        scale = 255.0 / np.iinfo(image.dtype).max if image.dtype.kind == "u" else 255.0
+        pred, third = (image[:, k * w // 3:(k + 1) * w // 3].astype(np.float64) * scale
+                       for k in (1, 2))
+        same = (np.abs(third - pred) <= 1) | (np.abs(third - (255 + pred) / 2) <= 1)
+        if same.mean() >= MASKED_PANEL_MATCH:
+            return 3, w // 3
+    if w % 2 == 0 and w >= 2:
+        return 2, w // 2
+    raise InputError(
+        f"a DyCheck novel-view render holds ground truth | prediction | masked prediction side "
+        f"by side (3 panels of one width; 2 without covisibility masks); this file is {w} px "
+        "wide, not a multiple of 3 (or 2): not a DyCheck render, or cropped after it was written",
+        path=path)
+
+
+def pair_renders(split_dir: str | Path) -> Pairing:
+    """The (prediction, ground truth) pairs of a DyCheck ``novel_view/<split>`` folder: one
+    camera (``"."``), one frame per ``<frame>.png`` (natural order), panel 2 against panel 1;
+    the panel count is the first file's (``render_panels``), checked for each file as read.
+
+    Raises:
+        InputError: no PNG, or the first file is not 2 or 3 panels wide.
+    """
+    split_dir = Path(split_dir)
+    files = sorted((p for p in split_dir.glob("*.png") if not p.name.startswith(".")),
+                   key=lambda p: natural_key(p.stem))
+    if not files:
+        raise InputError("no DyCheck render (<frame>.png) in this folder", path=split_dir)
+    panels, width = render_panels(files[0])
+    pairs = [FramePair(".", f.stem, i, PanelFrameRef(f, panel=1, width=width, panels=panels),
+                       PanelFrameRef(f, panel=0, width=width, panels=panels))
+             for i, f in enumerate(files)]
+    return Pairing(pairs=pairs)

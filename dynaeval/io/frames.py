@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from dynaeval.errors import InputError
-from dynaeval.io.images import IMAGE_EXTENSIONS, read_image
+from dynaeval.io.images import IMAGE_EXTENSIONS, frame_name_parts, read_image
 from dynaeval.io.video import VIDEO_EXTENSIONS, read_video_frame, scan_video
 
 ROOT_CAMERA = "."
@@ -145,10 +145,9 @@ def find_frames(root: str | Path, *, role: str = "input") -> dict[str, Camera]:
             if name.startswith("."):
                 continue
             path = Path(dirpath) / name
-            ext = path.suffix.lower()
+            stem, ext = frame_name_parts(path)
             if ext in IMAGE_EXTENSIONS:
                 cam = images.setdefault(rel, {})
-                stem = path.stem
                 if stem in cam:
                     raise InputError(
                         f"two {role} files share the frame name {stem!r}: {cam[stem].name} and "
@@ -263,6 +262,46 @@ def pairs_by_camera(pairs: list[FramePair]) -> dict[str, list[FramePair]]:
     for pair in pairs:
         out.setdefault(pair.camera, []).append(pair)
     return out
+
+
+def consecutive_pairs(pairing: Pairing) -> dict[str, dict]:
+    """Per camera with ground-truth frames left out (``Pairing.skipped``, ``allow_missing``):
+    ``{"scored": pairs of consecutive frames present, "expected": pairs of its ground truth,
+    "missing_frames": [frame names]}``, what its temporal terms can use; {} when none is missing.
+    """
+    missing: dict[str, list[str]] = {}
+    for s in pairing.skipped:
+        missing.setdefault(s["camera"], []).append(s["frame"])
+    out = {}
+    for cam, cam_pairs in pairs_by_camera(pairing.pairs).items():
+        if cam in missing:
+            n_gt = len(cam_pairs) + len(missing[cam])
+            scored = sum(b.index == a.index + 1 for a, b in zip(cam_pairs, cam_pairs[1:]))
+            out[cam] = {"scored": scored, "expected": max(0, n_gt - 1),
+                        "missing_frames": missing[cam]}
+    return out
+
+
+MISSING_FRAMES = "--allow-missing"
+"""How ``missing_frames_warning``'s text starts (``dynaeval merge`` writes it again)."""
+
+
+def missing_frames_warning(gaps: dict[str, dict], temporal: bool, most: int = 8) -> dict:
+    """The one run-level warning (printed on the console) of ``--allow-missing`` runs that left
+    frames out: which, per camera (``gaps``: ``consecutive_pairs``' output), and how many pairs
+    of consecutive frames the temporal terms scored (``temporal``: they ran)."""
+    parts = []
+    for cam, g in list(gaps.items())[:most]:
+        names = g["missing_frames"]
+        shown = ", ".join(names[:8]) + (f", ... ({len(names)} in all)" if len(names) > 8 else "")
+        pairs = f"; temporal pairs {g['scored']} of {g['expected']}" if temporal else ""
+        parts.append(f"camera {cam}: {shown}{pairs}")
+    more = f"; {len(gaps) - most} more camera(s) in inputs.skipped_frames" if len(gaps) > most else ""
+    n = sum(len(g["missing_frames"]) for g in gaps.values())
+    return {"reason": (f"{MISSING_FRAMES}: {n} ground-truth frame(s) have no prediction and are "
+                       f"not scored ({'; '.join(parts)}{more})"
+                       + ("; temporal terms use the pairs of consecutive frames present"
+                          if temporal else ""))}
 
 
 def parse_shard(spec: str) -> tuple[int, int]:

@@ -1,7 +1,8 @@
 """Reading image files into float arrays in [0, 1], with the range taken from the dtype.
 
 Supported: PNG (8 and 16 bit), JPEG, TIFF (8/16 bit, float), WebP, BMP via OpenCV; OpenEXR (float)
-via the ``OpenEXR`` package. Grayscale stays one channel ``(H, W, 1)``; RGB is returned in RGB order
+via the ``OpenEXR`` package; ``.npy.gz`` (a gzip'd NumPy array: nerfstudio's float renders,
+``raw-rgb/``) via numpy, under the same range rule as a float file. Grayscale stays one channel ``(H, W, 1)``; RGB is returned in RGB order
 (OpenCV's BGR is converted); RGBA is composited over a background colour (see ``composite_alpha``).
 
 ``decode`` chooses how a 16-bit PNG becomes [0, 1]: ``"dynaeval"`` (default) divides by 65535;
@@ -31,11 +32,19 @@ import numpy as np
 from dynaeval.errors import InputError
 from dynaeval.validation import FLOAT_TOLERANCE, as_image
 
+ARRAY_EXTENSION = ".npy.gz"
+"""A gzip'd NumPy array holding one image: nerfstudio's raw renders (``ns-render dataset
+--rendered-output-names raw-rgb raw-gt-rgb`` writes ``np.save`` into ``gzip.open``), read as
+stored (RGB order, the dtype's range)."""
+
 IMAGE_EXTENSIONS = frozenset(
-    {".png", ".jpg", ".jpeg", ".tif", ".tiff", ".exr", ".webp", ".bmp"}
+    {".png", ".jpg", ".jpeg", ".tif", ".tiff", ".exr", ".webp", ".bmp", ARRAY_EXTENSION}
 )
 
 BACKGROUNDS = {"white": 1.0, "black": 0.0}
+
+STORED_RGB = ("exr", "array")
+"""Kinds of ``decode_file`` that hold RGB(A) as stored, not OpenCV's BGR(A), at any depth."""
 
 DECODES = ("dynaeval", "pil")
 """How 16-bit PNGs are mapped to [0, 1] (module docstring)."""
@@ -43,6 +52,43 @@ DECODES = ("dynaeval", "pil")
 _EXR_MAGIC = b"\x76\x2f\x31\x01"
 _PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 _JPEG_MAGIC = b"\xff\xd8\xff"
+
+
+def frame_name_parts(path: str | Path) -> tuple[str, str]:
+    """``(frame name, extension)`` of an image file: ``("0007", ".png")`` for ``0007.PNG``,
+    ``("0007", ".npy.gz")`` for ``0007.npy.gz`` (the one extension of two parts)."""
+    name = Path(path).name
+    if name.lower().endswith(ARRAY_EXTENSION) and len(name) > len(ARRAY_EXTENSION):
+        return name[:-len(ARRAY_EXTENSION)], ARRAY_EXTENSION
+    return Path(name).stem, Path(name).suffix.lower()
+
+
+def _read_array(path: Path) -> np.ndarray:
+    """The image array of a ``.npy.gz`` file, as stored: ``(H, W)`` or ``(H, W, C)``, C in 1-4,
+    RGB(A) order; its dtype is checked by ``to_float``.
+
+    Raises:
+        InputError: not gzip'd, not a NumPy array file (or a pickle), or not an image's shape.
+    """
+    import gzip
+    import io
+    import zlib
+
+    try:
+        arr = np.load(io.BytesIO(gzip.decompress(_read_bytes(path))), allow_pickle=False)
+    except (OSError, EOFError, ValueError, zlib.error) as err:
+        raise InputError(
+            f"cannot read this .npy.gz frame ({err}): it must be one NumPy array saved with "
+            "np.save into gzip.open, as ns-render writes raw-rgb / raw-gt-rgb; render it again",
+            path=path) from err
+    if not isinstance(arr, np.ndarray) or arr.ndim not in (2, 3) or arr.size == 0 or (
+            arr.ndim == 3 and arr.shape[2] > 4):
+        shape = getattr(arr, "shape", type(arr).__name__)
+        raise InputError(
+            f"a .npy.gz frame must hold one image, (H, W) or (H, W, C) with C <= 4 channels last "
+            f"(as ns-render writes), got {shape}; a channel-first (C, H, W) array needs "
+            "arr.transpose(1, 2, 0)", path=path)
+    return arr
 
 
 def to_float(image: np.ndarray, path: str | Path | None = None) -> np.ndarray:
@@ -173,8 +219,9 @@ def pil_png_bytes(image: np.ndarray, path: str | Path | None = None) -> np.ndarr
 
 def decode_file(path: str | Path) -> tuple[np.ndarray, str]:
     """An image file decoded as stored, and its kind by content (``"exr"``, ``"png"`` or
-    ``"image"``): OpenCV's channel order (BGR/BGRA) and dtype (uint8, uint16, float), or an
-    EXR's float RGB data; the checks of :func:`read_image` that need the file.
+    ``"image"``; ``"array"`` for ``.npy.gz``, by name): OpenCV's channel order (BGR/BGRA) and
+    dtype (uint8, uint16, float), or an EXR's float RGB data, or the array as saved (RGB); the
+    checks of :func:`read_image` that need the file.
 
     Raises:
         InputError: missing, unreadable, truncated JPEG or PNG, unsupported extension, not an
@@ -185,12 +232,14 @@ def decode_file(path: str | Path) -> tuple[np.ndarray, str]:
     path = Path(path)
     if not path.is_file():
         raise InputError("file not found", path=path)
-    ext = path.suffix.lower()
+    ext = frame_name_parts(path)[1]
     if ext not in IMAGE_EXTENSIONS:
         raise InputError(
             f"unsupported image extension {ext!r}; expected one of {sorted(IMAGE_EXTENSIONS)}",
             path=path,
         )
+    if ext == ARRAY_EXTENSION:
+        return _read_array(path), "array"
     data = _read_bytes(path)
     if data.startswith(_EXR_MAGIC):
         return _read_exr(path), "exr"
@@ -229,7 +278,7 @@ def read_image(path: str | Path, *, background: str | float = "white",
     if decoded is not None and decoded.dtype != np.uint8:
         raise InputError(f"a decoded image given for it must be uint8, got {decoded.dtype}", path=path)
     image, kind = (decoded, "image") if decoded is not None else decode_file(path)
-    if kind != "exr":  # OpenCV's decoding (pil_png_bytes changes 16-bit PNGs only)
+    if kind not in STORED_RGB:  # OpenCV's decoding (pil_png_bytes changes 16-bit PNGs only)
         if decode == "pil" and kind == "png":
             image = pil_png_bytes(image, path)
         if image.ndim == 3 and image.shape[2] in (3, 4):  # BGR(A) -> RGB(A), contiguous

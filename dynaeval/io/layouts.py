@@ -8,7 +8,12 @@ Rules (docs/integration.md repeats them with examples):
    * NeRFBaselines (``nerfbaselines render`` / ``evaluate`` output): ``color/`` (predictions) and
      ``gt-color/`` (ground truth), same relative file names;
    * nerfstudio ``ns-render dataset --rendered-output-names rgb gt-rgb``: ``rgb/`` and ``gt-rgb/``
-     (ns-render writes them under ``OUT/<split>/``, hence the one level of sub-folders).
+     (ns-render writes them under ``OUT/<split>/``, hence the one level of sub-folders);
+   * the same with ``raw-rgb raw-gt-rgb`` (``nerfstudio-raw``): ``raw-rgb/`` and ``raw-gt-rgb/``
+     of ``<frame>.npy.gz`` files, each the float render or ground-truth tensor ``np.save``'d into
+     ``gzip.open`` (nerfstudio ``scripts/render.py`` ``DatasetRender``: ``(H, W, 3)`` float32 in
+     [0, 1], read under the float-file range rule of ``dynaeval.io.images``); with ``rgb/`` +
+     ``gt-rgb/`` beside them in the same folder, the float ones are scored (a note says so).
 
    Several matches (e.g. ``test/`` and ``train/`` splits) are an error listing them: point at one.
    The 3DGS family (gaussian-splatting, 4DGaussians, Deformable-3DGS: ``MODEL/<split>/ours_<N>/
@@ -23,7 +28,10 @@ Rules (docs/integration.md repeats them with examples):
    folder (no layout above), whose latest ``step<N>.mp4`` (else ``step<N>-*.png`` set) is read:
    each frame stacks prediction, ground truth and an error map vertically
    (``dynaeval.io.kplanes``); its pairs come from ``kplanes.pair_stack``.
-4. nerfstudio ``ns-eval --render-output-path`` writes ``NNNNNN-img.jpg`` files that hold the ground
+4. DyCheck's own render folder ``WORK/renders/novel_view/<split>/<frame>.png`` (ground truth,
+   prediction and masked prediction side by side), read at any of its levels: its pairs come
+   from ``dycheck.pair_renders`` (``dynaeval.io.dycheck``).
+5. nerfstudio ``ns-eval --render-output-path`` writes ``NNNNNN-img.jpg`` files that hold the ground
    truth and the prediction side by side in one 8-bit JPEG: they are refused with a message
    (JPEG loss and the shared file make them unfit for scoring); render with ``ns-render`` instead.
 
@@ -33,7 +41,7 @@ Frames in these folders are usually *different test views*, not a video: the lay
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -42,6 +50,7 @@ from dynaeval.errors import InputError
 LAYOUTS: dict[str, tuple[str, str]] = {
     "nerfbaselines": ("color", "gt-color"),
     "nerfstudio": ("rgb", "gt-rgb"),
+    "nerfstudio-raw": ("raw-rgb", "raw-gt-rgb"),
 }
 """Layout name -> (prediction folder, ground-truth folder), siblings in one render folder."""
 
@@ -51,9 +60,10 @@ class RenderLayout:
     """Where predictions and ground truth of one run are, and what wrote them."""
 
     name: str
-    """``nerfbaselines``, ``nerfstudio``, ``3dgs``, ``kplanes`` (a stack file or a K-Planes log
-    folder: ``pred`` and ``gt`` are that path, ``kplanes.pair_stack`` pairs it) or ``folders``
-    (PRED and GT as given)."""
+    """``nerfbaselines``, ``nerfstudio``, ``nerfstudio-raw``, ``3dgs``, ``kplanes`` (a stack file
+    or a K-Planes log folder: ``pred`` and ``gt`` are that path, ``kplanes.pair_stack`` pairs
+    it), ``dycheck`` (a ``novel_view/<split>`` folder, ``pred`` and ``gt`` both, paired by
+    ``dycheck.pair_renders``) or ``folders`` (PRED and GT as given)."""
     pred: Path
     """Folder of predictions."""
     gt: Path
@@ -70,11 +80,18 @@ class RenderLayout:
 
 
 def _pairs_in(folder: Path) -> list[RenderLayout]:
-    found = []
+    found = {}
     for name, (pred, gt) in LAYOUTS.items():
         if (folder / pred).is_dir() and (folder / gt).is_dir():
-            found.append(RenderLayout(name, folder / pred, folder / gt, folder, sequence=False))
-    return found
+            found[name] = RenderLayout(name, folder / pred, folder / gt, folder, sequence=False)
+    if "nerfstudio" in found and "nerfstudio-raw" in found:  # one ns-render: its float frames
+        raw = found.pop("nerfstudio-raw")
+        found["nerfstudio"] = replace(raw, notes=(
+            f"ns-render wrote both 8-bit ({found['nerfstudio'].pred}/) and float (raw-rgb/) "
+            "frames here: the float ones are scored (ns-eval's metrics are on the float render); "
+            f"pass {found['nerfstudio'].pred} {found['nerfstudio'].gt} as PRED GT for the 8-bit "
+            "files",))
+    return list(found.values())
 
 
 def _check_not_ns_eval(folder: Path) -> None:
@@ -155,6 +172,12 @@ def detect_layout(pred: str | Path, gt: str | Path | None = None, *,
     if layout is not None:
         return layout
     _check_no_selection(iteration, split, pred)
+    from dynaeval.io.dycheck import find_renders
+
+    renders = find_renders(pred)
+    if renders is not None:  # DyCheck's panels: pairs from dycheck.pair_renders
+        return RenderLayout("dycheck", renders, renders, renders, sequence=False,
+                            details={"split": renders.name})
     found = _pairs_in(pred)
     if not found:
         for sub in sorted(p for p in pred.iterdir() if p.is_dir() and not p.name.startswith(".")):
@@ -171,7 +194,8 @@ def detect_layout(pred: str | Path, gt: str | Path | None = None, *,
     if same and not found:  # PRED and GT are one ordinary folder: a self-check, scored as given
         return RenderLayout("folders", pred, pred)
     known = "; ".join([*(f"{n}: {p}/ + {g}/" for n, (p, g) in LAYOUTS.items()),
-                       "3dgs: MODEL/<split>/ours_<N>/renders/ + gt/"])
+                       "3dgs: MODEL/<split>/ours_<N>/renders/ + gt/",
+                       "dycheck: renders/novel_view/<split>/<frame>.png"])
     if not found:
         raise InputError(
             f"one folder was given but it holds no known render layout ({known}), neither directly "
@@ -183,3 +207,28 @@ def detect_layout(pred: str | Path, gt: str | Path | None = None, *,
     raise InputError(
         f"several render layouts found: {listing}; point at one of these folders", path=pred
     )
+
+
+def part_ref_from_text(text: str) -> Any:
+    """The frame reference written as ``str(ref)`` for one part of a file that holds several
+    (``"step30000.mp4#4 (prediction)"``: a K-Planes stack; ``"1_00000.png (ground truth)"``: a
+    DyCheck render), read back so a report can show it; None for any other text.
+
+    Raises:
+        InputError: as ``kplanes.check_stack`` / ``dycheck.render_panels`` for the file.
+    """
+    from dynaeval.io.dycheck import RENDER_PANELS, PanelFrameRef, render_panels
+    from dynaeval.io.kplanes import STACK_PARTS, StackedFrameRef, check_stack, is_stack_file
+
+    where, sep, part = text.rpartition(" (")
+    file, _, index = where.rpartition("#") if "#" in where else (where, "", "")
+    path, part = Path(file), part[:-1] if part.endswith(")") else None
+    if not sep or part is None or not path.is_file() or (index and not index.isdigit()):
+        return None
+    if is_stack_file(path) and part in STACK_PARTS:
+        return StackedFrameRef(path, int(index) if index else None,
+                               part=STACK_PARTS.index(part), rows=check_stack(path)[0])
+    if not index and part in RENDER_PANELS:
+        panels, width = render_panels(path)
+        return PanelFrameRef(path, panel=RENDER_PANELS.index(part), width=width, panels=panels)
+    return None

@@ -32,7 +32,7 @@ Frames are ``(H, W, 3)`` RGB, float32 in ``[0, 1]`` (uint8 is divided by 255). T
 from __future__ import annotations
 
 from collections import deque
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import Executor
 from dataclasses import dataclass, field
 from itertools import repeat
@@ -269,6 +269,7 @@ def temporal_metrics(
     window: int = 4,
     on_pair: Callable[[], None] | None = None,
     gt_static_std: np.ndarray | None = None,
+    frame_indices: Sequence[int] | None = None,
 ) -> dict[str, dict]:
     """All temporal metrics of one camera's sequence, streaming over consecutive pairs.
 
@@ -290,6 +291,11 @@ def temporal_metrics(
     ``gt_static_std``: the ground truth's per-pixel temporal std on the static pixels of these
     very frames, computed beforehand (``(N, C)`` float64, ``N`` static pixels in row-major
     order: ``dynaeval prepare``); flicker then accumulates the prediction only.
+    ``frame_indices``: each frame's position in its sequence (increasing integers, one per
+    frame; None: ``0, 1, 2, ...``). Two neighbours whose positions are not consecutive (frames
+    left out between them, ``--allow-missing``) are no pair: their per-pair values are None and
+    no flow is computed for them; flicker uses every frame given (a std over time needs no
+    neighbours).
 
     Returns ``{key: {"value": float | None, "reason": str | None, "per_pair": [float | None]}}``
     for the keys ``temporal_keys()``: ``warp_error, tof, tlp, flicker`` and their
@@ -312,19 +318,52 @@ def temporal_metrics(
     prev: Frames | None = None
     n_frames = 0
     regionless: list[int] = []  # frames whose region item was None
+    positions = _Positions(frame_indices)
     for i, cur in enumerate(_time_steps(pred_frames, gt_frames, region_masks)):
         n_frames = i + 1
         if cur.region is None:
             regionless.append(i)
         camera.update(cur)
-        if prev is not None:
+        if prev is not None and positions.next_follows(i):
             pairs.submit(pair_terms, prev, cur, cache, config.flow,
                          lpips_fn if pairs.lpips_reason is None else None,
                          config.tlp_min_crop, memo, i)
+        elif prev is not None:  # a gap: no pair, its slot stays None
+            pairs.submit(_no_pair_terms)
         prev = cur
     pairs.drain(0)
     return _results(pairs, camera, n_frames, region_masks is not None,
-                    regionless if region_masks is not None else [])
+                    regionless if region_masks is not None else [], positions.gaps)
+
+
+class _Positions:
+    """Walks ``frame_indices`` alongside the frames: ``next_follows(i)`` is True when frame ``i``
+    comes right after frame ``i - 1`` in its sequence; ``gaps`` counts the neighbours that do not.
+    """
+
+    def __init__(self, frame_indices: Sequence[int] | None) -> None:
+        self.indices = None if frame_indices is None else [int(t) for t in frame_indices]
+        self.gaps = 0
+
+    def next_follows(self, i: int) -> bool:
+        if self.indices is None:
+            return True
+        if i >= len(self.indices):
+            raise InputError(f"frame_indices has {len(self.indices)} items, fewer than the frames "
+                             f"(at least {i + 1}): give one position per frame")
+        prev, cur = self.indices[i - 1], self.indices[i]
+        if cur <= prev:
+            raise InputError(f"frame_indices must increase: frame {i} is at {cur}, frame {i - 1} "
+                             f"at {prev}")
+        self.gaps += cur != prev + 1
+        return cur == prev + 1
+
+
+def _no_pair_terms() -> dict:
+    """The terms of two neighbours that are not consecutive frames: every value None."""
+    return {"per_pair": dict.fromkeys(keys_of("pair")),
+            "parts": {k: {"pred": None, "gt": None, "signed": None} for k in WARP_ERROR_KEYS},
+            "lpips_error": None}
 
 
 # --------------------------------------------------------------------------------------------
@@ -339,13 +378,18 @@ def _mean_or_reason(values: list, empty_reason: str) -> tuple[float | None, str 
 
 
 def _pair_entry(key: str, pairs: _PairFold, n_frames: int, has_regions: bool,
-                regionless: list[int]) -> dict:
+                regionless: list[int], gaps: int = 0) -> dict:
     """The entry of a per-pair metric (warp_error, tof, tlp and their focused variants);
-    ``regionless``: the frames given no region (their pairs' focused values are None)."""
+    ``regionless``: the frames given no region (their pairs' focused values are None);
+    ``gaps``: neighbours that are not consecutive frames (no pair)."""
     info = METRICS[key]
     focused = info.variant == "focused"
     if n_frames < 2:
         return {"value": None, "reason": f"needs at least 2 frames, got {n_frames}", "per_pair": []}
+    if gaps == n_frames - 1:
+        return {"value": None, "per_pair": [], "reason": (  # one camera-level null
+            f"no two of the {n_frames} frames are consecutive (frames are missing between every "
+            "pair of neighbours): no pair to score")}
     if focused and not has_regions:
         return {"value": None, "reason": _NO_REGIONS, "per_pair": pairs.per_pair[key]}
     if info.metric == "tlp" and pairs.lpips_reason is not None:
@@ -366,7 +410,7 @@ def _pair_entry(key: str, pairs: _PairFold, n_frames: int, has_regions: bool,
 
 def _results(
     pairs: _PairFold, camera: _CameraTerms, n_frames: int, has_regions: bool,
-    regionless: list[int],
+    regionless: list[int], gaps: int = 0,
 ) -> dict[str, dict]:
     """Every temporal result key -> its entry, in the registry's report order."""
     out: dict[str, dict] = {}
@@ -375,5 +419,5 @@ def _results(
         if info.kind == "camera":
             out[key] = camera.entry(info.variant == "focused", n_frames, has_regions)
         else:
-            out[key] = _pair_entry(key, pairs, n_frames, has_regions, regionless)
+            out[key] = _pair_entry(key, pairs, n_frames, has_regions, regionless, gaps)
     return out

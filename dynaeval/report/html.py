@@ -70,6 +70,11 @@ def _read_frame(ref: str, background: str) -> np.ndarray:
         if index.isdigit():
             return FrameRef(Path(file), int(index)).read(background)
     if not path.exists():
+        from dynaeval.io.layouts import part_ref_from_text
+
+        part = part_ref_from_text(ref)  # a K-Planes stack's or a DyCheck render's part
+        if part is not None:
+            return part.read(background)
         raise InputError("frame listed in the results is gone; the report needs it", path=ref)
     return FrameRef(path).read(background)
 

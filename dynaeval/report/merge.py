@@ -91,6 +91,7 @@ def merge_results(paths: list[str | Path]) -> dict[str, Any]:
             timing[k] = timing.get(k, 0.0) + v
     skipped = sorted((s for _, doc in docs for s in doc["inputs"]["skipped_frames"]),
                      key=lambda s: (natural_key(s["camera"]), natural_key(s["frame"])))
+    pairs = _merged_temporal_pairs([doc for _, doc in docs], skipped, first["settings"], warnings)
     return build_results(
         rows=rows,
         metric_names=metric_names,
@@ -106,7 +107,27 @@ def merge_results(paths: list[str | Path]) -> dict[str, Any]:
         version=first["dynaeval_version"],
         camera_values=camera_values,
         regions=_merged_regions([doc for _, doc in docs]),
+        inputs_extra={"temporal_pairs": pairs} if pairs else None,
     )
+
+
+def _merged_temporal_pairs(docs: list[dict[str, Any]], skipped: list[dict], settings: dict,
+                           warnings: list[dict]) -> dict[str, dict]:
+    """The shards' ``inputs.temporal_pairs``, cameras in natural order; the shards' warnings
+    naming their missing frames replaced, in place, by the one the unsharded run gives."""
+    from dynaeval.io.frames import MISSING_FRAMES, missing_frames_warning
+
+    pairs = {c: v for d in docs for c, v in d["inputs"].get("temporal_pairs", {}).items()}
+    pairs = {c: pairs[c] for c in sorted(pairs, key=natural_key)}
+    warnings[:] = [w for w in warnings if "camera" in w or not w["reason"].startswith(
+        f"{MISSING_FRAMES}: ")]
+    gaps: dict[str, dict] = {}
+    for s in skipped:
+        gaps.setdefault(s["camera"], {"missing_frames": [], **pairs.get(s["camera"], {})})
+        gaps[s["camera"]]["missing_frames"].append(s["frame"])
+    if gaps:
+        warnings.append(missing_frames_warning(gaps, "temporal" in settings))
+    return pairs
 
 
 def _merged_regions(docs: list[dict[str, Any]]) -> dict[str, Any] | None:

@@ -95,7 +95,8 @@ def place_temporal(
     """Put per-pair temporal values into the frame rows, in place; return the camera-level ones.
 
     The value of pair (t-1, t) goes into the row of frame t (the first frame of a camera has
-    none). Terms without per-pair values (``flicker``, or a term undefined for the whole camera)
+    none); a null value's warning takes the entry's ``pair_reasons[k]`` for pair k when given
+    (a gap of missing frames, ``dynaeval.scoring``). Terms without per-pair values (``flicker``, or a term undefined for the whole camera)
     are camera-level: returned as ``{camera: {name: value}}``, with a warning when null.
 
     Args:
@@ -109,11 +110,13 @@ def place_temporal(
         for name, entry in terms.items():
             per_pair = entry.get("per_pair") or []
             if per_pair and len(per_pair) == len(cam_rows) - 1:
-                for row, value in zip(cam_rows[1:], per_pair, strict=True):
+                gaps = entry.get("pair_reasons") or {}
+                for k, (row, value) in enumerate(zip(cam_rows[1:], per_pair, strict=True)):
                     row[name] = value
                     if value is None:
                         warnings.append({"camera": cam, "frame": row["frame"], "metric": name,
-                                         "reason": entry.get("reason") or entry.get("pair_reason")
+                                         "reason": gaps.get(k) or entry.get("reason")
+                                         or entry.get("pair_reason")
                                          or "undefined for the pair (previous frame, this frame)"})
                 continue
             camera_values.setdefault(cam, {})[name] = entry.get("value")

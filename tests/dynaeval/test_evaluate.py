@@ -169,6 +169,7 @@ def test_channel_mismatch(tmp_path, scene):
     ("focus", "boxes:", "focus boxes:FILE needs a file name after 'boxes:'"),
     ("focus", None, "focus must be a FocusConfig or one of the CLI's strings detector, motion, "
                     "none, boxes:FILE, got NoneType"),
+    ("frames_are_video", "yes", "frames_are_video must be True, False or None"),
     ("metric_options", {"ssim": {"window": 7}}, "metric 'ssim' has no options"),
     ("metric_options", {"flip": {"observer": 1}}, "flip has no option 'observer'"),
     ("metric_options", {"flip": {"pixels_per_degree": "many"}}, "must be a float, got 'many'"),
@@ -489,3 +490,83 @@ def test_score_with_a_focus_string_gives_the_cli_numbers(tmp_path, scene):
     assert [[f.get(k) for k in keys] for f in res["frames"]] == [
         [f.get(k) for k in keys] for f in cli["frames"]]
     assert any(f.get("focused_psnr") is not None for f in cli["frames"])  # motion boxes found
+
+# ----------------------------------------------------------- separate views (issue 32 item 5)
+
+
+def _nerfbaselines_run(root, scene):
+    """A NeRFBaselines render folder (color/ + gt-color/) made of the scene's camera cam00."""
+    pred, gt, frames, preds = scene
+    write_frames(root, "color", preds["cam00"])
+    write_frames(root, "gt-color", frames["cam00"])
+    return root
+
+
+def test_render_folder_of_separate_views_is_scored_per_frame_and_says_so_once(tmp_path, scene,
+                                                                              capsys):
+    """Issue 32 item 5: a NeRFBaselines / ns-render / 3DGS render folder (separate test views)
+    got tOF, warping error and motion masks over unrelated photos by default. Now per frame
+    only, said once on the console and in ``settings.sequence``; ``--frames-are-video`` gives
+    the temporal terms and motion masks back; per-frame numbers are those of the plain folders."""
+    from dynaeval.cli import main
+
+    run = _nerfbaselines_run(tmp_path / "run", scene)
+    out, video = tmp_path / "r.json", tmp_path / "v.json"
+    args = ["score", str(run), "--no-lpips", "--focus", "none", "-q"]
+    assert main([*args, "-o", str(out)]) == 0
+    err = capsys.readouterr().err
+    said = ("the nerfbaselines render folder's frames are separate test views, not a video: "
+            "scored per frame only (temporal terms and motion masks and masked_* skipped, "
+            "meaningless across unrelated views); pass --frames-are-video")
+    assert err.count(said) == 1 and "warp_error" not in err
+    doc = json.loads(out.read_text())
+    assert doc["settings"]["sequence"]["video"] is False
+    assert doc["settings"]["sequence"]["skipped"] == ["temporal terms", "motion masks and masked_*"]
+    assert not {"warp_error", "tof", "flicker", "masked_psnr"} & set(doc["summary"])
+    assert "temporal" not in doc["settings"] and "motion" not in doc["settings"]["focus"]
+    plain = dynaeval.score(run / "color", run / "gt-color", metrics=("psnr", "ssim"),
+                           focus=FocusConfig(source="none", masked=False), temporal=False,
+                           progress=False)
+    assert [r["psnr"] for r in doc["frames"]] == [r["psnr"] for r in plain["frames"]]
+    assert main([*args, "--frames-are-video", "-o", str(video)]) == 0
+    doc = json.loads(video.read_text())
+    assert doc["settings"]["sequence"]["video"] is True
+    assert doc["summary"]["warp_error"] is not None and "masked_psnr" in doc["summary"]
+    assert "separate test views" not in capsys.readouterr().err
+
+
+def test_motion_focus_or_jod_on_separate_views_is_exit_2_with_the_fix(tmp_path, scene, capsys):
+    from dynaeval.cli import main
+
+    run = _nerfbaselines_run(tmp_path / "run", scene)
+    assert main(["score", str(run), "--no-lpips", "--focus", "motion", "-q"]) == 2
+    err = capsys.readouterr().err
+    assert ("--focus motion needs each camera's frames as a video, but the nerfbaselines render "
+            "folder's frames are separate test views, not a video; pass --frames-are-video") in err
+    with pytest.raises(InputError, match="--jod needs each camera's frames as a video"):
+        dynaeval.score(run, metrics=("psnr", "jod"), focus=FocusConfig(source="none"),
+                       progress=False)
+    with pytest.raises(InputError, match=r"scored as separate views \(frames_are_video=False\)"):
+        dynaeval.score(scene[0], scene[1], metrics=("psnr",), progress=False,
+                       focus=FocusConfig(source="motion"), frames_are_video=False)
+
+
+def test_given_masks_keep_masked_metrics_on_separate_views(tmp_path, scene):
+    """A NeRFBaselines render folder's mask/ is per frame: masked_* over it stay (only the motion
+    masks are skipped), and ordinary folders under frames_are_video=False lose the temporal
+    terms as a render folder does."""
+    import cv2
+
+    run = _nerfbaselines_run(tmp_path / "run", scene)
+    (run / "mask").mkdir()
+    for f in sorted((run / "gt-color").iterdir()):
+        m = np.zeros((48, 64), np.uint8)
+        m[:24] = 255
+        cv2.imwrite(str(run / "mask" / f.name), m)
+    res = dynaeval.score(run, metrics=("psnr",), focus=FocusConfig(source="none"),
+                         progress=False)
+    assert res["summary"]["masked_psnr"] is not None
+    assert res["settings"]["sequence"]["skipped"] == ["temporal terms"]
+    flat = dynaeval.score(scene[0], scene[1], metrics=("psnr",), progress=False,
+                          focus=FocusConfig(source="none", masked=False), frames_are_video=False)
+    assert "warp_error" not in flat["summary"] and flat["settings"]["sequence"]["video"] is False

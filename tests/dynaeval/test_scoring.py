@@ -252,3 +252,36 @@ def test_frames_read_from_files_get_no_second_range_pass(tmp_path, monkeypatch):
                                          r"\[0, data_range\] = \[0, 0\.5\]"):
         _score(tmp_path, metrics=("psnr",), focus=FocusConfig(source="none"), temporal=False,
                data_range=0.5)
+
+def test_allow_missing_scores_the_consecutive_pairs_present_and_says_which_frames(tmp_path, capsys):
+    """Issue 32 item 6: one missing prediction used to null the camera's whole temporal pass
+    ("frames are not consecutive"). The pairs around the gap are scored as in the full run, the
+    pair across it is null with the reason, the counts are in ``inputs.temporal_pairs`` and the
+    console names the missing frame."""
+    import json
+
+    from dynaeval.cli import main
+
+    rng = np.random.default_rng(3)
+    base = textured_frame(rng, 64, 96)
+    _write(tmp_path, [np.roll(base, 2 * t, axis=1) for t in range(6)])
+    full = _score(tmp_path, metrics=("psnr",), focus=FocusConfig(source="none", masked=False))
+    (tmp_path / "pred" / "0003.png").unlink()
+    out = tmp_path / "r.json"
+    assert main(["score", str(tmp_path / "pred"), str(tmp_path / "gt"), "--allow-missing",
+                 "--metrics", "psnr", "--focus", "none", "--no-masked", "-q", "-o", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert ("--allow-missing: 1 ground-truth frame(s) have no prediction and are not scored "
+            "(camera .: 0003; temporal pairs 3 of 5)") in err
+    got = json.loads(out.read_text())
+    assert got["inputs"]["temporal_pairs"] == {".": {"scored": 3, "expected": 5}}
+    rows = {r["frame"]: r for r in got["frames"]}
+    want = {r["frame"]: r for r in full["frames"]}
+    for key in ("warp_error", "tof"):
+        assert [rows[t][key] for t in ("0001", "0002", "0005")] == [
+            want[t][key] for t in ("0001", "0002", "0005")]
+        assert rows["0004"][key] is None and got["counts"][key] == 3
+        reasons = [w["reason"] for w in got["warnings"] if w.get("frame") == "0004"
+                   and w.get("metric") == key]
+        assert reasons == ["not a pair of consecutive frames: the ground-truth frame(s) between "
+                           "'0002' and '0004' have no prediction (--allow-missing)"]

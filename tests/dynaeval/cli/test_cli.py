@@ -66,7 +66,12 @@ def test_missing_frames_and_allow_missing(tmp_path, scene, capsys):
     assert code == 0, err
     doc = json.loads(out_file.read_text())
     assert doc["inputs"]["skipped_frames"] == [{"camera": "cam00", "frame": "0001"}]
-    assert doc["cameras"]["cam00"]["warp_error"] is None  # not a sequence any more
+    # 4 frames, 0001 missing: the pair (0002, 0003) is still scored (issue 32 item 6)
+    rows = {r["frame"]: r for r in doc["frames"] if r["camera"] == "cam00"}
+    assert rows["0002"]["warp_error"] is None and rows["0003"]["warp_error"] is not None
+    assert doc["cameras"]["cam00"]["warp_error"] == rows["0003"]["warp_error"]
+    assert doc["inputs"]["temporal_pairs"] == {"cam00": {"scored": 1, "expected": 3}}
+    assert "camera cam00: 0001; temporal pairs 1 of 3" in err
     assert doc["cameras"]["cam01"]["warp_error"] is not None
 
 

@@ -38,3 +38,133 @@ def test_missing_frame_of_the_split(tmp_path):
         pair_dycheck(pred, gt)
     pairing = pair_dycheck(pred, gt, allow_missing=True)
     assert pairing.skipped == [{"camera": ".", "frame": "1_00002"}]
+
+
+# ------------------------------------------- DyCheck's render folder (issue 32 item 11)
+
+
+def _dycheck_renders(work, rng, split="val", n=3, h=24, w=30, masked=True):
+    """WORK/renders/novel_view/<split>/<frame>.png as DyCheck's NovelView.finalize writes them:
+    gt | pred | cov * pred + (1 - cov) * (1 + pred) / 2, uint8 by truncation; (preds, gts)."""
+    import cv2
+    import numpy as np
+
+    folder = work / "renders" / "novel_view" / split
+    (folder / "checkpoints").mkdir(parents=True)
+    cov = np.zeros((h, w, 1), np.float32)
+    cov[:, : w // 2] = 1
+    preds, gts = [], []
+    for i in range(n):
+        gt = rng.integers(0, 256, (h, w, 3), dtype=np.uint8)
+        pred = np.clip(gt.astype(int) + rng.integers(-20, 21, gt.shape), 0, 255).astype(np.uint8)
+        p = pred / np.float32(255)
+        panels = [gt, pred] + ([((cov * p + (1 - cov) * (1 + p) / 2) * 255).astype(np.uint8)]
+                               if masked else [])
+        cv2.imwrite(str(folder / f"1_{i:05d}.png"), np.concatenate(panels, axis=1)[..., ::-1])
+        preds.append(pred)
+        gts.append(gt)
+    cv2.imwrite(str(folder / "checkpoints" / "0000100.png"), np.zeros((h, 7, 3), np.uint8))
+    (folder / "mean_metrics_dict.json").write_text('{"psnr": 1.0}')
+    return folder, preds, gts
+
+
+@pytest.mark.parametrize("masked", [True, False])
+def test_dycheck_render_folder_is_scored_panel_2_against_panel_1(tmp_path, masked, capsys):
+    """DyCheck's renders/novel_view/<split>/ was refused ("no known render layout"). Each PNG
+    is gt | pred | masked pred (3 panels; 2 without covisibility masks): the prediction panel is
+    scored against the ground-truth panel, at every level of the folder, CLI = library = psnr of
+    the panels; checkpoints/ is no frame."""
+    import json
+
+    import numpy as np
+
+    import dynaeval
+    from dynaeval.cli import main
+    from dynaeval.io.layouts import detect_layout
+    from dynaeval.metrics import psnr
+    from dynaeval.regions.focus import FocusConfig
+
+    split, preds, gts = _dycheck_renders(tmp_path / "work", np.random.default_rng(0),
+                                         masked=masked)
+    for level in (tmp_path / "work", split.parent.parent, split.parent, split):
+        lay = detect_layout(level)
+        assert (lay.name, lay.pred, lay.gt, lay.sequence) == ("dycheck", split, split, False)
+    out = tmp_path / "r.json"
+    assert main(["score", str(tmp_path / "work"), "--no-lpips", "--focus", "none", "-q",
+                 "-o", str(out)]) == 0
+    assert "dycheck render folder" in capsys.readouterr().err
+    doc = json.loads(out.read_text())
+    want = [psnr(p / np.float32(255), g / np.float32(255)) for p, g in zip(preds, gts)]
+    assert [r["frame"] for r in doc["frames"]] == ["1_00000", "1_00001", "1_00002"]
+    assert [r["psnr"] for r in doc["frames"]] == pytest.approx(want, rel=1e-6)
+    assert doc["inputs"]["layout"]["split"] == "val"
+    assert "(prediction)" in doc["frames"][0]["pred"] and "(ground truth)" in doc["frames"][0]["gt"]
+    lib = dynaeval.score(split, metrics=("psnr",), focus=FocusConfig(source="none"),
+                         progress=False)
+    assert [r["psnr"] for r in lib["frames"]] == [r["psnr"] for r in doc["frames"]]
+
+
+def test_dycheck_render_of_a_width_not_3_panels_or_another_width_is_exit_2(tmp_path, capsys):
+    import cv2
+    import numpy as np
+
+    from dynaeval.cli import main
+
+    split, _, _ = _dycheck_renders(tmp_path / "work", np.random.default_rng(1))
+    args = ["score", str(split), "--no-lpips", "--focus", "none", "--no-masked", "-q"]
+    cv2.imwrite(str(split / "1_00001.png"), np.zeros((24, 88, 3), np.uint8))  # 88 != 90
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "1_00001.png" in err and "this one is 88 px wide" in err
+    cv2.imwrite(str(split / "1_00000.png"), np.zeros((24, 91, 3), np.uint8))  # first file
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "1_00000.png" in err and "this file is 91 px wide, not a multiple of 3" in err
+    _dycheck_renders(tmp_path / "work", np.random.default_rng(2), split="test")
+    with pytest.raises(InputError, match="DyCheck render folder with several splits: test, val"):
+        from dynaeval.io.layouts import detect_layout
+
+        detect_layout(tmp_path / "work")
+
+
+def test_dycheck_render_report_reads_the_panels_back(tmp_path):
+    """The report reads the worst frames from the results' ``pred``/``gt`` text, which for a
+    panel is ``"FILE (prediction)"``: read back as that panel (was: "frame ... is gone")."""
+    import numpy as np
+
+    from dynaeval.cli import main
+    from dynaeval.io.layouts import part_ref_from_text
+
+    split, preds, gts = _dycheck_renders(tmp_path / "work", np.random.default_rng(3), h=40, w=48)
+    ref = part_ref_from_text(f"{split / '1_00001.png'} (prediction)")
+    assert np.array_equal(ref.read(), preds[1] / np.float32(255))
+    assert part_ref_from_text(f"{split / '1_00001.png'} (error map)") is None
+    assert part_ref_from_text(str(split / "nope.png (prediction)")) is None
+    assert main(["score", str(split), "--no-lpips", "--focus", "none", "-q",
+                 "--report", str(tmp_path / "rep")]) == 0
+    assert (tmp_path / "rep" / "index.html").is_file()
+
+
+def test_dycheck_render_with_the_datasets_covisible_masks_gives_the_masked_numbers(tmp_path):
+    """``--masks DATA/covisible/2x/val`` on a render folder: the masks are the panels' size
+    (was: "mask is 30x24 px but its frame ... is 90x24 px")."""
+    import cv2
+    import numpy as np
+
+    import dynaeval
+    from dynaeval.metrics import psnr
+    from dynaeval.regions.focus import FocusConfig
+
+    split, preds, gts = _dycheck_renders(tmp_path / "work", np.random.default_rng(4))
+    cov = tmp_path / "covisible" / "2x" / "val"
+    cov.mkdir(parents=True)
+    for f in sorted(split.glob("*.png")):
+        m = np.zeros((24, 30), np.uint8)
+        m[:, :15] = 255
+        cv2.imwrite(str(cov / f.name), m)
+    res = dynaeval.score(split, masks=str(cov), protocol="dycheck", metrics=("psnr",),
+                         focus=FocusConfig(source="none"), progress=False)
+    want = [psnr(p[:, :15] / np.float32(255), g[:, :15] / np.float32(255))
+            for p, g in zip(preds, gts)]
+    assert [r["masked_psnr"] for r in res["frames"]] == pytest.approx(want, rel=1e-6)
+    assert res["summary"]["mpsnr"] is not None

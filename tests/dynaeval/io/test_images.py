@@ -233,3 +233,29 @@ def test_exr_named_png_is_read_as_exr(tmp_path, rng):
     _write_exr(OpenEXR, tmp_path / "a.exr", rgb)
     (tmp_path / "a.exr").rename(tmp_path / "a.png")
     np.testing.assert_array_equal(read_image(tmp_path / "a.png"), rgb)
+
+
+def test_npy_gz_frames_are_read_as_stored_rgb_under_the_dtype_rule(tmp_path):
+    """Issue 32 item 11: nerfstudio's raw renders (a gzip'd ``np.save``): channels kept in RGB
+    order (no BGR swap), uint8 / 255, RGBA over the background, float range checked."""
+    import gzip
+
+    from dynaeval.io.images import frame_name_parts
+
+    def save(name, arr):
+        with gzip.open(tmp_path / name, "wb") as f:
+            np.save(f, arr)
+        return tmp_path / name
+
+    rgb = np.zeros((4, 5, 3), np.float32)
+    rgb[..., 0] = 0.25  # red only
+    assert np.array_equal(read_image(save("a.npy.gz", rgb)), rgb)
+    u8 = np.full((4, 5, 3), 51, np.uint8)
+    assert np.allclose(read_image(save("b.npy.gz", u8)), 0.2)
+    rgba = np.concatenate([rgb, np.zeros((4, 5, 1), np.float32)], axis=2)  # fully transparent
+    assert np.allclose(read_image(save("c.NPY.GZ", rgba), background="white"), 1.0)
+    assert frame_name_parts(tmp_path / "frame_00001.npy.gz") == ("frame_00001", ".npy.gz")
+    with pytest.raises(InputError, match=r"d\.npy\.gz.*float pixel values must be in \[0, 1\]"):
+        read_image(save("d.npy.gz", rgb + 2))
+    with pytest.raises(InputError, match="unsupported pixel type int32"):
+        read_image(save("e.npy.gz", np.zeros((4, 5, 3), np.int32)))

@@ -8,6 +8,7 @@ import pytest
 from dynaeval.cli import main
 from dynaeval.errors import InputError
 from dynaeval.io.layouts import detect_layout
+from dynaeval.regions.focus import FocusConfig
 from tests.dynaeval.helpers import textured_frame, write_frames
 
 
@@ -88,13 +89,13 @@ def test_same_ordinary_folder_twice_is_scored_as_given(tmp_path):
 
 def test_library_reads_a_render_folder_like_the_cli(tmp_path, rng):
     """``dynaeval.score(RUN)`` finds the layout itself (no CLI needed), names the run after the
-    folder, records the layout and warns, as a Python warning too, that temporal metrics treat
-    separate test views as a sequence."""
+    folder, records the layout and warns, as a Python warning too, that its separate test views
+    are scored per frame only (issue 32: they were scored as a sequence)."""
     import dynaeval
     from dynaeval.evaluate import DynaevalWarning
 
     run = _run(tmp_path / "myrun", "color", "gt-color", rng)
-    with pytest.warns(DynaevalWarning, match="render folders hold separate test views"):
+    with pytest.warns(DynaevalWarning, match="frames are separate test views, not a video"):
         res = dynaeval.score(run, metrics=("psnr", "ssim"), progress=False)
     assert res["method"] == res["scene"] == "myrun"
     assert res["inputs"]["layout"] == {"name": "nerfbaselines", "root": str(run)}
@@ -103,3 +104,75 @@ def test_library_reads_a_render_folder_like_the_cli(tmp_path, rng):
                            progress=False, temporal=False)
     assert "layout" not in plain["inputs"]
     assert plain["frames"][0]["psnr"] == res["frames"][0]["psnr"]
+
+
+# ------------------------------------------------ nerfstudio raw renders (issue 32 item 11)
+
+
+def _save_npy_gz(path, arr):
+    import gzip
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with gzip.open(path, "wb") as f:  # as nerfstudio's DatasetRender writes raw-* outputs
+        np.save(f, arr)
+
+
+def _raw_ns_render(out, rng, n=3, h=32, w=40):
+    """OUT/test/raw-rgb/ + raw-gt-rgb/ of float32 (H, W, 3) frames in [0, 1]; (pred, gt)."""
+    gt = [rng.random((h, w, 3), dtype=np.float32) for _ in range(n)]
+    pred = [np.clip(g + rng.normal(0, 0.05, g.shape), 0, 1).astype(np.float32) for g in gt]
+    for i, (p, g) in enumerate(zip(pred, gt)):
+        _save_npy_gz(out / "test" / "raw-rgb" / f"frame_{i:05d}.npy.gz", p)
+        _save_npy_gz(out / "test" / "raw-gt-rgb" / f"frame_{i:05d}.npy.gz", g)
+    return pred, gt
+
+
+def test_nerfstudio_raw_float_renders_are_scored_end_to_end(tmp_path, rng, capsys):
+    """Issue 32 item 11: ``ns-render dataset --rendered-output-names raw-rgb raw-gt-rgb`` writes
+    gzip'd float32 arrays, which were refused ("no known render layout"). Read as stored: the
+    CLI's and the library's PSNR equal ``psnr`` of the arrays themselves."""
+    import json
+
+    import dynaeval
+    from dynaeval.metrics import psnr
+
+    out = tmp_path / "renders"
+    pred, gt = _raw_ns_render(out, rng)
+    lay = detect_layout(out)
+    assert (lay.name, lay.pred, lay.sequence) == ("nerfstudio-raw", out / "test" / "raw-rgb", False)
+    res = tmp_path / "r.json"
+    assert main(["score", str(out), "--no-lpips", "--focus", "none", "-q", "-o", str(res)]) == 0
+    assert "nerfstudio-raw render folder" in capsys.readouterr().err
+    doc = json.loads(res.read_text())
+    want = [psnr(p, g) for p, g in zip(pred, gt)]
+    assert [r["psnr"] for r in doc["frames"]] == pytest.approx(want, rel=1e-12)
+    assert [r["frame"] for r in doc["frames"]] == ["frame_00000", "frame_00001", "frame_00002"]
+    lib = dynaeval.score(out, metrics=("psnr", "ssim"), progress=False,
+                         focus=FocusConfig(source="none"))
+    assert [r["psnr"] for r in lib["frames"]] == [r["psnr"] for r in doc["frames"]]
+
+
+def test_nerfstudio_raw_beside_8_bit_renders_scores_the_float_ones_and_says_so(tmp_path, rng):
+    out = tmp_path / "renders"
+    _raw_ns_render(out, rng)
+    _run(out / "test", "rgb", "gt-rgb", rng)
+    lay = detect_layout(out)
+    assert lay.name == "nerfstudio-raw" and "the float ones are scored" in lay.notes[0]
+
+
+def test_nerfstudio_raw_out_of_range_or_broken_file_is_exit_2_naming_it(tmp_path, rng, capsys):
+    out = tmp_path / "renders"
+    _raw_ns_render(out, rng)
+    bad = out / "test" / "raw-rgb" / "frame_00001.npy.gz"
+    _save_npy_gz(bad, np.full((32, 40, 3), 1.7, np.float32))  # linear HDR above 1
+    args = ["score", str(out), "--no-lpips", "--focus", "none", "--no-masked", "-q"]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "frame_00001.npy.gz" in err and "float pixel values must be in [0, 1]" in err
+    bad.write_bytes(b"not gzip")
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "frame_00001.npy.gz" in err and "cannot read this .npy.gz frame" in err
+    _save_npy_gz(bad, np.zeros((3, 32, 40), np.float32))
+    assert main(args) == 2
+    assert "arr.transpose(1, 2, 0)" in capsys.readouterr().err

@@ -480,3 +480,39 @@ def test_optical_flow_refuses_frames_too_small_instead_of_crashing(shape):
         optical_flow(a, a)
     with pytest.raises(UndefinedMetricError, match="at least 16x16"):
         temporal_metrics([a, a], [a, a])
+
+
+# ------------------------------------------------------------------------------ gaps (issue 32)
+
+
+def test_frames_left_out_make_no_pair_but_the_pairs_around_them_are_scored():
+    """Issue 32 item 6: frames 0, 1, 2, 4, 5 of a sequence (3 missing): the pairs (0, 1), (1, 2)
+    and (4, 5) have the values they have in the full sequence, (2, 4) is None, and flicker is the
+    std over the five frames given (as without positions: a std needs no neighbours)."""
+    rng = np.random.default_rng(7)
+    gt = panning(texture(rng), 6)
+    pred = [np.clip(f + rng.normal(0, 0.02, f.shape).astype(np.float32), 0, 1) for f in gt]
+    static = np.ones((H, W), bool)
+    full = temporal_metrics(pred, gt, static_mask=static, lpips_fn=mean_abs)
+    kept = [0, 1, 2, 4, 5]
+    sub = ([pred[i] for i in kept], [gt[i] for i in kept])
+    gapped = temporal_metrics(*sub, static_mask=static, lpips_fn=mean_abs, frame_indices=kept)
+    for key in ("warp_error", "tof", "tlp"):
+        want = [full[key]["per_pair"][k] for k in (0, 1, 4)]
+        got = gapped[key]["per_pair"]
+        assert got[2] is None and [got[k] for k in (0, 1, 3)] == pytest.approx(want, rel=1e-9)
+        assert gapped[key]["value"] == pytest.approx(np.mean(want), rel=1e-9)
+    plain = temporal_metrics(*sub, static_mask=static, lpips_fn=mean_abs)
+    assert gapped["flicker"]["value"] == plain["flicker"]["value"]
+
+
+def test_no_consecutive_frames_at_all_is_null_with_the_reason_and_bad_positions_raise():
+    rng = np.random.default_rng(8)
+    gt = panning(texture(rng), 3)
+    res = temporal_metrics(gt, gt, lpips_fn=mean_abs, frame_indices=[0, 2, 4])
+    assert res["tof"]["value"] is None and res["tof"]["per_pair"] == []
+    assert "no two of the 3 frames are consecutive" in res["tof"]["reason"]
+    with pytest.raises(InputError, match="frame_indices must increase: frame 1 is at 0"):
+        temporal_metrics(gt, gt, lpips_fn=mean_abs, frame_indices=[1, 0, 2])
+    with pytest.raises(InputError, match="frame_indices has 2 items, fewer than the frames"):
+        temporal_metrics(gt, gt, lpips_fn=mean_abs, frame_indices=[0, 1])

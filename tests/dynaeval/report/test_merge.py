@@ -84,6 +84,17 @@ def test_merge_refuses_incomplete_or_mixed(tmp_path, scene, capsys):
     capsys.readouterr()
 
 
+def _whole_and_merged(tmp_path, pred, gt, common: list[str]) -> tuple[dict, dict]:
+    """The unsharded results and the merge of its two shards, scored with ``common`` options."""
+    assert main(["score", str(pred), str(gt), "-o", str(tmp_path / "all.json"), *common]) == 0
+    parts = [str(tmp_path / f"part{i}.json") for i in (1, 2)]
+    for i, out in enumerate(parts, 1):
+        assert main(["score", str(pred), str(gt), "-o", out, "--shard", f"{i}/2", *common]) == 0
+    assert main(["merge", *parts, "-o", str(tmp_path / "merged.json")]) == 0
+    return (json.loads((tmp_path / "all.json").read_text()),
+            json.loads((tmp_path / "merged.json").read_text()))
+
+
 def test_merge_equals_unsharded_when_a_frame_equals_its_ground_truth(tmp_path, scene, capsys):
     """Issue 16 item 1: a shard stores PSNR +inf as null (like an undefined value); merge
     averaged over the nulls (a number instead of null, counts one short, warnings gone)."""
@@ -92,13 +103,7 @@ def test_merge_equals_unsharded_when_a_frame_equals_its_ground_truth(tmp_path, s
     pred, gt = scene
     shutil.copy(gt / "cam1" / "0002.png", pred / "cam1" / "0002.png")  # PSNR = +inf there
     common = ["--no-lpips", "-q", "--focus", "motion", "--no-presence"]
-    assert main(["score", str(pred), str(gt), "-o", str(tmp_path / "all.json"), *common]) == 0
-    parts = [str(tmp_path / f"part{i}.json") for i in (1, 2)]
-    for i, out in enumerate(parts, 1):
-        assert main(["score", str(pred), str(gt), "-o", out, "--shard", f"{i}/2", *common]) == 0
-    assert main(["merge", *parts, "-o", str(tmp_path / "merged.json")]) == 0
-    whole = json.loads((tmp_path / "all.json").read_text())
-    merged = json.loads((tmp_path / "merged.json").read_text())
+    whole, merged = _whole_and_merged(tmp_path, pred, gt, common)
     assert whole["summary"]["psnr"] is None and whole["cameras"]["cam1"]["psnr"] is None
     assert whole["counts"]["psnr"] == whole["summary"]["n_frames"]
     for key in NUMBERS:
@@ -126,3 +131,20 @@ def test_merge_refuses_overlapping_shards_naming_both_files(tmp_path, scene, cap
                  str(tmp_path / "m.json")])
     assert code == 2 and "is in two shards" in capsys.readouterr().err
     assert not (tmp_path / "m.json").exists()
+
+
+def test_merge_of_allow_missing_shards_equals_unsharded(tmp_path, scene, capsys):
+    """Issue 32 item 6: shards of an --allow-missing run merge into the unsharded run's numbers,
+    ``inputs.temporal_pairs`` and its one warning naming the missing frames."""
+    pred, gt = scene
+    (pred / "cam0" / "0001.png").unlink()
+    (pred / "cam2" / "0002.png").unlink()
+    common = ["--no-lpips", "-q", "--focus", "none", "--no-presence", "--allow-missing"]
+    whole, merged = _whole_and_merged(tmp_path, pred, gt, common)
+    assert whole["inputs"]["temporal_pairs"] == {"cam0": {"scored": 1, "expected": 3},
+                                                 "cam2": {"scored": 1, "expected": 3}}
+    assert merged["inputs"]["temporal_pairs"] == whole["inputs"]["temporal_pairs"]
+    for key in NUMBERS:
+        assert merged[key] == whole[key], key
+    assert sorted(map(json.dumps, merged["warnings"])) == sorted(map(json.dumps, whole["warnings"]))
+    capsys.readouterr()
