@@ -50,7 +50,10 @@ class ScoreConfig:
     """Runtime of the LPIPS network: ``torch`` (the lpips package) or ``onnxruntime`` (the same
     network exported, ~1.2x faster on CPU, equal to 1e-6: docs/benchmarks.md)."""
     data_range: float = 1.0
-    """Value range of the images after reading (files are mapped to [0, 1] by their dtype)."""
+    """Value range of the images after reading: always 1.0, since files are mapped to [0, 1] by
+    their dtype (uint8 / 255, uint16 / 65535, floats as stored); another value is refused (255
+    would add 48 dB to every PSNR). Recorded in the results. To score 0-255 arrays, call the
+    metric functions with ``data_range=255``."""
     quantize: str = "none"
     """Quantise both images to 8 bit before scoring: ``none`` (or the protocol's), ``round`` or
     ``truncate`` (``floor(x*255)``), to reproduce evaluators that save renders as 8-bit files."""
@@ -126,6 +129,12 @@ class ScoreConfig:
         from dynaeval.metrics.jod import check_fps
 
         self.fps = check_fps(self.fps)
+        if isinstance(self.data_range, bool) or self.data_range != 1.0:
+            raise InputError(
+                f"data_range must be 1.0 when scoring files, got {self.data_range!r}: dynaeval "
+                "reads every frame into [0, 1] (uint8 / 255, uint16 / 65535, float files as "
+                "stored); to score 0-255 arrays, call the metric functions with data_range=255 "
+                "(dynaeval.metrics.psnr(pred, gt, data_range=255))")
         _check_choice("quantize", self.quantize, QUANTIZE_MODES)
         _check_choice("background", self.background, BACKGROUNDS)
         _check_choice("lpips_backend", self.lpips_backend, LPIPS_BACKENDS)

@@ -248,10 +248,11 @@ def test_frames_read_from_files_get_no_second_range_pass(tmp_path, monkeypatch):
                  temporal=False)
     assert all(f["psnr"] is not None and f["ssim"] is not None for f in res["frames"])
     assert calls == []
-    with pytest.raises(InputError, match=r"psnr: pred holds values in \[[\d.]+, 1\], outside "
-                                         r"\[0, data_range\] = \[0, 0\.5\]"):
-        _score(tmp_path, metrics=("psnr",), focus=FocusConfig(source="none"), temporal=False,
-               data_range=0.5)
+    for wrong in (0.5, 255, 255.0, True):  # files are in [0, 1]: 255 would add 48 dB silently
+        with pytest.raises(InputError, match=r"data_range must be 1\.0 when scoring files, got "
+                                             r".*data_range=255"):
+            _score(tmp_path, metrics=("psnr",), focus=FocusConfig(source="none"), temporal=False,
+                   data_range=wrong)
 
 def test_allow_missing_scores_the_consecutive_pairs_present_and_says_which_frames(tmp_path, capsys):
     """Issue 32 item 6: one missing prediction used to null the camera's whole temporal pass
