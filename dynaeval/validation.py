@@ -119,7 +119,7 @@ def as_image(
         data_range: with ``to_unit=False``: refuse values outside ``[0, data_range]`` (the
             module's range rule, ``check_value_range``; also refuses NaN/Inf).
         clipped: with ``data_range``: the caller clips floats to the range (a protocol that
-            does, as its tool does): only the integer rule applies.
+            does, as its tool does): overshoots up to ``CLIPPED_LIMIT`` times the range pass.
 
     Returns:
         float32 (or float64 with ``keep_float64``) array; numpy float input of the returned
@@ -141,7 +141,7 @@ def as_image(
         return unit_u8(arr) if arr.dtype == np.uint8 else arr.astype(np.float32) / np.float32(scale)
     if data_range is not None and not to_unit:
         check_value_range(arr, name, data_range, path, clipped=clipped)
-        finite = finite and clipped  # the range check saw every value: no NaN/Inf is left
+        finite = False  # the range check's min/max saw every value: no NaN/Inf is left
     if arr.dtype != np.float32 and not (keep_float64 and arr.dtype == np.float64):
         arr = arr.astype(np.float32)
     if finite:
@@ -214,7 +214,8 @@ def check_pair(
     to float32 (float64 stays float64), never divided. ``data_range``: the values must lie in
     ``[0, data_range]`` (the module's range rule; skipped inside ``values_known_in``); None: not
     checked (protocol variants that clip); ``clipped``: the caller clips floats to the range,
-    only integers with ``data_range <= 1`` are refused. Raises InputError on a shape mismatch, a
+    so overshoots up to ``CLIPPED_LIMIT`` times it pass (integers with ``data_range <= 1``
+    and values further out, another unit, are refused). Raises InputError on a shape mismatch, a
     wrong rank,
     a channel-first layout, an empty image, values outside the range, or (unless
     ``finite=False``: the caller checks later) NaN/Inf pixels — a silent NaN score is never
@@ -230,9 +231,16 @@ def check_pair(
             f"pred and gt must have the same shape, got pred {p.shape} and gt {g.shape}; "
             "render the prediction at the ground truth's resolution"
         )
-    if finite and (data_range is None or clipped):  # else the range check saw NaN/Inf
+    if finite and data_range is None:  # else the range check saw NaN/Inf
         check_finite(p, g)
     return p, g
+
+
+CLIPPED_LIMIT = 2.0
+"""Under a protocol that clips (nerfbaselines, kplanes, dycheck clip renders to the range as those
+tools do), values in ``[-(CLIPPED_LIMIT - 1), CLIPPED_LIMIT] * data_range`` are overshoots and
+are clipped; values further out are another unit (a 0..255 float image would be clipped to white)
+and are refused."""
 
 
 def check_value_range(arr: np.ndarray, name: str, data_range: float,
@@ -243,8 +251,9 @@ def check_value_range(arr: np.ndarray, name: str, data_range: float,
     pass over the pixels when the dtype cannot leave ``[0, data_range]``. Otherwise one min/max
     pass: values below ``-tol`` or above ``data_range + tol`` (``tol = FLOAT_TOLERANCE *
     data_range``) are refused with the image's min/max and the fixes; NaN/Inf are refused by
-    ``check_finite_image``'s message. ``clipped``: the caller clips to the range, so only the
-    integer rule applies (no pass).
+    ``check_finite_image``'s message. ``clipped``: the caller clips to the range (a protocol
+    that clips overshoots, as its tool does), so only values beyond ``CLIPPED_LIMIT`` times the
+    range are refused: another unit (0..255), not an overshoot.
     """
     data_range = check_data_range(data_range)
     if np.issubdtype(arr.dtype, np.integer):
@@ -257,12 +266,10 @@ def check_value_range(arr: np.ndarray, name: str, data_range: float,
                 f"{name} / {top} as float in [0, 1]", path=path)
         if info.min >= 0 and info.max <= data_range:
             return
-    if clipped:
-        return
     lo, hi = float(arr.min()), float(arr.max())
     if not (np.isfinite(lo) and np.isfinite(hi)):
         check_finite_image(arr, name, path)
-    tol = FLOAT_TOLERANCE * data_range
+    tol = (CLIPPED_LIMIT - 1 if clipped else FLOAT_TOLERANCE) * data_range
     if lo >= -tol and hi <= data_range + tol:
         return
     raise InputError(f"{name} holds values in [{lo:.4g}, {hi:.4g}], outside [0, data_range] = "

@@ -210,3 +210,6 @@ def test_a_protocol_that_clips_takes_overshooting_floats_but_not_uint8(rng):
         ImageMetrics(("psnr",)).update(over, b[0] / 255)  # dynaeval's protocol does not clip
     with pytest.raises(InputError, match=r"pred is uint8 .* pass data_range=255"):
         acc.update(a, b)
+    for protocol in ("nerfbaselines", "kplanes", "dycheck"):  # 0..255 floats: white, silently
+        with pytest.raises(InputError, match=r"pred holds values in \[0, 25\d\].*data_range=255"):
+            ImageMetrics(("psnr",), protocol=protocol).update(a * 1.0, b / 255)

@@ -17,7 +17,11 @@ def test_0_255_input_is_refused_unless_the_protocol_clips(rng):
     with pytest.raises(InputError, match=r"pred is uint8 .* pass data_range=255"):
         d_ssim(a.astype(np.uint8), b.astype(np.uint8))
     assert ms_ssim(a, b, data_range=255) == pytest.approx(ms_ssim(a / 255, b / 255), abs=1e-12)
-    assert 0.0 <= ms_ssim(a, b, clip=True) <= 1.0  # clip: values outside [0, 1] are the point
+    over = a / 200.0  # up to 1.275: an overshoot, which clip=True takes (its tools clip it)
+    assert ms_ssim(over, b / 255, clip=True) == pytest.approx(
+        ms_ssim(np.clip(over, 0, 1), b / 255), abs=1e-12)
+    with pytest.raises(InputError, match=r"pred holds values in \[0\.\d+, 255\].* data_range=255"):
+        ms_ssim(a, b, clip=True)  # 0..255 floats are another unit, not an overshoot to clip
 
 
 def test_channel_first_is_refused(rng):
