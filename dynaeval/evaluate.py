@@ -97,23 +97,7 @@ def score(
     config = replace(config or ScoreConfig(), **overrides)  # __post_init__ checks the fields
     t_start = time.perf_counter()
     layout = detect_layout(pred_dir, gt_dir, iteration=config.iteration, split=config.split)
-    if layout.name == "kplanes":
-        from dynaeval.io.kplanes import pair_stack
-
-        pairing = pair_stack(layout.pred)
-    elif layout.name == "dycheck":
-        from dynaeval.io.dycheck import pair_renders
-
-        pairing = pair_renders(layout.pred)
-    else:
-        from dynaeval.io.dycheck import pair_dycheck
-
-        pairing = (pair_dycheck(layout.pred, layout.gt, allow_missing=config.allow_missing)
-                   or pair_frames(layout.pred, layout.gt, allow_missing=config.allow_missing))
-    if config.shard is not None:
-        from dynaeval.io.frames import select_shard
-
-        pairing = select_shard(pairing, *config.shard)
+    pairing = _pair_layout(layout, config)
     from dynaeval.scoring import prepare_run
 
     masks, mask_warnings = _given_masks(config, layout, pairing.pairs)
@@ -160,6 +144,29 @@ def score(
         if "camera" not in w:
             pywarnings.warn(warning_text(w), DynaevalWarning, stacklevel=2)
     return results
+
+
+def _pair_layout(layout: Any, config: ScoreConfig) -> Any:
+    """The frame pairs of ``layout`` (a ``dynaeval.io.layouts`` Layout), this run's shard of
+    them when ``config.shard`` is set: a ``Pairing``."""
+    if layout.name == "kplanes":
+        from dynaeval.io.kplanes import pair_stack
+
+        pairing = pair_stack(layout.pred)
+    elif layout.name == "dycheck":
+        from dynaeval.io.dycheck import pair_renders
+
+        pairing = pair_renders(layout.pred)
+    else:
+        from dynaeval.io.dycheck import pair_dycheck
+
+        pairing = (pair_dycheck(layout.pred, layout.gt, allow_missing=config.allow_missing)
+                   or pair_frames(layout.pred, layout.gt, allow_missing=config.allow_missing))
+    if config.shard is not None:
+        from dynaeval.io.frames import select_shard
+
+        pairing = select_shard(pairing, *config.shard)
+    return pairing
 
 
 def per_frame_only(config: ScoreConfig, layout: Any,
