@@ -559,6 +559,10 @@ def _run_score(pred: str, gt: str | None, args: argparse.Namespace, *, overwrite
     elif layout:
         print(f"dynaeval: {layout['name']} render folder: scored {results['inputs']['pred']} "
               f"against {results['inputs']['gt']}", file=sys.stderr)
+    if gs_json:  # its files can be refused by the results (names shared): before any is written
+        from dynaeval.report.gaussian_splatting import gs_documents
+
+        gs_documents(results)
     _print_warnings(results, output)
     if output:
         write_json_atomic(output, results, overwrite=overwrite)

@@ -139,3 +139,16 @@ def test_4dgaussians_json_has_its_keys(model_4dgs, tmp_path, capsys, random_lpip
     code, _, err = run(capsys, "score", model_4dgs, "--protocol", "3dgs", "--lpips-net", "alex",
                        *fast)
     assert code == 2 and "reports LPIPS with the vgg backbone, not alex" in err
+
+
+def test_3dgs_json_refused_by_the_results_leaves_no_results_file(tmp_path, capsys):
+    """The sample's two cameras share image names, which per_view.json cannot hold: exit 2
+    before anything is written (the -o file was written first, then the 3DGS files refused)."""
+    from dynaeval.cli import main, sample_dir
+
+    root, out = sample_dir(), tmp_path / "r.json"
+    code = main(["score", str(root / "pred"), str(root / "gt"), "--metrics", "psnr",
+                 "--focus", "none", "--no-temporal", "--no-presence", "-q", "-o", str(out),
+                 "--3dgs-json", str(tmp_path / "gs")])
+    assert code == 2 and "share a name" in capsys.readouterr().err
+    assert not out.exists() and not (tmp_path / "gs").exists()
