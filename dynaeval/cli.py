@@ -475,12 +475,13 @@ def _print_frame_warnings(warnings: list[dict], output: str | None, most: int = 
 
     from dynaeval.evaluate import warning_text
 
-    groups = Counter(warning_text(w) for w in warnings)
+    texts = [warning_text(w) for w in warnings]
+    groups = Counter(texts)
     cameras: dict[str, set[str]] = {}
     frames: Counter[str] = Counter()
-    for w in warnings:
-        cameras.setdefault(warning_text(w), set()).add(w["camera"])
-        frames[warning_text(w)] += "frame" in w
+    for w, text in zip(warnings, texts, strict=True):
+        cameras.setdefault(text, set()).add(w["camera"])
+        frames[text] += "frame" in w
     for text, _ in groups.most_common(most):
         where = f"{len(cameras[text])} camera(s)"
         where = f"{frames[text]} frame(s) in {where}" if frames[text] else where

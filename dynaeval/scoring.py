@@ -23,6 +23,7 @@ from dynaeval.config import ScoreConfig
 from dynaeval.errors import EmptyRegionError, InputError, UndefinedMetricError
 from dynaeval.io import FramePair
 from dynaeval.io.cache import FrameCache
+from dynaeval.io.frames import gap_positions
 from dynaeval.metrics.flow import check_flow_size
 from dynaeval.metrics.registry import (
     COVISIBLE_RULE,
@@ -458,8 +459,7 @@ REGIONLESS_REASONS = ("no pair of consecutive frames has a region", "no frame ha
 def consecutive(pairs: list[FramePair]) -> bool:
     """True when the frames' indices run without a gap (none skipped): a sequence the temporal
     and video metrics can use."""
-    indices = [p.index for p in pairs]
-    return indices == list(range(indices[0], indices[0] + len(indices)))
+    return not gap_positions(pairs)
 
 
 class _Clip:
@@ -539,12 +539,6 @@ def _temporal_or_reason(camera: str, pairs: list[FramePair], regions: list[Frame
             raise
         raise InputError(f"camera {camera!r}: temporal terms: {err}",
                          path=str(pairs[0].pred.path.parent)) from err
-
-
-def gap_positions(pairs: list[FramePair]) -> list[int]:
-    """Positions ``k`` of the neighbours ``(pairs[k], pairs[k + 1])`` of a camera that are not
-    consecutive frames (ground-truth frames left out between them: ``--allow-missing``)."""
-    return [k for k in range(len(pairs) - 1) if pairs[k + 1].index != pairs[k].index + 1]
 
 
 def _name_gaps(pairs: list[FramePair], temporal: dict[str, dict]) -> None:

@@ -216,8 +216,7 @@ def check_pair(
     checked (protocol variants that clip); ``clipped``: the caller clips floats to the range,
     so overshoots up to ``CLIPPED_LIMIT`` times it pass (integers with ``data_range <= 1``
     and values further out, another unit, are refused). Raises InputError on a shape mismatch, a
-    wrong rank,
-    a channel-first layout, an empty image, values outside the range, or (unless
+    wrong rank, a channel-first layout, an empty image, values outside the range, or (unless
     ``finite=False``: the caller checks later) NaN/Inf pixels — a silent NaN score is never
     returned.
     """

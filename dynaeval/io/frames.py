@@ -264,6 +264,12 @@ def pairs_by_camera(pairs: list[FramePair]) -> dict[str, list[FramePair]]:
     return out
 
 
+def gap_positions(pairs: list[FramePair]) -> list[int]:
+    """Positions ``k`` of the neighbours ``(pairs[k], pairs[k + 1])`` of a camera that are not
+    consecutive frames (ground-truth frames left out between them: ``--allow-missing``)."""
+    return [k for k in range(len(pairs) - 1) if pairs[k + 1].index != pairs[k].index + 1]
+
+
 def consecutive_pairs(pairing: Pairing) -> dict[str, dict]:
     """Per camera with ground-truth frames left out (``Pairing.skipped``, ``allow_missing``):
     ``{"scored": pairs of consecutive frames present, "expected": pairs of its ground truth,
@@ -276,7 +282,7 @@ def consecutive_pairs(pairing: Pairing) -> dict[str, dict]:
     for cam, cam_pairs in pairs_by_camera(pairing.pairs).items():
         if cam in missing:
             n_gt = len(cam_pairs) + len(missing[cam])
-            scored = sum(b.index == a.index + 1 for a, b in zip(cam_pairs, cam_pairs[1:]))
+            scored = len(cam_pairs) - 1 - len(gap_positions(cam_pairs))
             out[cam] = {"scored": scored, "expected": max(0, n_gt - 1),
                         "missing_frames": missing[cam]}
     return out

@@ -219,8 +219,8 @@ class ImageMetrics:
         Raises:
             InputError: shapes differ or are not images (a channel-first numpy batch), values
                 outside [0, data_range] (0..255 images with data_range=1: pass data_range=255
-                or x / 255; under a protocol that clips, overshoots
-                up to twice the range pass: validation.CLIPPED_LIMIT), NaN/Inf pixels,
+                or x / 255; under a protocol that clips, overshoots up to twice the range
+                pass: validation.CLIPPED_LIMIT), NaN/Inf pixels,
                 LPIPS input outside [0, 1], a mask missing, given without ``masked=True``, or
                 not of the images' size. Nothing is kept from a batch that raised.
             WeightsUnavailableError: LPIPS asked for and its backbone weights are absent.

@@ -79,11 +79,13 @@ def ms_ssim(pred: object, gt: object, *, data_range: float = 1.0, clip: bool = F
 
     Args:
         pred, gt: (H, W) or (H, W, C) arrays/tensors in [0, data_range], channel last,
-            H, W >= 176; values outside [0, data_range] are refused (unless ``clip``).
+            H, W >= 176; values outside [0, data_range] are refused (with ``clip``, only
+            those beyond ``validation.CLIPPED_LIMIT`` times the range).
         data_range: L in ``C1 = (0.01 L)^2``, ``C2 = (0.03 L)^2`` (K-Planes: 1).
         clip: clip both images to [0, 1] first (the kplanes and nerfbaselines protocols): float
-            values outside are then expected and not refused (integers still are, with
-            ``data_range <= 1``).
+            overshoots up to ``validation.CLIPPED_LIMIT`` times the range are then expected and
+            not refused; further out (0..255 floats) and integers with ``data_range <= 1``
+            still are.
 
     Returns:
         MS-SSIM in [0, 1] (1 for identical images), a Python float.
