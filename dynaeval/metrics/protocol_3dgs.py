@@ -148,7 +148,7 @@ def msssim_4dgaussians(pred: object, gt: object, *, data_range: float = 1.0,
     from dynaeval.metrics.protocols import _as_hwc, window_statistics
 
     data_range = check_data_range(data_range)
-    p, g = check_pair(pred, gt)
+    p, g = check_pair(pred, gt, data_range=data_range)  # as ms_ssim: 0..255 input is refused
     dtype = np.dtype(precision)
     x, y = (_as_hwc(a).astype(np.float32).astype(dtype) for a in (p, g))
     if min(x.shape[:2]) < MSSSIM_MIN_SIZE:

@@ -374,6 +374,21 @@ def test_4dgaussians_msssim_below_161_px_is_undefined():
         msssim_4dgaussians(pred[:, :160], gt[:, :160])
 
 
+def test_4dgaussians_msssim_refuses_0_255_input_as_ms_ssim_does():
+    """Issue 32 item 1: the library's MS-SSIM entry points refuse values outside [0, data_range]."""
+    from dynaeval.errors import InputError
+    from dynaeval.metrics.protocol_3dgs import dssim_4dgaussians, msssim_4dgaussians
+
+    _, pred, gt = BIG_PAIRS[2]
+    p255, g255 = np.asarray(pred, np.float64) * 255, np.asarray(gt, np.float64) * 255
+    with pytest.raises(InputError, match=r"pred holds values in .* data_range=255"):
+        msssim_4dgaussians(p255, g255)
+    with pytest.raises(InputError, match=r"pred is uint8 .* pass data_range=255"):
+        dssim_4dgaussians(p255.astype(np.uint8), g255.astype(np.uint8))
+    assert msssim_4dgaussians(p255, g255, data_range=255) == pytest.approx(
+        msssim_4dgaussians(pred, gt), abs=1e-9)
+
+
 def test_4dgaussians_protocol_is_3dgs_plus_its_msssim_and_alex():
     from dynaeval.config import ScoreConfig
     from dynaeval.errors import InputError
