@@ -19,8 +19,8 @@
   ``data_range <= 1`` is refused (its values are counts, 0..255 for uint8, never read as
   [0, 1]); a value below 0 or above L by more than ``FLOAT_TOLERANCE * L`` is refused naming
   the image, its min/max and the fixes (``data_range=255``, ``x / 255``, ``np.clip``); values
-  within the tolerance are kept as they are. One min/max pass (~1.2 ms for a 1080p RGB float32
-  frame; NaN/Inf show in it, so it is also the finite check), none for an integer dtype that
+  within the tolerance are kept as they are. One min/max pass (about the cost of the NaN/Inf pass it
+  replaces; NaN/Inf show in it, so it is also the finite check), none for an integer dtype that
   cannot leave [0, L] (uint8 with L >= 255). Callers that know the values are in range (frames
   read by ``dynaeval.io.images``, a batch ``ImageMetrics`` has checked) skip it inside
   ``values_known_in(hi)``.
