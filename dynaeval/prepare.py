@@ -44,7 +44,15 @@ from dynaeval.config import ScoreConfig
 from dynaeval.errors import InputError, UndefinedMetricError
 from dynaeval.io import FramePair
 from dynaeval.io.frames import FrameRef, pairs_by_camera
-from dynaeval.io.prepared import FORMAT_VERSION, MANIFEST, file_digest, manifest_id, read_manifest
+from dynaeval.io.prepared import (
+    FORMAT_VERSION,
+    MANIFEST,
+    PreparedFiles,
+    file_digest,
+    folder_digests,
+    manifest_id,
+    read_manifest,
+)
 from dynaeval.regions.focus import FrameRegions
 from dynaeval.regions.packed import PackedMask
 from dynaeval.runtime import worker_opencv_threads
@@ -139,6 +147,7 @@ def prepare(gt_dir: str | Path, out: str | Path, config: ScoreConfig | None = No
         for i, (cam, pairs) in enumerate(cams.items()):
             progress.set_note(f"camera {cam}")
             manifest["cameras"][cam] = _prepare_camera(i, cam, pairs, run, gt_dir, tmp, progress)
+        manifest["hashes"] = folder_digests(tmp)  # every prepared file, checked when read
         manifest["id"] = manifest_id(manifest)
         (tmp / MANIFEST).write_text(json.dumps(manifest, indent=1) + "\n", encoding="utf-8")
 
@@ -304,16 +313,19 @@ class PreparedGT:
 
     path: Path
     manifest: dict[str, Any]
+    files: PreparedFiles
+    """The folder's files, each checked against the manifest's digest when first read."""
     reuse: dict[str, bool] = field(default_factory=dict)
     """Camera -> its prepared regions match the run's frames (else computed again)."""
-    decoded_files: dict[str, Path] = field(default_factory=dict)
-    """Resolved ground-truth image path -> its prepared uint8 decoding (``frames/<digest>.npy``)."""
+    decoded_files: dict[str, str] = field(default_factory=dict)
+    """Resolved ground-truth image path -> its prepared uint8 decoding (``frames/<digest>.npy``,
+    relative to the folder)."""
 
     def decoded(self, path: Path) -> np.ndarray | None:
         """The prepared decoding of the ground-truth image ``path`` (``FrameCache``'s
         ``decoded``: memory-mapped, read-only), or None: a prediction, or not prepared."""
         stored = self.decoded_files.get(str(Path(path).resolve()))
-        return None if stored is None else np.load(stored, mmap_mode="r")
+        return None if stored is None else self.files.load(stored, mmap=True)
 
     def regions(self, camera: str) -> list[FrameRegions] | None:
         """The prepared regions of ``camera``, or None when they are computed again."""
@@ -322,7 +334,7 @@ class PreparedGT:
         entry = self.manifest["cameras"][camera]["regions"]
         motion = entry["camera_motion"]  # one dict shared by the camera's frames, as computed
         out = []
-        with np.load(self.path / entry["file"]) as arrays:
+        with self.files.load(entry["file"]) as arrays:
             for k, f in enumerate(entry["frames"]):
                 got = {n: arrays[f"{n}{k}"] if f"{n}{k}" in arrays else None for n in _FIELDS}
                 packed = (None if got["mask"] is None else
@@ -340,7 +352,7 @@ class PreparedGT:
         entry = (self.manifest["cameras"].get(camera) or {}).get("static_std")
         if not self.reuse.get(camera) or not entry or entry["static"] != static_digest(static):
             return None
-        return np.load(self.path / entry["file"])
+        return self.files.load(entry["file"])
 
     def flow_cache(self) -> Any:
         """A flow cache (64 MiB in memory, as the run's own) that reads the prepared flows."""
@@ -349,7 +361,10 @@ class PreparedGT:
         known = {k: self.path / "flows" / f"{k}.npy"
                  for cam in self.manifest["cameras"].values() for pair in cam["flows"] or ()
                  for k in pair}
-        return FlowCache(max_bytes=1 << 26, known=known)
+        return FlowCache(max_bytes=1 << 26, known=known, load_known=self._load_flow)
+
+    def _load_flow(self, path: Path) -> np.ndarray:
+        return self.files.load(path.relative_to(self.path).as_posix(), mmap=True)
 
     def describe(self) -> dict[str, Any]:
         """``settings["prepared"]`` of the results: the folder and its id (the same for every
@@ -395,10 +410,10 @@ def open_prepared(path: str | Path, gt_root: Path, pairs: list[FramePair],
         if digests[rel] != manifest["files"][rel]:
             raise InputError(f"ground-truth file changed since it was prepared in {path}: run "
                              "'dynaeval prepare' again", path=p.gt.path)
-    prepared = PreparedGT(path, manifest)
+    prepared = PreparedGT(path, manifest, PreparedFiles(path, manifest["hashes"]))
     for rel, stored in manifest.get("decoded", {}).items():  # only files checked just above
         if rel in digests:
-            prepared.decoded_files[str((gt_root / rel).resolve())] = path / stored
+            prepared.decoded_files[str((gt_root / rel).resolve())] = stored
     for cam, cam_pairs in pairs_by_camera(pairs).items():
         entry = manifest["cameras"].get(cam)
         frames = [[p.frame, _rel(p.gt, gt_root)] for p in cam_pairs]
