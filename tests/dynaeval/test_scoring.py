@@ -13,12 +13,12 @@ import pytest
 import dynaeval
 from dynaeval.errors import InputError
 from dynaeval.evaluate import ScoreConfig
+from dynaeval.executor import Executor
 from dynaeval.io import pair_frames
 from dynaeval.io.cache import FrameCache
 from dynaeval.metrics.flow import MIN_FLOW_SIZE as TEMPORAL_MIN_SIZE
-from dynaeval.regions.focus import NOT_A_VIDEO, FocusConfig
-from dynaeval.executor import Executor
 from dynaeval.plan import build_plan
+from dynaeval.regions.focus import NOT_A_VIDEO, FocusConfig
 from dynaeval.scoring import camera_regions_of, score_frame
 
 from .helpers import textured_frame
