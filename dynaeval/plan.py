@@ -176,16 +176,7 @@ def build_plan(config: ScoreConfig, *, scope: Scope | None = None, masks: MaskSe
     built = build_frame_metrics(ctx, run_metrics(protocol, config.metrics), regions)
     warnings = [{"metric": name, "reason": f"{SPECS[name].title} not computed: {why}"}
                 for name, why in built.unavailable.items()]
-    settings: dict[str, Any] = {
-        "data_range": config.data_range, "quantize": quantize,
-        "background": config.background, "allow_missing": config.allow_missing,
-        **built.settings,
-        "regions": {**REGION_RULES, **({"covisible": COVISIBLE_RULE} if "covisible" in regions else {})},
-        "summary": "mean of per-frame values (frames weighted equally, not pooled error)",
-        "protocol": protocol.describe(),
-    }
-    if masks is not None:  # else masked_* are over the motion masks (settings.focus.motion)
-        settings["masks"] = masks.describe()
+    settings = _settings(config, quantize, built.settings, regions, protocol, masks)
     sources = open_sources(focus)
     settings["focus"] = sources.settings
     warnings.extend(sources.warnings)
@@ -209,6 +200,23 @@ def build_plan(config: ScoreConfig, *, scope: Scope | None = None, masks: MaskSe
     return RunPlan(config, protocol, quantize, lpips_net, focus, built.fns, built.every,
                    built.camera_fns, sources, masks, presence, temporal, found, settings,
                    tuple(warnings))
+
+
+def _settings(config: ScoreConfig, quantize: str, metric_settings: dict[str, dict],
+              regions: tuple[str, ...], protocol: Protocol, masks: MaskSet | None) -> dict[str, Any]:
+    """The results' ``settings`` of the reading, the metrics, the region rules and the protocol
+    (``build_plan`` adds the focus, presence, temporal, prepared and sequence sections)."""
+    settings: dict[str, Any] = {
+        "data_range": config.data_range, "quantize": quantize,
+        "background": config.background, "allow_missing": config.allow_missing,
+        **metric_settings,
+        "regions": {**REGION_RULES, **({"covisible": COVISIBLE_RULE} if "covisible" in regions else {})},
+        "summary": "mean of per-frame values (frames weighted equally, not pooled error)",
+        "protocol": protocol.describe(),
+    }
+    if masks is not None:  # else masked_* are over the motion masks (settings.focus.motion)
+        settings["masks"] = masks.describe()
+    return settings
 
 
 def ground_truth_plan(config: ScoreConfig, sources: RegionSources) -> RunPlan:
