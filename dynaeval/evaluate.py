@@ -140,7 +140,7 @@ def _prepared_opener(config: ScoreConfig, layout: Any, pairs: list[FramePair]) -
 
 
 def _input_warnings(config: ScoreConfig, layout: Any, pairing: Any, mask_warnings: list[dict],
-                    gaps: dict, scope: Any) -> list[dict]:
+                    gaps: dict, scope: Scope) -> list[dict]:
     """Run-level warnings about the inputs, in the order the results list them: damaged video
     files, given masks, the layout's notes, missing frames, a render folder scored under another
     protocol than its own, frames scored as separate views."""
