@@ -506,10 +506,10 @@ def _print_regions(results: dict, most: int = 12) -> None:
               "('regions')", file=sys.stderr)
 
 
-def _write_gs_json(results: dict, folder: str, *, overwrite: bool) -> None:
-    from dynaeval.report.gaussian_splatting import write_gs_json
+def _print_gs_written(results: dict, folder: str) -> None:
+    from dynaeval.report.gaussian_splatting import gs_paths
 
-    paths = write_gs_json(results, folder, overwrite=overwrite)
+    paths = gs_paths(folder)
     print(f"3DGS results written to {paths[0]} and {paths[1]}", file=sys.stderr)
     name = results["settings"]["protocol"]["name"]
     if name not in ("3dgs", "4dgaussians"):
@@ -521,7 +521,7 @@ def _run_score(pred: str, gt: str | None, args: argparse.Namespace, *, overwrite
     import warnings
 
     from dynaeval.evaluate import DynaevalWarning, score
-    from dynaeval.report import summary_table, write_json_atomic
+    from dynaeval.report import summary_table
 
     output = getattr(args, "output", None)
     report = getattr(args, "report", None)
@@ -560,25 +560,40 @@ def _run_score(pred: str, gt: str | None, args: argparse.Namespace, *, overwrite
     elif layout:
         print(f"dynaeval: {layout['name']} render folder: scored {results['inputs']['pred']} "
               f"against {results['inputs']['gt']}", file=sys.stderr)
-    if gs_json:  # its files can be refused by the results (names shared): before any is written
-        from dynaeval.report.gaussian_splatting import gs_documents
-
-        gs_documents(results)
     _print_warnings(results, output)
+    _write_score_outputs(results, args, recorder, overwrite=overwrite)
+    print(summary_table(results))
+    return EXIT_OK
+
+
+def _write_score_outputs(results: dict, args: argparse.Namespace, recorder: Any, *,
+                         overwrite: bool) -> None:
+    """Write the results file, the 3DGS files and the report as one (``write_files_atomic``):
+    all of them or, on a full disk or an interrupt, none, with existing files as they were."""
+    from dynaeval.io.atomic import write_files_atomic
+    from dynaeval.report.results import results_text
+
+    output, report = getattr(args, "output", None), getattr(args, "report", None)
+    gs_json = getattr(args, "gs_json", None)
+    files = [(Path(output), results_text(results), "results file")] if output else []
+    if gs_json:
+        from dynaeval.report.gaussian_splatting import gs_files
+
+        files += gs_files(results, gs_json)
+    if report:
+        from dynaeval.report.html import render_report, report_index
+
+        files.append((report_index(report, overwrite=overwrite),
+                      render_report(results, recorder=recorder), "report"))
+    write_files_atomic(files, overwrite=overwrite)
     if output:
-        write_json_atomic(output, results, overwrite=overwrite)
         print(f"results written to {output}", file=sys.stderr)
     else:
         print("(pass -o results.json to save the per-frame results)", file=sys.stderr)
     if gs_json:
-        _write_gs_json(results, gs_json, overwrite=overwrite)
+        _print_gs_written(results, gs_json)
     if report:
-        from dynaeval.report.html import write_report
-
-        index = write_report(results, report, recorder=recorder, overwrite=overwrite)
-        print(f"report written to {index}", file=sys.stderr)
-    print(summary_table(results))
-    return EXIT_OK
+        print(f"report written to {Path(report) / 'index.html'}", file=sys.stderr)
 
 
 def _run_detect(args: argparse.Namespace) -> int:

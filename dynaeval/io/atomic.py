@@ -15,9 +15,10 @@ from __future__ import annotations
 
 import errno
 import os
+import shutil
 import tempfile
-from collections.abc import Iterable, Iterator
-from contextlib import contextmanager
+from collections.abc import Iterable, Iterator, Sequence
+from contextlib import ExitStack, contextmanager
 from pathlib import Path
 
 from dynaeval.errors import InputError
@@ -186,18 +187,110 @@ def write_text_atomic(
 
     Raises:
         InputError: ``path`` exists (or appears during the write) and not ``overwrite``, it is
-            a folder, or its folder cannot be created or is not writable.
+            a folder, its folder cannot be created or is not writable, or the disk is full
+            (``write_failure``; nothing is left behind).
     """
-    path = Path(path)
-    refuse_existing(path, overwrite=overwrite, what=what)
-    if path.is_dir():
-        raise InputError(f"the {what} must be a file, but this is a folder", path=path)
-    with parent_folders(path, what):
-        return _write_new_file(path, text, overwrite, what)
+    return write_files_atomic([(path, text, what)], overwrite=overwrite)[0]
 
 
-def _write_new_file(path: Path, text: str, overwrite: bool, what: str) -> Path:
-    """``write_text_atomic``'s body, once ``path``'s folder exists."""
+def write_files_atomic(files: Sequence[tuple[str | Path, str, str]], *,
+                       overwrite: bool = False) -> list[Path]:
+    """Write several output files as one (a run's results file, 3DGS files and report): every
+    file is first written in full to a temporary file beside its target and flushed, and only
+    when all are on disk are they moved into place. A failure or an interrupt (a full disk,
+    Ctrl-C) while writing leaves none of them, no new folder, and every existing file as it was
+    (one replaced with ``overwrite`` is put back from a hard link kept until the end).
+
+    Args:
+        files: ``(path, text, what)`` for each file; ``what`` names it in messages.
+        overwrite: replace existing files (else InputError, checked for all before writing any).
+
+    Returns:
+        The paths written, in order.
+
+    Raises:
+        InputError: as ``write_text_atomic``, naming the file concerned.
+    """
+    targets = [(Path(path), text, what) for path, text, what in files]
+    for path, _, what in targets:
+        refuse_existing(path, overwrite=overwrite, what=what)
+        if path.is_dir():
+            raise InputError(f"the {what} must be a file, but this is a folder", path=path)
+    with ExitStack() as folders:
+        for path, _, what in targets:
+            folders.enter_context(parent_folders(path, what))
+        staged: list[tuple[Path, str, str]] = []
+        placed: list[tuple[Path, str | None]] = []
+        try:
+            for path, text, what in targets:
+                staged.append((path, _stage(path, text, what), what))
+            for path, tmp, what in staged:
+                old = _keep_old(path) if overwrite else None
+                try:
+                    _place(tmp, path, overwrite, what)
+                except BaseException:
+                    if old is not None:
+                        Path(old).unlink(missing_ok=True)
+                    raise
+                placed.append((path, old))
+        except BaseException:
+            for _, tmp, _ in staged:
+                Path(tmp).unlink(missing_ok=True)
+            for path, old in reversed(placed):
+                _put_back(path, old)
+            raise
+        for _, old in placed:
+            if old is not None:
+                Path(old).unlink(missing_ok=True)
+    return [path for path, _, _ in targets]
+
+
+NO_SPACE_ERRNOS = {
+    errno.ENOSPC: "no space left on the device", errno.EDQUOT: "disk quota exceeded",
+    errno.EFBIG: "file too large for this file system", errno.EROFS: "read-only file system",
+    errno.EACCES: "permission denied", errno.EPERM: "operation not permitted",
+    errno.EIO: "input/output error",
+}
+"""The write failures that are the place's, not dynaeval's: ``write_failure`` makes them exit 2."""
+
+
+def write_failure(err: OSError, path: str | Path, what: str) -> InputError | None:
+    """The InputError (exit 2) for an OSError raised while writing ``path``: a full disk, a quota,
+    a read-only or forbidden place; None for any other error (a bug: re-raise it).
+
+    Call it before removing what the failed write left, so the disk is still full: an OSError
+    without an errno (numpy's ``tofile`` reports a short write that way) is taken for a full
+    disk when less than ``NEARLY_FULL`` bytes are free where ``path`` goes. The message names
+    the path, the cause and the fix, and says that nothing was left behind (the writers of this
+    module remove what they staged before raising it).
+    """
+    cause = NO_SPACE_ERRNOS.get(err.errno) if err.errno is not None else (
+        NO_SPACE_ERRNOS[errno.ENOSPC] if _free_bytes(Path(path)) < NEARLY_FULL else None)
+    if cause is None:
+        return None
+    fix = ("free space there or choose another path" if cause in _FULL_CAUSES
+           else "choose another path")
+    return InputError(f"cannot write the {what}: {cause}; {fix} (nothing was written)", path=path)
+
+
+NEARLY_FULL = 1 << 20
+"""Bytes free below which a short write without an errno is a full disk (``write_failure``)."""
+_FULL_CAUSES = {NO_SPACE_ERRNOS[e] for e in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)}
+
+
+def _free_bytes(path: Path) -> int:
+    """Bytes free on the file system of ``path`` (its nearest existing folder); a large number
+    when that cannot be told."""
+    while not path.exists() and path != path.parent:
+        path = path.parent
+    try:
+        return shutil.disk_usage(path).free
+    except OSError:
+        return 1 << 62
+
+
+def _stage(path: Path, text: str, what: str) -> str:
+    """Write ``text`` to a new temporary file beside ``path``, flushed to disk; its name."""
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     except OSError as err:
@@ -209,11 +302,40 @@ def _write_new_file(path: Path, text: str, overwrite: bool, what: str) -> Path:
             f.flush()
             os.fsync(f.fileno())
         os.chmod(tmp, 0o666 & ~_UMASK)  # mkstemp makes 0600; give the usual permissions
-        if overwrite:
-            os.replace(tmp, path)
-        else:
-            _place_exclusively(tmp, path, what)
-    except BaseException:
+    except BaseException as err:
+        failure = write_failure(err, path, what) if isinstance(err, OSError) else None
         Path(tmp).unlink(missing_ok=True)
+        if failure is not None:
+            raise failure from err
         raise
-    return path
+    return tmp
+
+
+def _keep_old(path: Path) -> str | None:
+    """A hard link to the file ``path`` is about to replace (None: no such file, or the file
+    system has no hard links), so a failed multi-file write can put it back."""
+    if not path.is_file():
+        return None
+    old = f"{path.parent / ('.' + path.name)}.old.{os.getpid()}"
+    try:
+        Path(old).unlink(missing_ok=True)
+        os.link(path, old)
+    except OSError:
+        return None
+    return old
+
+
+def _put_back(path: Path, old: str | None) -> None:
+    """Undo placing ``path``: restore the file it replaced (``old``), else remove it."""
+    if old is not None:
+        os.replace(old, path)
+    else:
+        path.unlink(missing_ok=True)
+
+
+def _place(tmp: str, path: Path, overwrite: bool, what: str) -> None:
+    """Move the staged ``tmp`` to ``path``: ``os.replace`` with ``overwrite``, else exclusively."""
+    if overwrite:
+        os.replace(tmp, path)
+    else:
+        _place_exclusively(tmp, path, what)

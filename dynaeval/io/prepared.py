@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from dynaeval.errors import InputError
+from dynaeval.io.atomic import write_failure
 
 FORMAT_VERSION = 1
 """Version of the prepared folder's layout; a folder of another version is refused."""
@@ -99,8 +100,11 @@ def _fill_and_rename(out: Path, fill: Callable[[Path], None], overwrite: bool, w
             shutil.rmtree(old, ignore_errors=True)
         else:
             os.rename(tmp, out)
-    except BaseException:
+    except BaseException as err:
+        failure = write_failure(err, out, what) if isinstance(err, OSError) else None
         shutil.rmtree(tmp, ignore_errors=True)
+        if failure is not None:
+            raise failure from err
         raise
     return out
 

@@ -81,19 +81,25 @@ def gs_paths(folder: str | Path) -> tuple[Path, Path]:
 
 def write_gs_json(results: dict[str, Any], folder: str | Path, *,
                   overwrite: bool = False) -> tuple[Path, Path]:
-    """Write ``results.json`` and ``per_view.json`` into ``folder``, atomically; neither is
-    written when either exists and not ``overwrite`` (InputError naming it).
+    """Write ``results.json`` and ``per_view.json`` into ``folder``, as one atomic write
+    (``dynaeval.io.atomic.write_files_atomic``): neither is written when either exists and not
+    ``overwrite`` (InputError naming it), or when the disk is full.
 
     Returns:
         The two paths written.
     """
-    from dynaeval.io.atomic import refuse_existing, write_text_atomic
+    from dynaeval.io.atomic import write_files_atomic
 
+    write_files_atomic(gs_files(results, folder), overwrite=overwrite)
+    return gs_paths(folder)
+
+
+def gs_files(results: dict[str, Any], folder: str | Path) -> list[tuple[Path, str, str]]:
+    """``(path, text, what)`` of the two 3DGS files, for ``write_files_atomic``.
+
+    Raises:
+        InputError: as ``gs_documents``.
+    """
     docs = gs_documents(results)
-    paths = gs_paths(folder)
-    for path in paths:
-        refuse_existing(path, overwrite=overwrite, what="3DGS results file")
-    for path, doc in zip(paths, docs, strict=True):
-        text = json.dumps(doc, indent=True, allow_nan=False)
-        write_text_atomic(path, text, overwrite=overwrite, what="3DGS results file")
-    return paths
+    return [(path, json.dumps(doc, indent=True, allow_nan=False), "3DGS results file")
+            for path, doc in zip(gs_paths(folder), docs, strict=True)]

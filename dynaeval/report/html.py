@@ -290,13 +290,23 @@ def write_report(
         Path of ``index.html`` (written last, atomically: a failed run leaves none).
 
     Raises:
-        InputError: ``index.html`` exists and not ``overwrite``, ``out_dir`` is a file, or a frame
-            listed in the results is gone.
+        InputError: ``index.html`` exists and not ``overwrite``, ``out_dir`` is a file, a frame
+            listed in the results is gone, or the disk is full (nothing is left behind).
     """
-    from dynaeval.io.atomic import write_text_atomic
-    from dynaeval.report.leaderboard import TABLE_CSS
-    from dynaeval.report.table import run_title
+    from dynaeval.io.atomic import write_files_atomic
 
+    index = report_index(out_dir, overwrite=overwrite)
+    page = render_report(results, recorder=recorder, n_worst=n_worst)
+    write_files_atomic([(index, page, "report")], overwrite=overwrite)
+    return index
+
+
+def report_index(out_dir: str | Path, *, overwrite: bool = False) -> Path:
+    """``out_dir/index.html``, the report's one file, checked before anything is rendered.
+
+    Raises:
+        InputError: ``out_dir`` is a file, or ``index.html`` exists and not ``overwrite``.
+    """
     out_dir = Path(out_dir)
     index = out_dir / "index.html"
     if out_dir.exists() and not out_dir.is_dir():
@@ -304,6 +314,20 @@ def write_report(
     if index.exists() and not overwrite:
         raise InputError("report exists; pass --overwrite or choose another --report folder",
                          path=index)
+    return index
+
+
+def render_report(results: dict[str, Any], *, recorder: RegionRecorder | None = None,
+                  n_worst: int = 4) -> str:
+    """The report's HTML page (images inlined as data URIs) for one results document; writes
+    nothing, so an interrupt while it renders leaves no file and no folder.
+
+    Raises:
+        InputError: a frame listed in the results is gone.
+    """
+    from dynaeval.report.leaderboard import TABLE_CSS
+    from dynaeval.report.table import run_title
+
     title = f"dynaeval: {run_title(results)}"
     parts = [
         "<!DOCTYPE html>", "<html><head><meta charset='utf-8'>", f"<title>{escape(title)}</title>",
@@ -320,8 +344,7 @@ def write_report(
         *_missing_html(results),
         *_details_html(results),
     ]
-    out_dir.mkdir(parents=True, exist_ok=True)
-    return write_text_atomic(index, "\n".join(parts) + "\n", overwrite=overwrite)
+    return "\n".join(parts) + "\n"
 
 
 REPORT_CSS = (

@@ -320,8 +320,12 @@ def write_json_atomic(path: str | Path, doc: Any, *, overwrite: bool = False) ->
         InputError: ``path`` exists and ``overwrite`` is False, or its folder is missing.
         ValueError: ``doc`` holds NaN or infinity (nothing is written).
     """
-    text = json.dumps(doc, indent=1, allow_nan=False, ensure_ascii=False) + "\n"
-    return write_text_atomic(path, text, overwrite=overwrite, what="results file")
+    return write_text_atomic(path, results_text(doc), overwrite=overwrite, what="results file")
+
+
+def results_text(doc: Any) -> str:
+    """``doc`` as the strict JSON text of a results file (ValueError on NaN or infinity)."""
+    return json.dumps(doc, indent=1, allow_nan=False, ensure_ascii=False) + "\n"
 
 
 def schema_path() -> Path:

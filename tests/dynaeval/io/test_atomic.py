@@ -35,7 +35,7 @@ def test_missing_folders_are_created_and_a_failed_write_removes_them(tmp_path, m
     def fail(*args):
         raise OSError("disk full")
 
-    monkeypatch.setattr(atomic, "_write_new_file", fail)
+    monkeypatch.setattr(atomic, "_stage", fail)
     with pytest.raises(OSError, match="disk full"):
         write_text_atomic(tmp_path / "keep" / "a" / "b" / "r.json", "x")
     assert list((tmp_path / "keep").iterdir()) == []  # a/ and a/b/ removed, keep/ kept
@@ -192,3 +192,45 @@ def test_check_writable_read_only_folder(tmp_path):
             check_writable(ro / "r.json", overwrite=False, what="results file")
     finally:
         ro.chmod(0o755)
+
+
+def test_several_files_are_written_as_one(tmp_path, monkeypatch):
+    """write_files_atomic (issue 34, item 2): when the second file cannot be placed, the first,
+    already placed, is taken back (a new one removed, a replaced one restored)."""
+    from dynaeval.io import atomic
+    from dynaeval.io.atomic import write_files_atomic
+
+    (tmp_path / "a.txt").write_text("old a")
+    real = atomic._place
+
+    def place(tmp, path, overwrite, what):
+        if path.name == "b.txt":
+            raise InputError("b.txt appeared meanwhile", path=path)
+        real(tmp, path, overwrite, what)
+
+    monkeypatch.setattr(atomic, "_place", place)
+    files = [(tmp_path / "a.txt", "new a", "A"), (tmp_path / "c" / "c.txt", "c", "C"),
+             (tmp_path / "b.txt", "b", "B")]
+    with pytest.raises(InputError, match="appeared meanwhile"):
+        write_files_atomic(files, overwrite=True)
+    assert sorted(p.name for p in tmp_path.rglob("*")) == ["a.txt"]  # no c/, no temporary file
+    assert (tmp_path / "a.txt").read_text() == "old a"
+    monkeypatch.undo()
+    assert write_files_atomic(files, overwrite=True) == [f[0] for f in files]
+    assert [f[0].read_text() for f in files] == ["new a", "c", "b"]
+
+
+def test_write_failure_tells_a_full_disk_from_a_bug(tmp_path):
+    import errno
+
+    from dynaeval.io.atomic import write_failure
+
+    full = write_failure(OSError(errno.ENOSPC, "No space left on device"), tmp_path / "r.json",
+                         "results file")
+    assert "r.json: cannot write the results file: no space left on the device; free space " \
+           "there or choose another path" in str(full)
+    assert "read-only file system; choose another path" in str(
+        write_failure(OSError(errno.EROFS, "x"), tmp_path / "r.json", "results file"))
+    assert write_failure(OSError(errno.EBADF, "x"), tmp_path, "results file") is None
+    # no errno (numpy's short write): a full disk only where little is free
+    assert write_failure(OSError("9216 requested and 3968 written"), tmp_path, "x") is None
