@@ -32,8 +32,8 @@ from dynaeval.config import ScoreConfig
 from dynaeval.io import FramePair, pair_frames
 from dynaeval.io.frames import consecutive_pairs, missing_frames_warning, pairs_by_camera
 from dynaeval.io.layout_3dgs import family_protocol
+from dynaeval.plan import RunPlan, Scope
 from dynaeval.regions.focus import FrameRegions
-from dynaeval.runtime import worker_opencv_threads
 
 __all__ = ["DynaevalWarning", "Results", "ScoreConfig", "score"]
 
@@ -93,57 +93,69 @@ def score(
             pixels, an unknown metric, ...), raised before the work where it can be.
     """
     from dynaeval.io.layouts import detect_layout
+    from dynaeval.plan import build_plan
 
     config = replace(config or ScoreConfig(), **overrides)  # __post_init__ checks the fields
     t_start = time.perf_counter()
     layout = detect_layout(pred_dir, gt_dir, iteration=config.iteration, split=config.split)
     pairing = _pair_layout(layout, config)
-    from dynaeval.scoring import prepare_run
-
     masks, mask_warnings = _given_masks(config, layout, pairing.pairs)
-    config, sequence = per_frame_only(config, layout, masks)
-    progress = run_progress(pairing.pairs, config)  # drawn now, before the metrics load
+    scope = per_frame_only(config, layout, masks)
+    progress = run_progress(pairing.pairs, scope.temporal, config.progress)  # before the metrics load
     try:
-        run = prepare_run(config, masks)
-        if config.prepared is not None:  # checked against the files and settings before the work
-            from dynaeval.prepare import open_prepared
-
-            run.prepared = open_prepared(config.prepared, layout.gt, pairing.pairs, run.config,
-                                         run.sources)
-            run.settings["prepared"] = run.prepared.describe()
-            run.warnings.extend(run.prepared.warnings())
+        plan = build_plan(config, scope=scope, masks=masks,
+                          prepared=_prepared_opener(config, layout, pairing.pairs))
     except BaseException:
         progress.close(completed=False)
         raise
     progress.restart()  # loading the metrics is no unit of work
-    run.warnings.extend(pairing.warnings)  # damaged video files
-    run.warnings.extend(mask_warnings)
-    run.warnings.extend({"reason": note} for note in layout.notes)
     gaps = consecutive_pairs(pairing)
-    if gaps:
-        run.warnings.append(missing_frames_warning(gaps, config.temporal))
-    own = family_protocol(layout.details["family"]) if layout.name == "3dgs" else config.protocol
-    if config.protocol != own:
-        run.warnings.append({"reason": (
-            f"{layout.details['family']} render folder scored under --protocol "
-            f"{config.protocol}: the numbers of its own metrics.py are --protocol {own} / "
-            f"protocol='{own}'")})
-    if sequence is not None:
-        run.settings["sequence"] = sequence
-        if sequence["skipped"]:
-            run.warnings.append({"reason": sequence["reason"]})
-    rows, warnings, temporal, regions = _score_cameras(pairing.pairs, run, on_regions, progress)
+    run_warnings = [*plan.warnings, *_input_warnings(config, layout, pairing, mask_warnings, gaps,
+                                                     scope)]
+    rows, warnings, temporal, regions, timing = _score_cameras(pairing.pairs, plan, on_regions,
+                                                               progress)
     run_name = None if layout.name == "folders" else (
         layout.root if layout.name == "kplanes" else Path(layout.details.get("model", pred_dir))
     ).resolve().name
-    results = _assemble(layout, run_name, pairing, run, rows, warnings, temporal, t_start, regions)
-    if gaps and config.temporal:
+    results = _assemble(layout, run_name, pairing, plan, rows, [*run_warnings, *warnings],
+                        temporal, {"total_s": time.perf_counter() - t_start, **timing}, regions)
+    if gaps and scope.temporal:
         results["inputs"]["temporal_pairs"] = {
             c: {"scored": g["scored"], "expected": g["expected"]} for c, g in gaps.items()}
     for w in results["warnings"]:
         if "camera" not in w:
             pywarnings.warn(warning_text(w), DynaevalWarning, stacklevel=2)
     return results
+
+
+def _prepared_opener(config: ScoreConfig, layout: Any, pairs: list[FramePair]) -> Any:
+    """``build_plan``'s ``prepared``: opens ``config.prepared`` against the run (its ground-truth
+    folder, pairs, region sources and temporal terms), or None without ``--prepared``."""
+    if config.prepared is None:
+        return None
+    from dynaeval.prepare import open_prepared
+
+    return lambda sources, temporal: open_prepared(config.prepared, layout.gt, pairs, config,
+                                                   sources, temporal=temporal)
+
+
+def _input_warnings(config: ScoreConfig, layout: Any, pairing: Any, mask_warnings: list[dict],
+                    gaps: dict, scope: Scope) -> list[dict]:
+    """Run-level warnings about the inputs, in the order the results list them: damaged video
+    files, given masks, the layout's notes, missing frames, a render folder scored under another
+    protocol than its own, frames scored as separate views."""
+    warnings = [*pairing.warnings, *mask_warnings, *({"reason": note} for note in layout.notes)]
+    if gaps:
+        warnings.append(missing_frames_warning(gaps, scope.temporal))
+    own = family_protocol(layout.details["family"]) if layout.name == "3dgs" else config.protocol
+    if config.protocol != own:
+        warnings.append({"reason": (
+            f"{layout.details['family']} render folder scored under --protocol "
+            f"{config.protocol}: the numbers of its own metrics.py are --protocol {own} / "
+            f"protocol='{own}'")})
+    if scope.sequence is not None and scope.sequence["skipped"]:
+        warnings.append({"reason": scope.sequence["reason"]})
+    return warnings
 
 
 def _pair_layout(layout: Any, config: ScoreConfig) -> Any:
@@ -169,15 +181,15 @@ def _pair_layout(layout: Any, config: ScoreConfig) -> Any:
     return pairing
 
 
-def per_frame_only(config: ScoreConfig, layout: Any,
-                   masks: Any) -> tuple[ScoreConfig, dict[str, Any] | None]:
-    """The run's settings when its frames are separate views, not a video, and the results'
+def per_frame_only(config: ScoreConfig, layout: Any, masks: Any) -> Scope:
+    """What the run scores of its frames (``dynaeval.plan.Scope``): what ``config`` asks when
+    they are a video, less when they are separate views; with the results'
     ``settings["sequence"]`` (None for frames that are a video by default: nothing changes).
 
     Separate views (``layout.sequence`` False unless ``config.frames_are_video``, or
     ``frames_are_video=False``) are scored per frame: no temporal terms, no motion masks (and no
     ``masked_*`` unless ``masks``, given masks, are there), since neither means anything across
-    unrelated photos. ``sequence`` = ``{"video", "reason", "skipped"}``.
+    unrelated photos. ``Scope.sequence`` = ``{"video", "reason", "skipped"}``.
 
     Raises:
         InputError: ``--focus motion`` or a video metric (``jod``) asked for on separate views.
@@ -189,9 +201,9 @@ def per_frame_only(config: ScoreConfig, layout: Any,
     what = (f"the {layout.name} render folder's frames" if layout.name != "folders"
             else "the frames")
     if video:
-        return config, None if layout.sequence else {
+        return Scope(config.temporal, config.focus.masked, None if layout.sequence else {
             "video": True, "skipped": [],
-            "reason": f"frames_are_video: {what} are scored as one video per camera"}
+            "reason": f"frames_are_video: {what} are scored as one video per camera"})
     why = ("are separate test views, not a video" if config.frames_are_video is None
            else "are scored as separate views (frames_are_video=False)")
     fix = ("pass --frames-are-video (frames_are_video=True) if they are one camera's video"
@@ -207,8 +219,7 @@ def per_frame_only(config: ScoreConfig, layout: Any,
     reason = (f"{what} {why}: scored per frame only"
               + (f" ({' and '.join(skipped)} skipped, meaningless across unrelated views); {fix}"
                  if skipped else ""))
-    config = replace(config, temporal=False, focus=replace(config.focus, masked=masked))
-    return config, {"video": False, "skipped": skipped, "reason": reason}
+    return Scope(False, masked, {"video": False, "skipped": skipped, "reason": reason})
 
 
 def _given_masks(config: ScoreConfig, layout: Any, pairs: list[FramePair]) -> tuple[Any, list[dict]]:
@@ -253,59 +264,53 @@ def warning_text(warning: dict[str, Any]) -> str:
     return f"{metric}: {reason}" if metric and not reason.lower().startswith(metric) else reason
 
 
-def run_progress(pairs: list[FramePair], config: ScoreConfig) -> Any:
-    """The run's ``dynaeval.progress.Progress`` (silent unless ``config.progress``): regions and
-    scored frames per frame, temporal pairs per consecutive pair, video metrics per camera."""
+def run_progress(pairs: list[FramePair], temporal: bool, enabled: bool) -> Any:
+    """The run's ``dynaeval.progress.Progress`` (silent unless ``enabled``): regions and scored
+    frames per frame, temporal pairs per consecutive pair (with ``temporal`` terms), video
+    metrics per camera."""
     from dynaeval.progress import Progress
 
     cams = pairs_by_camera(pairs)
-    n_pairs = sum(len(c) - 1 for c in cams.values()) if config.temporal else 0
+    n_pairs = sum(len(c) - 1 for c in cams.values()) if temporal else 0
     return Progress({"regions": len(pairs), "frames": len(pairs), "pairs": n_pairs,
-                     "video": len(cams)}, enabled=config.progress)
+                     "video": len(cams)}, enabled=enabled)
 
 
-def _score_cameras(pairs: list[FramePair], run: Any, on_regions: RegionsCallback | None,
-                   progress: Any) -> tuple[list, list, dict, dict]:
-    """Every camera's rows, warnings, temporal terms and regions summary, in camera order.
+def _score_cameras(pairs: list[FramePair], plan: RunPlan, on_regions: RegionsCallback | None,
+                   progress: Any) -> tuple[list, list, dict, dict, dict]:
+    """Every camera's rows, warnings, temporal terms and regions summary, in camera order, and
+    the run's seconds per phase.
 
     With ``workers`` > 1 and several cameras, up to ``workers`` cameras are scored at the same
-    time (``run.lanes``), all feeding the one pool of ``workers`` threads: a camera's serial
+    time (``Executor.lanes``), all feeding the one pool of ``workers`` threads: a camera's serial
     steps (regions, decoding, folding the pairs) overlap another's frames and flows, and the
     pool does not drain between a camera's phases. Each camera's numbers do not depend on it.
     """
-    from concurrent.futures import ThreadPoolExecutor
-
+    from dynaeval.executor import Executor
     from dynaeval.io.video import close_videos
 
     cams = pairs_by_camera(pairs)
-    workers = run.config.workers
-    run.pool = ThreadPoolExecutor(max_workers=workers) if workers > 1 else None
-    run.lanes = max(1, min(workers, len(cams)))
-    lanes = ThreadPoolExecutor(max_workers=run.lanes) if run.lanes > 1 else None
+    executor = Executor(plan.config.workers, len(cams), cache_mb=plan.config.cache_mb,
+                        decoded=plan.prepared.decoded if plan.prepared is not None else None)
 
     def regions_done(cam: str, cam_pairs: list[FramePair], found: list[FrameRegions]) -> None:
         progress.advance("regions", len(cam_pairs))
         if on_regions is not None:
             on_regions(cam, cam_pairs, found)
 
+    def score_one(cam: str, cam_pairs: list[FramePair], stop: Any) -> Any:
+        return _score_one_camera(cam, cam_pairs, plan, executor, regions_done, progress, stop)
+
     completed = False
     try:
-        with worker_opencv_threads(workers):
-            if lanes is None:
-                scored = [_score_one_camera(c, p, run, regions_done, progress)
-                          for c, p in cams.items()]
-            else:
-                scored = _cameras_at_once(lanes, cams, run, regions_done, progress)
+        scored = executor.each_camera(cams, score_one)
         completed = True
     finally:
-        if lanes is not None:
-            lanes.shutdown(cancel_futures=True)
         progress.close(completed)
-        if run.pool:
-            run.pool.shutdown(cancel_futures=not completed)
+        executor.shutdown(completed)
         close_videos()
     rows: list[dict] = []
-    warnings = list(run.warnings)
+    warnings: list[dict] = []
     temporal: dict[str, dict[str, dict]] = {}
     regions: dict[str, dict] = {}
     for cam, scores in zip(cams, scored, strict=True):
@@ -315,44 +320,22 @@ def _score_cameras(pairs: list[FramePair], run: Any, on_regions: RegionsCallback
             temporal[cam] = scores.temporal
         if scores.regions is not None:
             regions[cam] = scores.regions
-    return rows, warnings, temporal, regions
+    return rows, warnings, temporal, regions, dict(executor.timing)
 
 
-class _Stopped(Exception):
-    """Raised in a camera's thread when another camera has failed: the run stops."""
-
-
-def _cameras_at_once(lanes: Any, cams: dict[str, list[FramePair]], run: Any,
-                     regions_done: RegionsCallback, progress: Any) -> list:
-    """``_score_one_camera`` of every camera in the ``lanes`` pool, in camera order. The first
-    camera to fail stops the others at their next frame or pair, and its error is raised."""
-    import threading
-    from concurrent.futures import FIRST_EXCEPTION, wait
-
-    stop = threading.Event()
-    futures = [lanes.submit(_score_one_camera, c, p, run, regions_done, progress, stop)
-               for c, p in cams.items()]
-    done, _ = wait(futures, return_when=FIRST_EXCEPTION)
-    failed = [f.exception() for f in futures if f in done and f.exception() is not None]
-    if failed:
-        stop.set()
-        wait(futures)
-        raise failed[0]
-    return [f.result() for f in futures]
-
-
-def _score_one_camera(cam: str, cam_pairs: list[FramePair], run: Any, regions_done: RegionsCallback,
-                      progress: Any, stop: Any = None) -> Any:
+def _score_one_camera(cam: str, cam_pairs: list[FramePair], plan: RunPlan, executor: Any,
+                      regions_done: RegionsCallback, progress: Any, stop: Any = None) -> Any:
     """``score_camera`` with its progress: frames, pairs (those a camera could not score, no
     sequence, count as done) and the camera's video step. ``stop``: a ``threading.Event``
-    checked at every frame and pair (``_Stopped`` is raised once it is set)."""
+    checked at every frame and pair (``dynaeval.executor.Stopped`` is raised once it is set)."""
+    from dynaeval.executor import Stopped
     from dynaeval.scoring import score_camera
 
     pairs_done = [0]
 
     def tick(phase: str) -> None:
         if stop is not None and stop.is_set():
-            raise _Stopped(f"camera {cam} stopped: another camera failed")
+            raise Stopped(f"camera {cam} stopped: another camera failed")
         progress.advance(phase)
 
     def on_pair() -> None:
@@ -360,22 +343,23 @@ def _score_one_camera(cam: str, cam_pairs: list[FramePair], run: Any, regions_do
         tick("pairs")
 
     progress.set_note(f"camera {cam}")
-    scores = score_camera(cam, cam_pairs, run, on_regions=regions_done,
+    scores = score_camera(cam, cam_pairs, plan, executor, on_regions=regions_done,
                           on_frame=lambda: tick("frames"), on_pair=on_pair)
-    if run.config.temporal:
+    if plan.temporal is not None:
         progress.advance("pairs", len(cam_pairs) - 1 - pairs_done[0])
     progress.advance("video")
     return scores
 
 
-def _assemble(layout: Any, run_name: str | None, pairing: Any, run: Any, rows: list,
-              warnings: list, temporal: dict, t_start: float, regions: dict) -> Results:
+def _assemble(layout: Any, run_name: str | None, pairing: Any, plan: RunPlan, rows: list,
+              warnings: list, temporal: dict, timing: dict, regions: dict) -> Results:
     """The results document; method and scene default to the folders' names (the render
     folder's, ``run_name``, for a known layout)."""
     from dynaeval import __version__
     from dynaeval.report.results import build_results
+    from dynaeval.stages import metric_names
 
-    config = run.config
+    config = plan.config
     method = config.method or run_name or layout.pred.resolve().name
     scene = config.scene or run_name or layout.gt.resolve().name
     inputs_extra = ({} if run_name is None else
@@ -385,20 +369,19 @@ def _assemble(layout: Any, run_name: str | None, pairing: Any, run: Any, rows: l
 
         inputs_extra["layout"]["stack"] = describe_stack(pairing)
     return Results(build_results(
-        rows=rows, metric_names=run.metric_names, method=method, scene=scene,
-        pred_dir=str(layout.pred), gt_dir=str(layout.gt), settings=run.settings,
+        rows=rows, metric_names=metric_names(plan), method=method, scene=scene,
+        pred_dir=str(layout.pred), gt_dir=str(layout.gt), settings=dict(plan.settings),
         unscored_cameras=pairing.unscored_cameras, shard=config.shard,
-        skipped=pairing.skipped, warnings=warnings,
-        timing={"total_s": time.perf_counter() - t_start, **dict(run.timing)},
+        skipped=pairing.skipped, warnings=warnings, timing=timing,
         version=__version__, temporal=temporal, inputs_extra=inputs_extra,
-        regions=_regions_doc(run, regions),
+        regions=_regions_doc(plan, regions),
     ))
 
 
-def _regions_doc(run: Any, cameras: dict[str, dict]) -> dict[str, Any] | None:
+def _regions_doc(plan: RunPlan, cameras: dict[str, dict]) -> dict[str, Any] | None:
     """The results' ``regions``: where the boxes came from and what each camera's regions hold."""
     if not cameras:
         return None
-    det = run.sources.detector
-    return {"source": run.config.focus.source,
+    det = plan.sources.detector
+    return {"source": plan.focus.source,
             "bundled_detector": det is not None and det.bundled, "cameras": cameras}

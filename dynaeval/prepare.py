@@ -42,6 +42,7 @@ import numpy as np
 
 from dynaeval.config import ScoreConfig
 from dynaeval.errors import InputError, UndefinedMetricError
+from dynaeval.executor import Executor
 from dynaeval.io import FramePair
 from dynaeval.io.frames import FrameRef, pairs_by_camera
 from dynaeval.io.prepared import (
@@ -53,6 +54,7 @@ from dynaeval.io.prepared import (
     manifest_id,
     read_manifest,
 )
+from dynaeval.plan import RunPlan, ground_truth_plan
 from dynaeval.regions.focus import FrameRegions
 from dynaeval.regions.packed import PackedMask
 from dynaeval.runtime import worker_opencv_threads
@@ -64,16 +66,19 @@ def _jsonable(value: Any) -> Any:
     return json.loads(json.dumps(value, default=str))
 
 
-def prepared_settings(config: ScoreConfig, sources: Any) -> dict[str, Any]:
+def prepared_settings(config: ScoreConfig, sources: Any,
+                      temporal: bool | None = None) -> dict[str, Any]:
     """The settings a prepared ground truth depends on (``config``'s, ``sources`` opened from
-    its focus): compared key by key when it is used."""
+    its focus; ``temporal``: whether the run has temporal terms, default ``config.temporal``):
+    compared key by key when it is used."""
     from dynaeval.metrics.flow import FlowConfig
     from dynaeval.metrics.protocols import get_protocol
 
     return _jsonable({
         "background": config.background, "quantize": config.resolved_quantize(),
         "decode": get_protocol(config.protocol).decode, "focus": sources.settings,
-        "flow": FlowConfig(method=config.flow).describe() if config.temporal else None,
+        "flow": (FlowConfig(method=config.flow).describe()
+                 if (config.temporal if temporal is None else temporal) else None),
     })
 
 
@@ -109,7 +114,6 @@ def prepare(gt_dir: str | Path, out: str | Path, config: ScoreConfig | None = No
     from dynaeval.io.prepared import write_folder_atomic
     from dynaeval.progress import Progress
     from dynaeval.regions.focus import open_sources
-    from dynaeval.scoring import Run
 
     config = replace(config or ScoreConfig(), **overrides)
     config = replace(config, quantize=config.resolved_quantize())
@@ -119,7 +123,7 @@ def prepare(gt_dir: str | Path, out: str | Path, config: ScoreConfig | None = No
     check_writable(out, overwrite=overwrite, what="prepared folder", inputs=[gt_dir], folder=True)
     pairing = pair_frames(gt_dir, gt_dir)
     sources = open_sources(config.focus)
-    run = Run(config, {}, {}, list(sources.warnings), sources)
+    plan = ground_truth_plan(config, sources)
     cams = pairs_by_camera(pairing.pairs)
     progress = Progress({"regions": len(pairing.pairs),
                          "pairs": sum(len(c) - 1 for c in cams.values()) if config.temporal else 0},
@@ -146,14 +150,13 @@ def prepare(gt_dir: str | Path, out: str | Path, config: ScoreConfig | None = No
                     manifest["decoded"][rel] = stored
         for i, (cam, pairs) in enumerate(cams.items()):
             progress.set_note(f"camera {cam}")
-            manifest["cameras"][cam] = _prepare_camera(i, cam, pairs, run, gt_dir, tmp, progress)
+            manifest["cameras"][cam] = _prepare_camera(i, cam, pairs, plan, executor, gt_dir, tmp,
+                                                       progress)
         manifest["hashes"] = folder_digests(tmp)  # every prepared file, checked when read
         manifest["id"] = manifest_id(manifest)
         (tmp / MANIFEST).write_text(json.dumps(manifest, indent=1) + "\n", encoding="utf-8")
 
-    from concurrent.futures import ThreadPoolExecutor
-
-    run.pool = ThreadPoolExecutor(config.workers) if config.workers > 1 else None
+    executor = Executor(config.workers, cache_mb=config.cache_mb)  # one camera at a time
     completed = False
     try:
         with worker_opencv_threads(config.workers):
@@ -161,8 +164,7 @@ def prepare(gt_dir: str | Path, out: str | Path, config: ScoreConfig | None = No
         completed = True
     finally:
         progress.close(completed)
-        if run.pool:
-            run.pool.shutdown()
+        executor.shutdown(completed=True)  # as before: pending work runs to its end
     return manifest
 
 
@@ -182,25 +184,24 @@ def _save_decoded(path: Path, digest: str, folder: Path) -> str | None:
     return f"{folder.name}/{target.name}"
 
 
-def _prepare_camera(i: int, cam: str, pairs: list[FramePair], run: Any, gt_dir: Path,
-                    tmp: Path, progress: Any) -> dict[str, Any]:
+def _prepare_camera(i: int, cam: str, pairs: list[FramePair], plan: RunPlan, executor: Executor,
+                    gt_dir: Path, tmp: Path, progress: Any) -> dict[str, Any]:
     """Camera ``cam``'s manifest entry; its regions and flows written under ``tmp``."""
-    from dynaeval.io.cache import FrameCache
     from dynaeval.scoring import camera_regions_of
 
-    cache = FrameCache(run.config.cache_mb * 2**20)
-    regions = camera_regions_of(cam, pairs, run, cache)
+    cache = executor.frame_cache()
+    regions = camera_regions_of(cam, pairs, plan, executor, cache)
     progress.advance("regions", len(pairs))
     entry: dict[str, Any] = {"frames": [[p.frame, _rel(p.gt, gt_dir)] for p in pairs],
                              "regions": None, "flows": None, "static_std": None}
     if regions and regions[0].not_video is None:  # no video: computed again when scored
         entry["regions"] = _save_regions(regions, tmp / "regions" / f"{i}.npz")
-        if run.config.temporal:
-            entry["flows"] = _save_flows(pairs, run, cache, tmp / "flows", progress)
+        if plan.config.temporal:
+            entry["flows"] = _save_flows(pairs, plan, executor, cache, tmp / "flows", progress)
             if entry["flows"] is not None:  # a sequence the temporal pass scores
-                entry["static_std"] = _save_static_std(pairs, regions, run, cache,
+                entry["static_std"] = _save_static_std(pairs, regions, plan, cache,
                                                        tmp / "static_std" / f"{i}.npy")
-    if run.config.temporal:
+    if plan.config.temporal:
         progress.advance("pairs", max(len(pairs) - 1, 0) - len(entry["flows"] or ()))
     return entry
 
@@ -228,26 +229,26 @@ def _save_regions(regions: list[FrameRegions], path: Path) -> dict[str, Any]:
             "camera_motion": _jsonable(regions[0].camera_motion)}
 
 
-def _save_flows(pairs: list[FramePair], run: Any, cache: Any, folder: Path,
-                progress: Any) -> list[list[str]] | None:
+def _save_flows(pairs: list[FramePair], plan: RunPlan, executor: Executor, cache: Any,
+                folder: Path, progress: Any) -> list[list[str]] | None:
     """The ground-truth flows of every consecutive pair (forward, backward) as
     ``folder/<key>.npy``; their keys, or None when the camera has no temporal terms."""
     from dynaeval.metrics.flow import FlowCache, FlowConfig, _flow_from_gray, check_flow_size
     from dynaeval.metrics.pair_kernels import prepare as frame_prep
-    from dynaeval.scoring import consecutive, load_gt
+    from dynaeval.stages import consecutive
     from dynaeval.validation import as_image
 
     if len(pairs) < 2 or not consecutive(pairs):
         return None
-    first = load_gt(pairs[0], run.config, cache)
+    first = plan.read_gt(pairs[0], cache)
     try:
         check_flow_size(first.shape)
     except UndefinedMetricError:
         return None
-    flow_cfg = FlowConfig(method=run.config.flow)
+    flow_cfg = FlowConfig(method=plan.config.flow)
 
     def gray(k: int) -> Any:
-        g = as_image(load_gt(pairs[k], run.config, cache))
+        g = as_image(plan.read_gt(pairs[k], cache))
         return frame_prep(g, g)
 
     def pair(k: int) -> list[str]:
@@ -261,7 +262,7 @@ def _save_flows(pairs: list[FramePair], run: Any, cache: Any, folder: Path,
         return keys
 
     ks = range(len(pairs) - 1)
-    return list(run.pool.map(pair, ks)) if run.pool else [pair(k) for k in ks]
+    return executor.map(pair, ks)
 
 
 def static_digest(static: np.ndarray) -> str:
@@ -274,22 +275,22 @@ def static_digest(static: np.ndarray) -> str:
     return h.hexdigest()
 
 
-def _save_static_std(pairs: list[FramePair], regions: list[FrameRegions], run: Any, cache: Any,
-                     path: Path) -> dict[str, str] | None:
+def _save_static_std(pairs: list[FramePair], regions: list[FrameRegions], plan: RunPlan,
+                     cache: Any, path: Path) -> dict[str, str] | None:
     """The ground truth's temporal std on the camera's static pixels (``(N, C)`` float64, what
     the flicker terms accumulate of it: ``SequenceFlicker``) as ``path``; its entry (path
     relative to the folder, digest of the static mask it follows), or None when the camera has
     no static pixels to follow."""
     from dynaeval.metrics.static_flicker import TemporalStd, check_static
-    from dynaeval.scoring import load_gt, static_pixels
+    from dynaeval.stages.temporal import static_pixels
     from dynaeval.validation import as_image
 
-    static = static_pixels(regions, run.config)
+    static = static_pixels(regions, plan.focus)
     if static is None:
         return None
     acc, shape = None, None
     for p in pairs:
-        frame = as_image(load_gt(p, run.config, cache))
+        frame = as_image(plan.read_gt(p, cache))
         if acc is None:
             shape = frame.shape
             if static.shape != shape[:2]:
@@ -380,9 +381,10 @@ class PreparedGT:
 
 
 def open_prepared(path: str | Path, gt_root: Path, pairs: list[FramePair],
-                  config: ScoreConfig, sources: Any) -> PreparedGT:
+                  config: ScoreConfig, sources: Any, *, temporal: bool | None = None) -> PreparedGT:
     """Check the prepared ground truth at ``path`` against a run (its ground-truth folder, its
-    pairs, its settings) and open it.
+    pairs, its settings and region ``sources``; ``temporal``: whether it has temporal terms,
+    default ``config.temporal``) and open it.
 
     Raises:
         InputError: not a prepared folder; another format or dynaeval version; a setting that
@@ -397,7 +399,7 @@ def open_prepared(path: str | Path, gt_root: Path, pairs: list[FramePair],
     if manifest.get("dynaeval_version") != __version__:
         raise InputError(f"prepared with dynaeval {manifest.get('dynaeval_version')}, this is "
                          f"{__version__}: prepare it again", path=where)
-    _check_settings(manifest["settings"], prepared_settings(config, sources), where)
+    _check_settings(manifest["settings"], prepared_settings(config, sources, temporal), where)
     digests: dict[str, str] = {}
     for p in pairs:
         rel = _rel(p.gt, gt_root).split("#")[0]

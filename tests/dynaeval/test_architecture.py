@@ -23,8 +23,9 @@ LAYERS = {
     "io": ("dynaeval.io",),
     "regions": ("dynaeval.regions",),
     "metrics": ("dynaeval.metrics",),
-    "evaluate": ("dynaeval.config", "dynaeval.scoring", "dynaeval.evaluate",
-                 "dynaeval.distributed", "dynaeval.prepare"),
+    "evaluate": ("dynaeval.config", "dynaeval.plan", "dynaeval.executor", "dynaeval.stages",
+                 "dynaeval.scoring", "dynaeval.evaluate", "dynaeval.distributed",
+                 "dynaeval.prepare"),
     "report": ("dynaeval.report",),
     "cli": ("dynaeval.cli", "dynaeval.__main__"),
 }

@@ -438,12 +438,13 @@ def test_a_failing_camera_stops_the_others_and_its_error_is_raised(monkeypatch):
     from types import SimpleNamespace
 
     import dynaeval.scoring
-    from dynaeval.evaluate import _cameras_at_once
+    from dynaeval.evaluate import _score_one_camera
+    from dynaeval.executor import cameras_at_once
     from dynaeval.progress import Progress
 
     frames_of = {"a": 0, "b": 0}
 
-    def fake_score_camera(cam, cam_pairs, run, on_regions, on_frame, on_pair):
+    def fake_score_camera(cam, cam_pairs, run, executor, on_regions, on_frame, on_pair):
         for _ in range(2 if cam == "a" else 400):
             time.sleep(0.005)
             frames_of[cam] += 1
@@ -455,13 +456,17 @@ def test_a_failing_camera_stops_the_others_and_its_error_is_raised(monkeypatch):
     monkeypatch.setattr(dynaeval.scoring, "score_camera", fake_score_camera)
     cams = {"a": [None] * 3, "b": [None] * 3}
     progress = Progress({"regions": 6, "frames": 800, "pairs": 4, "video": 2}, enabled=False)
-    run = SimpleNamespace(config=SimpleNamespace(temporal=False), fail=False)
+    run = SimpleNamespace(temporal=None, fail=False)
+
+    def score(cam, cam_pairs, stop):  # noqa: ANN202  (as dynaeval.evaluate._score_cameras)
+        return _score_one_camera(cam, cam_pairs, run, None, None, progress, stop)
+
     with ThreadPoolExecutor(max_workers=2) as lanes:
-        assert _cameras_at_once(lanes, cams, run, None, progress) == ["a", "b"]
+        assert cameras_at_once(lanes, cams, score) == ["a", "b"]
     assert frames_of["b"] == 400
     frames_of["b"], run.fail = 0, True
     with ThreadPoolExecutor(max_workers=2) as lanes, pytest.raises(InputError, match="0002.png"):
-        _cameras_at_once(lanes, cams, run, None, progress)
+        cameras_at_once(lanes, cams, score)
     assert frames_of["b"] < 100  # stopped at its next frame, not run to its end
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import cv2
@@ -12,11 +13,13 @@ import pytest
 import dynaeval
 from dynaeval.errors import InputError
 from dynaeval.evaluate import ScoreConfig
+from dynaeval.executor import Executor
 from dynaeval.io import pair_frames
 from dynaeval.io.cache import FrameCache
 from dynaeval.metrics.flow import MIN_FLOW_SIZE as TEMPORAL_MIN_SIZE
+from dynaeval.plan import build_plan
 from dynaeval.regions.focus import NOT_A_VIDEO, FocusConfig
-from dynaeval.scoring import camera_regions_of, prepare_run, score_frame
+from dynaeval.scoring import camera_regions_of, score_frame
 
 from .helpers import textured_frame
 
@@ -107,7 +110,7 @@ def test_grayscale_scores_under_the_default_detector_focus(tmp_path):
 def _run_and_pairs(tmp_path: Path, **kw):  # noqa: ANN202
     rng = np.random.default_rng(5)
     _write(tmp_path, [textured_frame(rng, 24, 32) for _ in range(2)])
-    run = prepare_run(ScoreConfig(**kw))
+    run = build_plan(ScoreConfig(**kw))
     return run, pair_frames(tmp_path / "pred", tmp_path / "gt").pairs
 
 
@@ -119,11 +122,12 @@ def test_an_input_error_inside_a_frame_names_camera_frame_and_files(tmp_path):
     def fails(*_a):  # noqa: ANN202
         raise InputError("float images must be in [0, 1]")
 
-    run.presence = fails
-    regions = camera_regions_of(".", pairs, run, FrameCache(0))
+    run = replace(run, presence=fails)
+    executor = Executor(1, cache_mb=0)
+    regions = camera_regions_of(".", pairs, run, executor, FrameCache(0))
     with pytest.raises(InputError, match=r"pred/0001\.png: camera '\.' frame '0001' \(ground "
                                          r"truth .*gt/0001\.png\): float images must be in"):
-        score_frame(pairs[1], regions[1], run, FrameCache(0))
+        score_frame(pairs[1], regions[1], run, FrameCache(0), executor)
 
 
 def test_a_detector_error_names_the_ground_truth_file(tmp_path):
@@ -135,7 +139,7 @@ def test_a_detector_error_names_the_ground_truth_file(tmp_path):
 
     run.sources.detector = fails
     with pytest.raises(InputError, match=r"gt/0000\.png: camera '\.' frame '0000': detector input"):
-        camera_regions_of(".", pairs, run, FrameCache(0))
+        camera_regions_of(".", pairs, run, Executor(1, cache_mb=0), FrameCache(0))
 
 
 def test_boxes_file_boxes_fit_each_frame_of_a_camera_that_is_no_video(tmp_path):

@@ -1,0 +1,53 @@
+"""The per-frame metrics stage: every registered frame metric over each of its region variants."""
+
+from __future__ import annotations
+
+import time
+from typing import TYPE_CHECKING
+
+from dynaeval.errors import EmptyRegionError, InputError, UndefinedMetricError
+from dynaeval.metrics.registry import region_argument
+from dynaeval.stages.base import FrameWork, Stage, Value
+
+if TYPE_CHECKING:
+    from dynaeval.plan import RunPlan
+
+
+class FrameMetrics(Stage):
+    """``fn(pred, gt, region)`` of every per-frame metric of the plan (``RunPlan.fns``), each
+    timed under its result key."""
+
+    name = "frame metrics"
+
+    def applies(self, plan: RunPlan) -> bool:
+        return True  # a run with no frame metric has no keys, nothing to do
+
+    def frame_keys(self, plan: RunPlan) -> list[str]:
+        return list(plan.fns)
+
+    def frame(self, plan: RunPlan, work: FrameWork) -> list[Value]:
+        """``(key, value or None, reason)`` of every per-frame metric of one frame."""
+        pair, pred, gt, regions, elapsed = work.pair, work.pred, work.gt, work.regions, work.elapsed
+        values: list[Value] = []
+        for name, (region, fn) in plan.fns.items():
+            if pair.index % plan.every.get(name, 1):
+                continue  # not one of the frames it scores (``every``): no value, not null
+            if region == "focused" and regions.boxes is None:
+                values.append((name, None, regions.boxes_reason))
+                continue
+            if region == "masked" and regions.packed_mask is None:
+                values.append((name, None, regions.mask_reason))
+                continue
+            kw = region_argument(region, name, plan.protocol, regions)
+            if kw is None:
+                values.append((name, None, "no covisibility mask for this frame"))
+                continue
+            t0 = time.perf_counter()
+            try:
+                values.append((name, float(fn(pred, gt, kw)), None))
+            except (EmptyRegionError, UndefinedMetricError) as err:  # e.g. smaller than SSIM's window
+                values.append((name, None, str(err)))
+            except InputError as err:
+                raise InputError(f"{name}: {err}", path=str(pair.pred)) from err
+            elapsed[name] = time.perf_counter() - t0
+        return values

@@ -1,0 +1,141 @@
+"""The temporal stage: warp error, tOF, tLP and flicker over a camera's consecutive frames
+(``dynaeval.metrics.temporal``), or every term null with the reason."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from dynaeval.errors import InputError, UndefinedMetricError
+from dynaeval.io import FramePair
+from dynaeval.io.frames import gap_positions
+from dynaeval.metrics.flow import check_flow_size
+from dynaeval.metrics.registry import temporal_keys
+from dynaeval.regions.focus import FocusConfig, FrameRegions
+from dynaeval.stages.base import CameraWork, Stage
+
+if TYPE_CHECKING:
+    from dynaeval.plan import RunPlan
+
+
+class Temporal(Stage):
+    """The camera's temporal terms (timed as ``temporal``); frames found to differ in shape here
+    are recorded in ``CameraWork.differ``."""
+
+    name = "temporal"
+
+    def applies(self, plan: RunPlan) -> bool:
+        return plan.temporal is not None
+
+    def camera(self, plan: RunPlan, work: CameraWork) -> dict[str, dict]:
+        # the camera's pairs run on the pool (flows dominate: 3 per pair); the frames are
+        # decoded here meanwhile (and, with cameras at once, the other camera's work goes on)
+        t0 = time.perf_counter()
+        terms, work.differ = _temporal_or_reason(work.name, work.pairs, work.regions, plan, work,
+                                                 work.differ)
+        work.executor.add_time({"temporal": time.perf_counter() - t0})
+        return terms
+
+
+def _temporal_or_reason(camera: str, pairs: list[FramePair], regions: list[FrameRegions],
+                        plan: RunPlan, work: CameraWork, differ: Any) -> tuple[dict[str, dict], Any]:
+    """The camera's temporal terms, or every term null with the reason: frames that differ in
+    shape (``differ``: the ``FramesDiffer`` found by the regions, or found here), frames too
+    small for optical flow. InputErrors that name no file are raised naming the camera."""
+    from dynaeval.regions.focus import FramesDiffer
+
+    def nulls(reason: str) -> dict[str, dict]:
+        return {n: {"value": None, "reason": reason} for n in temporal_keys()}
+
+    if differ is not None:
+        return nulls(differ.reason()), differ
+    shape = plan.read_gt(pairs[0], work.cache).shape
+    try:
+        check_flow_size(shape)
+    except UndefinedMetricError as err:
+        return nulls(f"temporal terms of camera {camera!r}: {err}"), None
+    try:
+        return temporal_of_camera(pairs, regions, plan, work, shape), None
+    except FramesDiffer as err:
+        return nulls(err.reason()), err
+    except InputError as err:
+        if err.path is not None:
+            raise
+        raise InputError(f"camera {camera!r}: temporal terms: {err}",
+                         path=str(pairs[0].pred.path.parent)) from err
+
+
+def _name_gaps(pairs: list[FramePair], temporal: dict[str, dict]) -> None:
+    """Give the per-pair entries the reason of each gap's null value (``pair_reasons``: pair
+    position -> reason, read by ``dynaeval.report.results.place_temporal``), in place."""
+    gaps = gap_positions(pairs)
+    if not gaps:
+        return
+    reasons = {k: (f"not a pair of consecutive frames: the ground-truth frame(s) between "
+                   f"{pairs[k].frame!r} and {pairs[k + 1].frame!r} have no prediction "
+                   "(--allow-missing)") for k in gaps}
+    for entry in temporal.values():
+        if entry.get("per_pair"):
+            entry["pair_reasons"] = reasons
+
+
+def _small_for_tlp(plan: RunPlan, h: int, w: int) -> str | None:
+    """Why tLP is undefined for frames of (h, w), or None (LPIPS's backbone has a minimum)."""
+    from dynaeval.metrics.perceptual import MIN_SIZE
+
+    net = plan.temporal.lpips_net
+    if "lpips" not in plan.fns or not plan.temporal.tlp or min(h, w) >= MIN_SIZE.get(net, 0):
+        return None
+    return (f"tLP needs frames of at least {MIN_SIZE[net]}x{MIN_SIZE[net]} pixels (LPIPS {net}), "
+            f"got {w}x{h}")
+
+
+def static_pixels(regions: list[FrameRegions], focus: FocusConfig) -> np.ndarray | None:
+    """The camera's static pixels, ``(H, W)`` bool: never moving in any frame's motion mask
+    (None: no masked metrics, or no frame has a mask)."""
+    from dynaeval.regions.packed import union
+
+    if not focus.masked:
+        return None
+    moving = union(r.packed_mask for r in regions if r.packed_mask is not None)
+    return None if moving is None else ~moving
+
+
+def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], plan: RunPlan,
+                       work: CameraWork, shape: tuple[int, ...]) -> dict[str, dict]:
+    """The temporal terms of one camera (``dynaeval.metrics.temporal.temporal_metrics`` output),
+    its ground truth of ``shape`` (the first frame's); tLP null with the reason when the frames
+    are smaller than LPIPS accepts."""
+    from dynaeval.metrics.registry import SPECS
+    from dynaeval.metrics.temporal import temporal_metrics
+    from dynaeval.regions.focus import same_shape
+
+    cache, prepared = work.cache, plan.prepared
+    static = static_pixels(regions, plan.focus)
+    region_masks = None  # a frame without boxes: None, the pairs with it have no focused value
+    if plan.focus.source != "none":
+        region_masks = [r.boxes for r in regions]
+    small = _small_for_tlp(plan, *shape[:2])
+    tcfg = plan.temporal if "lpips" in plan.fns and small is None else replace(plan.temporal, tlp=False)
+    gt_of = same_shape(lambda i: plan.read_gt(pairs[i], cache), shape)
+    out = temporal_metrics(
+        (plan.read_pair(p, cache)[0] for p in pairs),
+        (gt_of(i) for i in range(len(pairs))),
+        static_mask=static,
+        region_masks=region_masks,
+        config=tcfg,
+        flow_cache=prepared.flow_cache() if prepared is not None else None,
+        executor=work.executor.pool,
+        window=work.executor.window,  # pairs in flight, all cameras: 2 x workers
+        on_pair=work.on_pair,
+        gt_static_std=None if static is None or prepared is None
+        else prepared.gt_static_std(pairs[0].camera, static),
+        frame_indices=[p.index for p in pairs],
+    )
+    _name_gaps(pairs, out)
+    if small is not None:
+        out.update({k: {"value": None, "reason": small, "per_pair": []} for k in SPECS["tlp"].keys()})
+    return out
