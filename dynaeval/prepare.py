@@ -420,7 +420,25 @@ def open_prepared(path: str | Path, gt_root: Path, pairs: list[FramePair],
         entry = manifest["cameras"].get(cam)
         frames = [[p.frame, _rel(p.gt, gt_root)] for p in cam_pairs]
         prepared.reuse[cam] = bool(entry and entry["regions"] and entry["frames"] == frames)
+    prepared.files.check_in_background(_files_in_order_of_use(prepared, pairs, gt_root))
     return prepared
+
+
+def _files_in_order_of_use(prepared: PreparedGT, pairs: list[FramePair], gt_root: Path) -> list[str]:
+    """The prepared files a run of ``pairs`` reads, camera by camera as it reads them (regions,
+    decoded frames, flows, static std): the order of the background check."""
+    out: list[str] = []
+    for cam, cam_pairs in pairs_by_camera(pairs).items():
+        entry = prepared.manifest["cameras"].get(cam) or {}
+        if prepared.reuse.get(cam):
+            out.append(entry["regions"]["file"])
+        out += [prepared.manifest["decoded"][rel] for rel in
+                (_rel(p.gt, gt_root).split("#")[0] for p in cam_pairs)
+                if rel in prepared.manifest.get("decoded", {})]
+        out += [f"flows/{k}.npy" for pair in entry.get("flows") or () for k in pair]
+        if prepared.reuse.get(cam) and entry.get("static_std"):
+            out.append(entry["static_std"]["file"])
+    return out
 
 
 def _check_settings(prepared: dict[str, Any], run: dict[str, Any], where: Path) -> None:

@@ -16,6 +16,7 @@ import shutil
 import tempfile
 import threading
 from collections.abc import Callable
+from concurrent.futures import Future
 from pathlib import Path
 from typing import Any
 
@@ -132,18 +133,51 @@ class PreparedFiles:
         self.root = Path(root)
         self.digests = dict(digests)
         self._checked: set[str] = set()
+        self._pending: dict[str, Future] = {}
         self._lock = threading.Lock()
 
+    def check_in_background(self, rels: list[str]) -> None:
+        """Start checking ``rels`` in this order in one background (daemon) thread: hashing
+        releases the GIL, so it overlaps the run's own work instead of adding to it. ``path``
+        of one of them waits for its check (and raises its error)."""
+        todo = [r for r in dict.fromkeys(rels) if r not in self._checked]
+        with self._lock:
+            for rel in todo:
+                self._pending.setdefault(rel, Future())
+
+        def work() -> None:
+            for rel in todo:
+                future = self._pending[rel]
+                if future.done():
+                    continue
+                try:
+                    self._check(rel)
+                    future.set_result(None)
+                except BaseException as err:  # handed to the reader, raised there
+                    future.set_exception(err)
+
+        threading.Thread(target=work, name="dynaeval-prepared-check", daemon=True).start()
+
     def path(self, rel: str) -> Path:
-        """``root/rel``, checked.
+        """``root/rel``, checked (waiting for its background check, if one was started).
 
         Raises:
             InputError: naming the file: not in the manifest, missing, or its digest differs
                 (changed or truncated); each with the fix (prepare again).
         """
         with self._lock:
+            future = self._pending.get(rel)
+        if future is not None:
+            future.result()
+        else:
+            self._check(rel)
+        return self.root / rel
+
+    def _check(self, rel: str) -> None:
+        """Check ``root/rel`` against the manifest once (see ``path``)."""
+        with self._lock:
             if rel in self._checked:
-                return self.root / rel
+                return
         target = self.root / rel
         if rel not in self.digests:
             raise InputError(f"this prepared file is not listed in the manifest; {PREPARE_AGAIN}",
@@ -157,7 +191,6 @@ class PreparedFiles:
                              path=target)
         with self._lock:
             self._checked.add(rel)
-        return target
 
     def load(self, rel: str, *, mmap: bool = False) -> Any:
         """``numpy.load`` of the checked file ``rel`` (memory-mapped, read-only, with ``mmap``;
