@@ -45,7 +45,15 @@ from dynaeval.errors import InputError, UndefinedMetricError
 from dynaeval.executor import Executor
 from dynaeval.io import FramePair
 from dynaeval.io.frames import FrameRef, pairs_by_camera
-from dynaeval.io.prepared import FORMAT_VERSION, MANIFEST, file_digest, manifest_id, read_manifest
+from dynaeval.io.prepared import (
+    FORMAT_VERSION,
+    MANIFEST,
+    PreparedFiles,
+    file_digest,
+    folder_digests,
+    manifest_id,
+    read_manifest,
+)
 from dynaeval.plan import RunPlan, ground_truth_plan
 from dynaeval.regions.focus import FrameRegions
 from dynaeval.regions.packed import PackedMask
@@ -144,6 +152,7 @@ def prepare(gt_dir: str | Path, out: str | Path, config: ScoreConfig | None = No
             progress.set_note(f"camera {cam}")
             manifest["cameras"][cam] = _prepare_camera(i, cam, pairs, plan, executor, gt_dir, tmp,
                                                        progress)
+        manifest["hashes"] = folder_digests(tmp)  # every prepared file, checked when read
         manifest["id"] = manifest_id(manifest)
         (tmp / MANIFEST).write_text(json.dumps(manifest, indent=1) + "\n", encoding="utf-8")
 
@@ -305,16 +314,19 @@ class PreparedGT:
 
     path: Path
     manifest: dict[str, Any]
+    files: PreparedFiles
+    """The folder's files, each checked against the manifest's digest when first read."""
     reuse: dict[str, bool] = field(default_factory=dict)
     """Camera -> its prepared regions match the run's frames (else computed again)."""
-    decoded_files: dict[str, Path] = field(default_factory=dict)
-    """Resolved ground-truth image path -> its prepared uint8 decoding (``frames/<digest>.npy``)."""
+    decoded_files: dict[str, str] = field(default_factory=dict)
+    """Resolved ground-truth image path -> its prepared uint8 decoding (``frames/<digest>.npy``,
+    relative to the folder)."""
 
     def decoded(self, path: Path) -> np.ndarray | None:
         """The prepared decoding of the ground-truth image ``path`` (``FrameCache``'s
         ``decoded``: memory-mapped, read-only), or None: a prediction, or not prepared."""
         stored = self.decoded_files.get(str(Path(path).resolve()))
-        return None if stored is None else np.load(stored, mmap_mode="r")
+        return None if stored is None else self.files.load(stored, mmap=True)
 
     def regions(self, camera: str) -> list[FrameRegions] | None:
         """The prepared regions of ``camera``, or None when they are computed again."""
@@ -323,7 +335,7 @@ class PreparedGT:
         entry = self.manifest["cameras"][camera]["regions"]
         motion = entry["camera_motion"]  # one dict shared by the camera's frames, as computed
         out = []
-        with np.load(self.path / entry["file"]) as arrays:
+        with self.files.load(entry["file"]) as arrays:
             for k, f in enumerate(entry["frames"]):
                 got = {n: arrays[f"{n}{k}"] if f"{n}{k}" in arrays else None for n in _FIELDS}
                 packed = (None if got["mask"] is None else
@@ -341,7 +353,7 @@ class PreparedGT:
         entry = (self.manifest["cameras"].get(camera) or {}).get("static_std")
         if not self.reuse.get(camera) or not entry or entry["static"] != static_digest(static):
             return None
-        return np.load(self.path / entry["file"])
+        return self.files.load(entry["file"])
 
     def flow_cache(self) -> Any:
         """A flow cache (64 MiB in memory, as the run's own) that reads the prepared flows."""
@@ -350,7 +362,10 @@ class PreparedGT:
         known = {k: self.path / "flows" / f"{k}.npy"
                  for cam in self.manifest["cameras"].values() for pair in cam["flows"] or ()
                  for k in pair}
-        return FlowCache(max_bytes=1 << 26, known=known)
+        return FlowCache(max_bytes=1 << 26, known=known, load_known=self._load_flow)
+
+    def _load_flow(self, path: Path) -> np.ndarray:
+        return self.files.load(path.relative_to(self.path).as_posix(), mmap=True)
 
     def describe(self) -> dict[str, Any]:
         """``settings["prepared"]`` of the results: the folder and its id (the same for every
@@ -397,15 +412,33 @@ def open_prepared(path: str | Path, gt_root: Path, pairs: list[FramePair],
         if digests[rel] != manifest["files"][rel]:
             raise InputError(f"ground-truth file changed since it was prepared in {path}: run "
                              "'dynaeval prepare' again", path=p.gt.path)
-    prepared = PreparedGT(path, manifest)
+    prepared = PreparedGT(path, manifest, PreparedFiles(path, manifest["hashes"]))
     for rel, stored in manifest.get("decoded", {}).items():  # only files checked just above
         if rel in digests:
-            prepared.decoded_files[str((gt_root / rel).resolve())] = path / stored
+            prepared.decoded_files[str((gt_root / rel).resolve())] = stored
     for cam, cam_pairs in pairs_by_camera(pairs).items():
         entry = manifest["cameras"].get(cam)
         frames = [[p.frame, _rel(p.gt, gt_root)] for p in cam_pairs]
         prepared.reuse[cam] = bool(entry and entry["regions"] and entry["frames"] == frames)
+    prepared.files.check_in_background(_files_in_order_of_use(prepared, pairs, gt_root))
     return prepared
+
+
+def _files_in_order_of_use(prepared: PreparedGT, pairs: list[FramePair], gt_root: Path) -> list[str]:
+    """The prepared files a run of ``pairs`` reads, camera by camera as it reads them (regions,
+    decoded frames, flows, static std): the order of the background check."""
+    out: list[str] = []
+    for cam, cam_pairs in pairs_by_camera(pairs).items():
+        entry = prepared.manifest["cameras"].get(cam) or {}
+        if prepared.reuse.get(cam):
+            out.append(entry["regions"]["file"])
+        out += [prepared.manifest["decoded"][rel] for rel in
+                (_rel(p.gt, gt_root).split("#")[0] for p in cam_pairs)
+                if rel in prepared.manifest.get("decoded", {})]
+        out += [f"flows/{k}.npy" for pair in entry.get("flows") or () for k in pair]
+        if prepared.reuse.get(cam) and entry.get("static_std"):
+            out.append(entry["static_std"]["file"])
+    return out
 
 
 def _check_settings(prepared: dict[str, Any], run: dict[str, Any], where: Path) -> None:

@@ -18,6 +18,7 @@ from __future__ import annotations
 import hashlib
 import threading
 from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import astuple, dataclass
 from pathlib import Path
 
@@ -197,13 +198,15 @@ class FlowCache:
     in-memory part is an LRU bounded by ``max_bytes``; with ``directory`` set, every flow is also
     written there as ``<key>.npy`` and read back on a later miss (unbounded: you choose the disk).
     ``known`` maps keys to ``.npy`` files of flows computed beforehand (a prepared ground truth,
-    ``dynaeval prepare``): read on a miss, never written.
+    ``dynaeval prepare``): read on a miss with ``load_known`` (default: memory-mapped
+    ``numpy.load``; a prepared ground truth checks the file's digest first), never written.
     Thread-safe: flows are computed outside the lock, so threads computing different pairs run
     in parallel (two threads asking for one new pair may both compute it; the numbers agree).
     """
 
     def __init__(self, max_bytes: int = 1 << 30, directory: str | Path | None = None,
-                 known: dict[str, Path] | None = None) -> None:
+                 known: dict[str, Path] | None = None,
+                 load_known: Callable[[Path], np.ndarray] | None = None) -> None:
         if max_bytes < 0:
             raise InputError(f"FlowCache max_bytes must be >= 0, got {max_bytes}")
         self.max_bytes = int(max_bytes)
@@ -211,6 +214,7 @@ class FlowCache:
         if self.directory is not None:
             self.directory.mkdir(parents=True, exist_ok=True)
         self.known = dict(known or {})
+        self._load_known = load_known or (lambda p: np.load(p, mmap_mode="r"))
         self._items: OrderedDict[str, np.ndarray] = OrderedDict()
         self._lock = threading.Lock()
         self._bytes = 0
@@ -251,9 +255,11 @@ class FlowCache:
                 self.hits += 1
                 return self._items[k]
         path = None if self.directory is None else self.directory / f"{k}.npy"
-        stored = self.known.get(k, path)
-        if stored is not None and stored.exists():
-            flow = np.load(stored, mmap_mode="r")  # mapped from the page cache, not copied
+        if k in self.known:  # a prepared flow: read (a missing or changed file is refused)
+            flow = self._load_known(self.known[k])  # mapped from the page cache, not copied
+            hit = True
+        elif path is not None and path.exists():
+            flow = np.load(path, mmap_mode="r")
             hit = True
         else:
             flow = _flow_from_gray(ga, gb, config)

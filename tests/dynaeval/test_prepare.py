@@ -290,3 +290,79 @@ def test_prepared_ground_truth_images_are_not_decoded_again(prepared_motion, mon
           prepared=str(prepared_motion), **FAST)
     assert decoded and all((SAMPLE / "pred") in p.parents for p in decoded)
     assert len(set(decoded)) == 16
+
+
+def _kinds(prep: Path) -> dict[str, Path]:
+    """One prepared file of each kind: a flow, a decoded frame, a camera's regions, a static std."""
+    def first(pattern):
+        found = sorted(prep.glob(pattern))
+        assert found, pattern
+        return found[0]
+    return {"flow": first("flows/*.npy"), "frame": first("frames/*.npy"),
+            "regions": first("regions/*.npz"), "static_std": first("static_std/*.npy")}
+
+
+def _flip_values(path: Path) -> None:
+    """Change the values, keep the size (the case of issue 34: 30.20 dB instead of 9.26)."""
+    if path.suffix == ".npz":
+        with np.load(path) as z:
+            arrays = {k: z[k] for k in z.files}
+        key = next(k for k in arrays if k.startswith("boxes"))
+        arrays[key] = arrays[key] // 2
+        np.savez_compressed(path, **arrays)
+        return
+    arr = np.load(path)
+    arr = (255 - arr) if arr.dtype == np.uint8 else arr * 1.5 + 0.25
+    np.save(path, arr)
+
+
+@pytest.mark.parametrize("kind", ["flow", "frame", "regions", "static_std"])
+@pytest.mark.parametrize("damage", ["changed", "truncated", "deleted"])
+def test_a_prepared_file_changed_truncated_or_deleted_is_exit_2_naming_it(
+        tmp_path, prepared_motion, capsys, kind, damage):
+    """Issue 34 item 1: each was read as it was (other numbers, exit 0) or ended in a
+    traceback; every prepared file is in the manifest's ``hashes`` and checked when read."""
+    prep = tmp_path / "prep"
+    shutil.copytree(prepared_motion, prep)
+    target = _kinds(prep)[kind]
+    if damage == "changed":
+        _flip_values(target)
+    elif damage == "truncated":
+        target.write_bytes(target.read_bytes()[: target.stat().st_size // 2])
+    else:
+        target.unlink()
+    code = main(["score", str(SAMPLE / "pred"), str(SAMPLE / "gt"), "--focus", "motion",
+                 "--no-lpips", "-q", "--prepared", str(prep), "-o", str(tmp_path / "r.json")])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    word = {"changed": "was changed or truncated", "truncated": "was changed or truncated",
+            "deleted": "is missing"}[damage]
+    assert f"{target}: this prepared file {word}" in err and "dynaeval prepare GT -o PREP " \
+        "--overwrite" in err and "Traceback" not in err
+    assert not (tmp_path / "r.json").exists()
+
+
+def test_prepared_folder_of_the_format_without_hashes_is_refused(tmp_path, prepared_motion):
+    prep = tmp_path / "prep"
+    shutil.copytree(prepared_motion, prep)
+    manifest = json.loads((prep / "manifest.json").read_text())
+    manifest["format_version"] = 1
+    del manifest["hashes"]
+    from dynaeval.io.prepared import manifest_id
+
+    manifest["id"] = manifest_id(manifest)
+    (prep / "manifest.json").write_text(json.dumps(manifest))
+    with pytest.raises(InputError, match="format version 1; this dynaeval reads version 2: "
+                                         "prepare it again"):
+        score(SAMPLE / "pred", SAMPLE / "gt", focus=FocusConfig(source="motion"),
+              prepared=str(prep), **FAST)
+
+
+def test_every_prepared_file_is_in_the_manifest(prepared_motion):
+    from dynaeval.io.prepared import folder_digests
+
+    manifest = json.loads((prepared_motion / "manifest.json").read_text())
+    assert manifest["hashes"] == folder_digests(prepared_motion)
+    assert set(_kinds(prepared_motion)) and all(
+        p.relative_to(prepared_motion).as_posix() in manifest["hashes"]
+        for p in _kinds(prepared_motion).values())
