@@ -1,4 +1,5 @@
-"""Fuzz: random valid and corrupted inputs never give a traceback, a NaN or a half file (issue 16).
+"""Fuzz: random valid and corrupted inputs never give a traceback, a NaN or a half file (issue 16);
+a prepared folder with any file changed, cut or deleted is exit 2 naming it (issue 34).
 
 Each example writes one camera (a flat folder of images, or one video) into ``pred/`` and ``gt/``:
 PNG / JPEG / TIFF / EXR / MP4, sizes 1x1 to 10x10000, grey, RGB, RGBA, 8/16-bit and float, with
@@ -181,3 +182,60 @@ def test_score_on_random_inputs_exits_0_or_2_without_traceback(spec):
         else:
             assert written == [], written
             assert stderr.strip(), "exit 2 says why"
+
+
+_PREPARED: dict[str, Path] = {}
+
+
+def _prepared_sample() -> Path:
+    """The bundled sample's ground truth prepared once per session (motion focus)."""
+    if "path" not in _PREPARED:
+        from dynaeval.cli import sample_dir
+        from dynaeval.prepare import prepare
+        from dynaeval.regions.focus import FocusConfig
+
+        out = Path(tempfile.mkdtemp(prefix="dynaeval-fuzz-prep-")) / "prep"
+        prepare(sample_dir() / "gt", out, focus=FocusConfig(source="motion"), progress=False)
+        _PREPARED["path"] = out
+    return _PREPARED["path"]
+
+
+@settings(max_examples=12, deadline=None, suppress_health_check=list(HealthCheck))
+@given(st.integers(0, 10**6), st.sampled_from(["truncate", "garbage", "bytes", "empty", "delete",
+                                               "same"]))
+def test_score_with_a_mutated_prepared_folder_is_exit_2_naming_the_file(seed, how):
+    """Issue 34 item 1: any prepared file (manifest included) changed, cut or deleted is exit 2
+    naming it; an untouched copy scores as without ``--prepared``."""
+    import shutil
+
+    from dynaeval.cli import sample_dir
+
+    rng = np.random.default_rng(seed)
+    with tempfile.TemporaryDirectory() as d:
+        prep = Path(d) / "prep"
+        shutil.copytree(_prepared_sample(), prep)
+        files = sorted(p for p in prep.rglob("*") if p.is_file())
+        target = files[int(rng.integers(len(files)))]
+        if how == "delete":
+            target.unlink()
+        elif how != "same":
+            data = target.read_bytes()
+            damaged = _damage(data, how, rng)
+            if damaged == data:  # garbage of the same bytes cannot happen; keep it honest
+                damaged = data + b"\0"
+            target.write_bytes(damaged)
+        out = Path(d) / "r.json"
+        argv = ["score", str(sample_dir() / "pred"), str(sample_dir() / "gt"), "--focus",
+                "motion", "--no-lpips", "-q", "--prepared", str(prep), "-o", str(out)]
+        err = io.StringIO()
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+            code = main(argv)
+        stderr = err.getvalue()
+        assert "Traceback" not in stderr, stderr
+        if how == "same":
+            assert code == 0, stderr
+            return
+        assert code == 2, (target, how, stderr)
+        named = str(target) if target.name != "manifest.json" else str(target.parent)
+        assert named in stderr, (target, stderr)
+        assert not out.exists()
