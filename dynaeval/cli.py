@@ -13,9 +13,27 @@ from pathlib import Path
 from typing import Any
 
 from dynaeval import __version__
+from dynaeval.config import BACKGROUNDS, DEVICES, QUANTIZE_MODES, ScoreConfig
 from dynaeval.errors import InputError
-from dynaeval.io.atomic import check_writable
+from dynaeval.evaluate import DynaevalWarning, score, warning_text
+from dynaeval.io.atomic import check_writable, write_files_atomic, write_text_atomic
 from dynaeval.io.frames import parse_shard
+from dynaeval.metrics.flow import FLOW_METHODS
+from dynaeval.metrics.perceptual import LPIPS_BACKENDS, LPIPS_NETS
+from dynaeval.metrics.protocols import PROTOCOL_NAMES
+from dynaeval.metrics.registry import SPECS, selectable_specs
+from dynaeval.prepare import prepare
+from dynaeval.regions import fetch, write_boxes_file
+from dynaeval.regions.fetch import CACHE_ENV, KNOWN
+from dynaeval.regions.focus import FocusConfig, detect_ground_truth
+from dynaeval.regions.summary import describe_regions
+from dynaeval.report import summary_table, write_json_atomic
+from dynaeval.report.gaussian_splatting import gs_files, gs_paths
+from dynaeval.report.html import RegionRecorder, render_report, report_index
+from dynaeval.report.leaderboard import build_leaderboard, forced_fields, render
+from dynaeval.report.merge import merge_results
+from dynaeval.report.results import results_text
+from dynaeval.runtime import check_opencv, keep_freed_memory
 
 EXIT_OK, EXIT_BUG, EXIT_INPUT = 0, 1, 2
 
@@ -35,8 +53,6 @@ def _defaults() -> Any:
     """``ScoreConfig()``: the CLI's defaults are the library's."""
     global _DEFAULTS
     if _DEFAULTS is None:
-        from dynaeval.config import ScoreConfig
-
         _DEFAULTS = ScoreConfig()
     return _DEFAULTS
 
@@ -44,8 +60,6 @@ def _defaults() -> Any:
 def _add_metric_flags(p: argparse.ArgumentParser) -> None:
     """``--metrics NAME ...`` (exactly these), ``--no-NAME`` for every chosen metric (per-frame
     or video) that runs by default, ``--NAME`` for the others (from the registry)."""
-    from dynaeval.metrics.registry import selectable_specs
-
     names = [s.name for s in selectable_specs()]
     p.add_argument("--metrics", nargs="+", choices=names, metavar="NAME",
                    help=f"compute exactly these metrics ({', '.join(names)}), instead of "
@@ -98,11 +112,6 @@ def parse_classes(items: list[str] | None) -> tuple[str | int, ...] | None:
 
 
 def _add_score_options(p: argparse.ArgumentParser) -> None:
-    from dynaeval.config import BACKGROUNDS, DEVICES, QUANTIZE_MODES
-    from dynaeval.metrics.flow import FLOW_METHODS
-    from dynaeval.metrics.perceptual import LPIPS_BACKENDS, LPIPS_NETS
-    from dynaeval.metrics.protocols import PROTOCOL_NAMES
-
     d = _defaults()
     p.add_argument("--method", help="method name for the leaderboard (default: PRED's folder name)")
     p.add_argument("--scene", help="scene name for the leaderboard (default: GT's folder name)")
@@ -196,8 +205,6 @@ def _metrics_from_args(args: argparse.Namespace) -> tuple[str, ...]:
     Raises:
         InputError: ``--metrics`` given together with a ``--no-NAME`` / ``--NAME`` flag.
     """
-    from dynaeval.metrics.registry import selectable_specs
-
     specs = selectable_specs()
     toggled = [s for s in specs if getattr(args, _metric_flag(s)[1], False)]
     chosen = getattr(args, "metrics", None)
@@ -221,8 +228,6 @@ def config_from_args(args: argparse.Namespace) -> Any:
             (``--flip``, ``--metrics lpips``, ``--lpips-net``) that cannot run here.
     """
     from dataclasses import replace
-
-    from dynaeval.regions.focus import FocusConfig
 
     d = _defaults()
     metrics = _metrics_from_args(args)
@@ -268,8 +273,6 @@ def _metric_options(specs: list[str], flip_every: int | None = None,
             computed (``--flip-every`` without ``--flip``, ``--metric-option jod.model=fvvdp``
             without ``--jod``), naming both flags.
     """
-    from dynaeval.metrics.registry import SPECS
-
     out: dict[str, dict[str, Any]] = {}
     given: list[tuple[str, str]] = []  # (metric, the flag as typed)
     if flip_every is not None:
@@ -374,10 +377,6 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _add_prepare_command(sub: Any) -> None:
-    from dynaeval.config import BACKGROUNDS, QUANTIZE_MODES
-    from dynaeval.metrics.flow import FLOW_METHODS
-    from dynaeval.metrics.protocols import PROTOCOL_NAMES
-
     d = _defaults()
     r = sub.add_parser("prepare", help="compute what depends on the ground truth alone, once",
                        description="Write GT's regions (boxes, motion masks) and ground-truth "
@@ -406,8 +405,6 @@ def _add_prepare_command(sub: Any) -> None:
 
 
 def _run_prepare(args: argparse.Namespace) -> int:
-    from dynaeval.prepare import prepare
-
     manifest = prepare(args.gt, args.output, config_from_args(args), overwrite=args.overwrite)
     n_flows = sum(len(c["flows"] or ()) * 2 for c in manifest["cameras"].values())
     print(f"{len(manifest['files'])} ground-truth files, {len(manifest['cameras'])} cameras, "
@@ -416,8 +413,6 @@ def _run_prepare(args: argparse.Namespace) -> int:
 
 
 def _add_detector_command(sub: Any) -> None:
-    from dynaeval.regions.fetch import CACHE_ENV, KNOWN
-
     dp = sub.add_parser("detector", help="fetch COCO detectors (ONNX) for --detector NAME",
                         description="Fetch a COCO-trained detector once (its weights downloaded "
                                     "by torchvision or Ultralytics, exported to ONNX into the "
@@ -432,8 +427,6 @@ def _add_detector_command(sub: Any) -> None:
 
 
 def _run_detector(args: argparse.Namespace) -> int:
-    from dynaeval.regions import fetch
-
     if args.detector_command == "fetch":
         path = fetch.fetch(args.name, overwrite=args.overwrite)
         print(f"detector {args.name!r} written to {path} (provenance: "
@@ -450,8 +443,6 @@ def _print_warnings(results: dict, output: str | None = None) -> None:
     """The run's warnings on stderr: run-level and whole-camera ones each, then the per-frame
     and per-camera-metric ones grouped by reason (``_print_frame_warnings``); ``output``: the
     results file written (None: the console is the only place the user sees them)."""
-    from dynaeval.evaluate import warning_text
-
     for w in results["warnings"]:
         if "camera" not in w:  # run-level warnings
             print(f"dynaeval: warning: {warning_text(w)}", file=sys.stderr)
@@ -473,8 +464,6 @@ def _print_frame_warnings(warnings: list[dict], output: str | None, most: int = 
     summarised with a count, pointing at ``output`` if it was written, else at ``-o``."""
     from collections import Counter
 
-    from dynaeval.evaluate import warning_text
-
     texts = [warning_text(w) for w in warnings]
     groups = Counter(texts)
     cameras: dict[str, set[str]] = {}
@@ -495,8 +484,6 @@ def _print_frame_warnings(warnings: list[dict], output: str | None, most: int = 
 
 def _print_regions(results: dict, most: int = 12) -> None:
     """One line per camera (at most ``most``): the boxes its regions hold."""
-    from dynaeval.regions.summary import describe_regions
-
     regions = results.get("regions") or {}
     cameras = regions.get("cameras", {}) if regions.get("source") != "none" else {}
     for cam, summary in list(cameras.items())[:most]:
@@ -507,8 +494,6 @@ def _print_regions(results: dict, most: int = 12) -> None:
 
 
 def _print_gs_written(results: dict, folder: str) -> None:
-    from dynaeval.report.gaussian_splatting import gs_paths
-
     paths = gs_paths(folder)
     print(f"3DGS results written to {paths[0]} and {paths[1]}", file=sys.stderr)
     name = results["settings"]["protocol"]["name"]
@@ -520,9 +505,6 @@ def _print_gs_written(results: dict, folder: str) -> None:
 def _run_score(pred: str, gt: str | None, args: argparse.Namespace, *, overwrite: bool) -> int:
     import warnings
 
-    from dynaeval.evaluate import DynaevalWarning, score
-    from dynaeval.report import summary_table
-
     output = getattr(args, "output", None)
     report = getattr(args, "report", None)
     config = config_from_args(args)
@@ -532,8 +514,6 @@ def _run_score(pred: str, gt: str | None, args: argparse.Namespace, *, overwrite
     check_writable(report, overwrite=overwrite, what="report folder", inputs=inputs, folder=True)
     gs_json = getattr(args, "gs_json", None)
     if gs_json:
-        from dynaeval.report.gaussian_splatting import gs_paths
-
         for path in gs_paths(gs_json):
             check_writable(path, overwrite=overwrite, what="3DGS results file", inputs=inputs)
     if report and (Path(report) / "index.html").exists() and not overwrite:
@@ -545,8 +525,6 @@ def _run_score(pred: str, gt: str | None, args: argparse.Namespace, *, overwrite
         config = replace(config, method="sample-degraded", scene="sample")
     recorder = None
     if report:
-        from dynaeval.report.html import RegionRecorder
-
         recorder = RegionRecorder()
     with warnings.catch_warnings():  # printed below, from the results, once
         warnings.simplefilter("ignore", DynaevalWarning)
@@ -570,19 +548,12 @@ def _write_score_outputs(results: dict, args: argparse.Namespace, recorder: Any,
                          overwrite: bool) -> None:
     """Write the results file, the 3DGS files and the report as one (``write_files_atomic``):
     all of them or, on a full disk or an interrupt, none, with existing files as they were."""
-    from dynaeval.io.atomic import write_files_atomic
-    from dynaeval.report.results import results_text
-
     output, report = getattr(args, "output", None), getattr(args, "report", None)
     gs_json = getattr(args, "gs_json", None)
     files = [(Path(output), results_text(results), "results file")] if output else []
     if gs_json:
-        from dynaeval.report.gaussian_splatting import gs_files
-
         files += gs_files(results, gs_json)
     if report:
-        from dynaeval.report.html import render_report, report_index
-
         files.append((report_index(report, overwrite=overwrite),
                       render_report(results, recorder=recorder), "report"))
     write_files_atomic(files, overwrite=overwrite)
@@ -597,9 +568,6 @@ def _write_score_outputs(results: dict, args: argparse.Namespace, recorder: Any,
 
 
 def _run_detect(args: argparse.Namespace) -> int:
-    from dynaeval.regions import write_boxes_file
-    from dynaeval.regions.focus import detect_ground_truth
-
     if args.detector and args.source != "detector":
         raise InputError(f"--detector is only used with --source detector (got --source "
                          f"{args.source}): drop --detector, or pass --source detector")
@@ -622,9 +590,6 @@ def _run_detect(args: argparse.Namespace) -> int:
 
 
 def _run_leaderboard(args: argparse.Namespace) -> int:
-    from dynaeval.io.atomic import write_text_atomic
-    from dynaeval.report.leaderboard import build_leaderboard, forced_fields, render
-
     check_writable(args.output, overwrite=args.overwrite, what="leaderboard file",
                    inputs=args.results)
     board = build_leaderboard(args.results, force=args.force, metrics=args.metrics)
@@ -642,8 +607,6 @@ def _run_leaderboard(args: argparse.Namespace) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``dynaeval`` command; returns the exit code."""
-    from dynaeval.runtime import check_opencv, keep_freed_memory
-
     args = build_parser().parse_args(argv)
     keep_freed_memory(getattr(args, "workers", 1) or 1)
     try:
@@ -652,9 +615,6 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "score":
             return _run_score(args.pred, args.gt, args, overwrite=args.overwrite)
         if args.command == "merge":
-            from dynaeval.report import write_json_atomic
-            from dynaeval.report.merge import merge_results
-
             check_writable(args.output, overwrite=args.overwrite, what="results file",
                            inputs=args.parts)
             merged = merge_results(args.parts)

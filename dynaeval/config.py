@@ -12,8 +12,23 @@ from os import PathLike
 from typing import Any
 
 from dynaeval.errors import InputError
+from dynaeval.io.frames import parse_shard
+from dynaeval.metrics.flow import FlowConfig
+from dynaeval.metrics.jod import check_fps
 from dynaeval.metrics.perceptual import LPIPS_BACKENDS, LPIPS_NETS
-from dynaeval.metrics.registry import default_frame_metrics, selectable_specs
+from dynaeval.metrics.protocols import (
+    check_background,
+    check_lpips_net,
+    get_protocol,
+    resolve_quantize,
+)
+from dynaeval.metrics.registry import (
+    SPECS,
+    FrameContext,
+    default_frame_metrics,
+    require_available,
+    selectable_specs,
+)
 from dynaeval.regions.focus import FOCUS_SOURCES, FocusConfig
 
 QUANTIZE_MODES = ("none", "round", "truncate")
@@ -126,7 +141,6 @@ class ScoreConfig:
     def __post_init__(self) -> None:
         self.metrics = _check_metrics(self.metrics)
         self.metric_options = _check_metric_options(self.metric_options, self.metrics)
-        from dynaeval.metrics.jod import check_fps
 
         self.fps = check_fps(self.fps)
         if isinstance(self.data_range, bool) or self.data_range != 1.0:
@@ -159,8 +173,6 @@ class ScoreConfig:
             raise InputError(f"focus must be a FocusConfig or one of the CLI's strings detector, "
                              f"motion, none, boxes:FILE, got {type(self.focus).__name__}")
         _check_choice("focus source", self.focus.source, FOCUS_SOURCES)
-        from dynaeval.metrics.flow import FlowConfig
-        from dynaeval.metrics.protocols import check_background, check_lpips_net, get_protocol
 
         FlowConfig(method=self.flow)  # raises InputError for an unknown method
         if self.frames_are_video not in (None, True, False):
@@ -180,8 +192,6 @@ class ScoreConfig:
                                  f"manifest.json), got {self.prepared!r}")
             self.prepared = str(self.prepared)
         if self.shard is not None:
-            from dynaeval.io.frames import parse_shard
-
             spec = self.shard if isinstance(self.shard, str) else "/".join(map(str, self.shard))
             self.shard = parse_shard(spec)
         self.require_metrics()  # last: the values it reads are checked
@@ -196,8 +206,6 @@ class ScoreConfig:
         Raises:
             InputError: the metric, what is missing and the install line.
         """
-        from dynaeval.metrics.registry import SPECS, FrameContext, require_available
-
         if names is None:
             names = [n for n in self.metrics if not SPECS[n].default or n in self.metric_options]
         require_available([n for n in names if n in self.metrics],
@@ -206,14 +214,10 @@ class ScoreConfig:
 
     def resolved_lpips_net(self) -> str:
         """The LPIPS backbone of the run: the one asked for, else the protocol's."""
-        from dynaeval.metrics.protocols import get_protocol
-
         return self.lpips_net or get_protocol(self.protocol).lpips_net
 
     def resolved_quantize(self) -> str:
         """The 8-bit step of the run: the protocol's unless a compatible one was asked for."""
-        from dynaeval.metrics.protocols import get_protocol, resolve_quantize
-
         return resolve_quantize(get_protocol(self.protocol), self.quantize)
 
 
@@ -237,8 +241,6 @@ def _check_metric_options(options: object, metrics: tuple[str, ...]) -> dict[str
     """``{metric: {option: value}}`` checked against the options each metric declares, for
     metrics in ``metrics`` only (an option of a metric not computed is refused, never silently
     unused); values converted to the declared type."""
-    from dynaeval.metrics.registry import SPECS
-
     if not isinstance(options, dict):
         raise InputError(f"metric_options must be a dict {{metric: {{option: value}}}}, got {options!r}")
     out: dict[str, dict[str, Any]] = {}

@@ -26,6 +26,9 @@ from pathlib import Path
 from typing import Any
 
 from dynaeval.errors import InputError
+from dynaeval.evaluate import score
+from dynaeval.report.merge import merge_results
+from dynaeval.report.results import write_json_atomic
 
 
 @dataclass(frozen=True)
@@ -49,8 +52,6 @@ def score_shard(job: ScoreJob, index: int, count: int, settings: dict[str, Any])
 
     Returns the results document (a plain JSON-compatible dict).
     """
-    from dynaeval.evaluate import score
-
     kw = {**settings, **job.overrides, "method": job.method, "scene": job.scene, "progress": False}
     if count > 1:
         kw["shard"] = (index, count)
@@ -90,9 +91,6 @@ def score_jobs(
     Raises:
         InputError: no jobs, duplicate names, ``shards < 1``, or any error a task raised.
     """
-    from dynaeval.report.merge import merge_results
-    from dynaeval.report.results import write_json_atomic
-
     if not jobs:
         raise InputError("score_jobs needs at least one ScoreJob")
     if shards < 1:

@@ -29,11 +29,30 @@ from pathlib import Path
 from typing import Any
 
 from dynaeval.config import ScoreConfig
+from dynaeval.errors import InputError
+from dynaeval.executor import Executor, Stopped
 from dynaeval.io import FramePair, pair_frames
-from dynaeval.io.frames import consecutive_pairs, missing_frames_warning, pairs_by_camera
+from dynaeval.io.dycheck import pair_dycheck, pair_renders
+from dynaeval.io.frames import (
+    consecutive_pairs,
+    missing_frames_warning,
+    pairs_by_camera,
+    select_shard,
+)
+from dynaeval.io.kplanes import describe_stack, pair_stack
 from dynaeval.io.layout_3dgs import family_protocol
-from dynaeval.plan import RunPlan, Scope
+from dynaeval.io.layouts import detect_layout
+from dynaeval.io.masks import check_masks, find_masks, unused_mask_folders
+from dynaeval.io.video import close_videos
+from dynaeval.metrics.protocols import get_protocol
+from dynaeval.metrics.registry import SPECS
+from dynaeval.plan import RunPlan, Scope, build_plan
+from dynaeval.prepare import open_prepared
+from dynaeval.progress import Progress
 from dynaeval.regions.focus import FrameRegions
+from dynaeval.report.results import build_results
+from dynaeval.scoring import score_camera
+from dynaeval.stages import metric_names
 
 __all__ = ["DynaevalWarning", "Results", "ScoreConfig", "score"]
 
@@ -92,9 +111,6 @@ def score(
         InputError: bad input or settings (missing frames, size mismatch, unreadable file, NaN
             pixels, an unknown metric, ...), raised before the work where it can be.
     """
-    from dynaeval.io.layouts import detect_layout
-    from dynaeval.plan import build_plan
-
     config = replace(config or ScoreConfig(), **overrides)  # __post_init__ checks the fields
     t_start = time.perf_counter()
     layout = detect_layout(pred_dir, gt_dir, iteration=config.iteration, split=config.split)
@@ -133,7 +149,6 @@ def _prepared_opener(config: ScoreConfig, layout: Any, pairs: list[FramePair]) -
     folder, pairs, region sources and temporal terms), or None without ``--prepared``."""
     if config.prepared is None:
         return None
-    from dynaeval.prepare import open_prepared
 
     return lambda sources, temporal: open_prepared(config.prepared, layout.gt, pairs, config,
                                                    sources, temporal=temporal)
@@ -162,21 +177,13 @@ def _pair_layout(layout: Any, config: ScoreConfig) -> Any:
     """The frame pairs of ``layout`` (a ``dynaeval.io.layouts`` Layout), this run's shard of
     them when ``config.shard`` is set: a ``Pairing``."""
     if layout.name == "kplanes":
-        from dynaeval.io.kplanes import pair_stack
-
         pairing = pair_stack(layout.pred)
     elif layout.name == "dycheck":
-        from dynaeval.io.dycheck import pair_renders
-
         pairing = pair_renders(layout.pred)
     else:
-        from dynaeval.io.dycheck import pair_dycheck
-
         pairing = (pair_dycheck(layout.pred, layout.gt, allow_missing=config.allow_missing)
                    or pair_frames(layout.pred, layout.gt, allow_missing=config.allow_missing))
     if config.shard is not None:
-        from dynaeval.io.frames import select_shard
-
         pairing = select_shard(pairing, *config.shard)
     return pairing
 
@@ -194,9 +201,6 @@ def per_frame_only(config: ScoreConfig, layout: Any, masks: Any) -> Scope:
     Raises:
         InputError: ``--focus motion`` or a video metric (``jod``) asked for on separate views.
     """
-    from dynaeval.errors import InputError
-    from dynaeval.metrics.registry import SPECS
-
     video = layout.sequence if config.frames_are_video is None else config.frames_are_video
     what = (f"the {layout.name} render folder's frames" if layout.name != "folders"
             else "the frames")
@@ -229,10 +233,6 @@ def _given_masks(config: ScoreConfig, layout: Any, pairs: list[FramePair]) -> tu
     Raises:
         InputError: a missing mask, a mask of another size, masks for video frames.
     """
-    from dynaeval.errors import InputError
-    from dynaeval.io.masks import check_masks, find_masks, unused_mask_folders
-    from dynaeval.metrics.protocols import get_protocol
-
     protocol = get_protocol(config.protocol)
     gt_files = [p.gt.path for p in pairs if p.gt.index is None]
     masks = find_masks(config.masks, layout.gt, gt_files, layout.root, protocol.decode)
@@ -268,8 +268,6 @@ def run_progress(pairs: list[FramePair], temporal: bool, enabled: bool) -> Any:
     """The run's ``dynaeval.progress.Progress`` (silent unless ``enabled``): regions and scored
     frames per frame, temporal pairs per consecutive pair (with ``temporal`` terms), video
     metrics per camera."""
-    from dynaeval.progress import Progress
-
     cams = pairs_by_camera(pairs)
     n_pairs = sum(len(c) - 1 for c in cams.values()) if temporal else 0
     return Progress({"regions": len(pairs), "frames": len(pairs), "pairs": n_pairs,
@@ -286,9 +284,6 @@ def _score_cameras(pairs: list[FramePair], plan: RunPlan, on_regions: RegionsCal
     steps (regions, decoding, folding the pairs) overlap another's frames and flows, and the
     pool does not drain between a camera's phases. Each camera's numbers do not depend on it.
     """
-    from dynaeval.executor import Executor
-    from dynaeval.io.video import close_videos
-
     cams = pairs_by_camera(pairs)
     executor = Executor(plan.config.workers, len(cams), cache_mb=plan.config.cache_mb,
                         decoded=plan.prepared.decoded if plan.prepared is not None else None)
@@ -328,9 +323,6 @@ def _score_one_camera(cam: str, cam_pairs: list[FramePair], plan: RunPlan, execu
     """``score_camera`` with its progress: frames, pairs (those a camera could not score, no
     sequence, count as done) and the camera's video step. ``stop``: a ``threading.Event``
     checked at every frame and pair (``dynaeval.executor.Stopped`` is raised once it is set)."""
-    from dynaeval.executor import Stopped
-    from dynaeval.scoring import score_camera
-
     pairs_done = [0]
 
     def tick(phase: str) -> None:
@@ -356,8 +348,6 @@ def _assemble(layout: Any, run_name: str | None, pairing: Any, plan: RunPlan, ro
     """The results document; method and scene default to the folders' names (the render
     folder's, ``run_name``, for a known layout)."""
     from dynaeval import __version__
-    from dynaeval.report.results import build_results
-    from dynaeval.stages import metric_names
 
     config = plan.config
     method = config.method or run_name or layout.pred.resolve().name
@@ -365,8 +355,6 @@ def _assemble(layout: Any, run_name: str | None, pairing: Any, plan: RunPlan, ro
     inputs_extra = ({} if run_name is None else
                     {"layout": {"name": layout.name, "root": str(layout.root), **layout.details}})
     if layout.name == "kplanes":
-        from dynaeval.io.kplanes import describe_stack
-
         inputs_extra["layout"]["stack"] = describe_stack(pairing)
     return Results(build_results(
         rows=rows, metric_names=metric_names(plan), method=method, scene=scene,

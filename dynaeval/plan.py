@@ -20,8 +20,22 @@ from dynaeval.config import ScoreConfig
 from dynaeval.errors import InputError
 from dynaeval.io import FramePair
 from dynaeval.io.cache import FrameCache
-from dynaeval.metrics.registry import COVISIBLE_RULE, REGION_RULES, FrameFn
-from dynaeval.regions.focus import FocusConfig, FrameRegions, RegionSources
+from dynaeval.metrics import quantize
+from dynaeval.metrics.flow import FlowConfig
+from dynaeval.metrics.presence import PRESENCE_METRICS, PresenceConfig, frame_presence
+from dynaeval.metrics.protocols import get_protocol, run_metrics
+from dynaeval.metrics.registry import (
+    COVISIBLE_RULE,
+    REGION_RULES,
+    SPECS,
+    FrameContext,
+    FrameFn,
+    build_frame_metrics,
+)
+from dynaeval.metrics.temporal import TemporalConfig
+from dynaeval.regions.boxes_file import frame_key
+from dynaeval.regions.focus import FocusConfig, FrameRegions, RegionSources, open_sources
+from dynaeval.runtime import resolve_device
 
 if TYPE_CHECKING:
     from dynaeval.io.masks import MaskSet
@@ -103,8 +117,6 @@ class RunPlan:
     def read_gt(self, pair: FramePair, cache: FrameCache) -> np.ndarray:
         """The ground truth of ``pair`` as the metrics see it, ``(H, W, C)`` float32 in [0, 1]
         (quantised when asked)."""
-        from dynaeval.metrics import quantize
-
         gt = cache.read(pair.gt, self.config.background, self.decode)
         return gt if self.quantize == "none" else quantize(gt, self.quantize)
 
@@ -115,8 +127,6 @@ class RunPlan:
         Raises:
             InputError: their sizes or channel counts differ (naming both files).
         """
-        from dynaeval.metrics import quantize
-
         pred = cache.read(pair.pred, self.config.background, self.decode)
         gt = cache.read(pair.gt, self.config.background, self.decode)
         if pred.shape[:2] != gt.shape[:2]:
@@ -155,11 +165,6 @@ def build_plan(config: ScoreConfig, *, scope: Scope | None = None, masks: MaskSe
         InputError: an unusable detector or boxes file; a prepared ground truth that does not
             match.
     """
-    from dynaeval.metrics.protocols import get_protocol, run_metrics
-    from dynaeval.metrics.registry import SPECS, FrameContext, build_frame_metrics
-    from dynaeval.regions.focus import open_sources
-    from dynaeval.runtime import resolve_device
-
     scope = scope or Scope.of(config)
     focus = config.focus if scope.masked == config.focus.masked else replace(
         config.focus, masked=scope.masked)
@@ -183,9 +188,6 @@ def build_plan(config: ScoreConfig, *, scope: Scope | None = None, masks: MaskSe
     presence = _presence_step(config, sources, settings)
     temporal = None
     if scope.temporal:
-        from dynaeval.metrics.flow import FlowConfig
-        from dynaeval.metrics.temporal import TemporalConfig
-
         temporal = TemporalConfig(flow=FlowConfig(method=config.flow),
                                   tlp="lpips" in built.fns,  # tLP is LPIPS over time
                                   lpips_net=lpips_net, lpips_device=device,
@@ -221,8 +223,6 @@ def _settings(config: ScoreConfig, quantize: str, metric_settings: dict[str, dic
 
 def ground_truth_plan(config: ScoreConfig, sources: RegionSources) -> RunPlan:
     """The plan of ``dynaeval prepare``: the ground truth's regions only (no metric is built)."""
-    from dynaeval.metrics.protocols import get_protocol
-
     return RunPlan(config, get_protocol(config.protocol), config.resolved_quantize(),
                    config.resolved_lpips_net(), config.focus, {}, {}, {}, sources, None, None,
                    None, None, {}, tuple(sources.warnings))
@@ -238,8 +238,6 @@ def _presence_step(config: ScoreConfig, sources: Any, settings: dict) -> Presenc
                f"needs boxes with classes (focus detector or boxes:FILE), focus is {src!r}")
         settings["presence"] = {"enabled": False, "reason": why}
         return None
-    from dynaeval.metrics.presence import PRESENCE_METRICS, PresenceConfig, frame_presence
-    from dynaeval.regions.boxes_file import frame_key
 
     pcfg = PresenceConfig(data_range=config.data_range)
     detector = sources.detector  # --focus detector's, or the one that wrote the boxes file

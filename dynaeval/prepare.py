@@ -43,8 +43,10 @@ import numpy as np
 from dynaeval.config import ScoreConfig
 from dynaeval.errors import InputError, UndefinedMetricError
 from dynaeval.executor import Executor
-from dynaeval.io import FramePair
+from dynaeval.io import FramePair, pair_frames
+from dynaeval.io.atomic import check_writable
 from dynaeval.io.frames import FrameRef, pairs_by_camera
+from dynaeval.io.images import STORED_RGB, decode_file
 from dynaeval.io.prepared import (
     FORMAT_VERSION,
     MANIFEST,
@@ -53,11 +55,21 @@ from dynaeval.io.prepared import (
     folder_digests,
     manifest_id,
     read_manifest,
+    write_folder_atomic,
 )
+from dynaeval.metrics.flow import FlowCache, FlowConfig, _flow_from_gray, check_flow_size
+from dynaeval.metrics.pair_kernels import prepare as frame_prep
+from dynaeval.metrics.protocols import get_protocol
+from dynaeval.metrics.static_flicker import TemporalStd, check_static
 from dynaeval.plan import RunPlan, ground_truth_plan
-from dynaeval.regions.focus import FrameRegions
+from dynaeval.progress import Progress
+from dynaeval.regions.focus import FrameRegions, open_sources
 from dynaeval.regions.packed import PackedMask
 from dynaeval.runtime import worker_opencv_threads
+from dynaeval.scoring import camera_regions_of
+from dynaeval.stages import consecutive
+from dynaeval.stages.temporal import static_pixels
+from dynaeval.validation import as_image
 
 __all__ = ["PreparedGT", "open_prepared", "prepare", "prepared_settings"]
 
@@ -71,9 +83,6 @@ def prepared_settings(config: ScoreConfig, sources: Any,
     """The settings a prepared ground truth depends on (``config``'s, ``sources`` opened from
     its focus; ``temporal``: whether the run has temporal terms, default ``config.temporal``):
     compared key by key when it is used."""
-    from dynaeval.metrics.flow import FlowConfig
-    from dynaeval.metrics.protocols import get_protocol
-
     return _jsonable({
         "background": config.background, "quantize": config.resolved_quantize(),
         "decode": get_protocol(config.protocol).decode, "focus": sources.settings,
@@ -109,12 +118,6 @@ def prepare(gt_dir: str | Path, out: str | Path, config: ScoreConfig | None = No
     Raises:
         InputError: ``out`` exists, bad ground truth or settings (before the work starts).
     """
-    from dynaeval.io import pair_frames
-    from dynaeval.io.atomic import check_writable
-    from dynaeval.io.prepared import write_folder_atomic
-    from dynaeval.progress import Progress
-    from dynaeval.regions.focus import open_sources
-
     config = replace(config or ScoreConfig(), **overrides)
     config = replace(config, quantize=config.resolved_quantize())
     gt_dir, out = Path(gt_dir), Path(out)
@@ -173,8 +176,6 @@ def _save_decoded(path: Path, digest: str, folder: Path) -> str | None:
     returns it) as ``folder/<digest>.npy``, so that scoring skips its decoding; its path relative
     to the prepared folder, or None for files of other depths (16-bit, float, EXR) or stored
     as RGB arrays (``.npy.gz``)."""
-    from dynaeval.io.images import STORED_RGB, decode_file
-
     image, kind = decode_file(path)
     if kind in STORED_RGB or image.dtype != np.uint8:
         return None
@@ -187,8 +188,6 @@ def _save_decoded(path: Path, digest: str, folder: Path) -> str | None:
 def _prepare_camera(i: int, cam: str, pairs: list[FramePair], plan: RunPlan, executor: Executor,
                     gt_dir: Path, tmp: Path, progress: Any) -> dict[str, Any]:
     """Camera ``cam``'s manifest entry; its regions and flows written under ``tmp``."""
-    from dynaeval.scoring import camera_regions_of
-
     cache = executor.frame_cache()
     regions = camera_regions_of(cam, pairs, plan, executor, cache)
     progress.advance("regions", len(pairs))
@@ -233,11 +232,6 @@ def _save_flows(pairs: list[FramePair], plan: RunPlan, executor: Executor, cache
                 folder: Path, progress: Any) -> list[list[str]] | None:
     """The ground-truth flows of every consecutive pair (forward, backward) as
     ``folder/<key>.npy``; their keys, or None when the camera has no temporal terms."""
-    from dynaeval.metrics.flow import FlowCache, FlowConfig, _flow_from_gray, check_flow_size
-    from dynaeval.metrics.pair_kernels import prepare as frame_prep
-    from dynaeval.stages import consecutive
-    from dynaeval.validation import as_image
-
     if len(pairs) < 2 or not consecutive(pairs):
         return None
     first = plan.read_gt(pairs[0], cache)
@@ -281,10 +275,6 @@ def _save_static_std(pairs: list[FramePair], regions: list[FrameRegions], plan: 
     the flicker terms accumulate of it: ``SequenceFlicker``) as ``path``; its entry (path
     relative to the folder, digest of the static mask it follows), or None when the camera has
     no static pixels to follow."""
-    from dynaeval.metrics.static_flicker import TemporalStd, check_static
-    from dynaeval.stages.temporal import static_pixels
-    from dynaeval.validation import as_image
-
     static = static_pixels(regions, plan.focus)
     if static is None:
         return None
@@ -357,8 +347,6 @@ class PreparedGT:
 
     def flow_cache(self) -> Any:
         """A flow cache (64 MiB in memory, as the run's own) that reads the prepared flows."""
-        from dynaeval.metrics.flow import FlowCache
-
         known = {k: self.path / "flows" / f"{k}.npy"
                  for cam in self.manifest["cameras"].values() for pair in cam["flows"] or ()
                  for k in pair}

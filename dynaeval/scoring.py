@@ -21,7 +21,9 @@ from dynaeval.io import FramePair
 from dynaeval.io.cache import FrameCache
 from dynaeval.metrics.registry import METRICS
 from dynaeval.plan import RunPlan
-from dynaeval.regions.focus import FrameRegions
+from dynaeval.regions.focus import FrameRegions, camera_regions, fit_to
+from dynaeval.regions.given import given_masks, with_weights
+from dynaeval.regions.summary import regions_summary
 from dynaeval.report.results import INFINITE_MARK
 from dynaeval.stages import CameraWork, FrameWork, Stage, active_stages
 from dynaeval.validation import values_known_in
@@ -45,8 +47,6 @@ class CameraScores:
 def camera_regions_of(camera: str, pairs: list[FramePair], plan: RunPlan, executor: Executor,
                       cache: FrameCache) -> list[FrameRegions]:
     """The regions of every frame of a camera, from its ground truth (timed as ``regions``)."""
-    from dynaeval.regions.focus import camera_regions
-
     t0 = time.perf_counter()
     regions = plan.prepared.regions(camera) if plan.prepared is not None else None
     try:
@@ -58,8 +58,6 @@ def camera_regions_of(camera: str, pairs: list[FramePair], plan: RunPlan, execut
                 first_gt.shape[:2], plan.sources, executor.pool, paths=[p.gt for p in pairs],
             )
         if plan.masks is not None:
-            from dynaeval.regions.given import given_masks
-
             regions = given_masks(regions, [p.gt.path for p in pairs], plan.masks)
     except InputError as err:
         if err.path is not None:
@@ -72,8 +70,6 @@ def camera_regions_of(camera: str, pairs: list[FramePair], plan: RunPlan, execut
 
 def _summary_of(regions: list[FrameRegions], plan: RunPlan) -> dict[str, Any] | None:
     """The camera's ``regions_summary`` (None when it has neither boxes nor masks)."""
-    from dynaeval.regions.summary import regions_summary
-
     focus = plan.focus
     if focus.source == "none" and not focus.masked:
         return None
@@ -106,15 +102,11 @@ def score_frame(pair: FramePair, regions: FrameRegions, plan: RunPlan, cache: Fr
 
 def _score_frame(pair: FramePair, regions: FrameRegions, plan: RunPlan, cache: FrameCache,
                  executor: Executor, stages: Sequence[Stage]) -> tuple[dict[str, Any], list[dict]]:
-    from dynaeval.regions.focus import fit_to
-
     t0 = time.perf_counter()
     pred, gt = plan.read_pair(pair, cache)
     elapsed = {"read": time.perf_counter() - t0}
     regions = fit_to(regions, gt.shape[:2], plan.focus)
     if plan.masks is not None and plan.protocol.masks != "region":
-        from dynaeval.regions.given import with_weights
-
         regions = with_weights(regions, pair.gt.path, plan.masks)
     row: dict[str, Any] = {"camera": pair.camera, "frame": pair.frame, "index": pair.index,
                            "pred": str(pair.pred), "gt": str(pair.gt)}

@@ -22,6 +22,8 @@ from contextlib import ExitStack, contextmanager
 from pathlib import Path
 
 from dynaeval.errors import InputError
+from dynaeval.io.images import IMAGE_EXTENSIONS
+from dynaeval.io.video import VIDEO_EXTENSIONS
 
 
 def refuse_existing(path: str | Path | None, *, overwrite: bool, what: str = "output file") -> None:
@@ -36,9 +38,6 @@ def refuse_existing(path: str | Path | None, *, overwrite: bool, what: str = "ou
 
 
 def _media_extensions() -> frozenset[str]:
-    from dynaeval.io.images import IMAGE_EXTENSIONS
-    from dynaeval.io.video import VIDEO_EXTENSIONS
-
     return frozenset(IMAGE_EXTENSIONS) | frozenset(VIDEO_EXTENSIONS)
 
 

@@ -33,6 +33,8 @@ import numpy as np
 
 from dynaeval.errors import InputError
 from dynaeval.io.frames import FramePair, FrameRef, Pairing, natural_key, pair_frames
+from dynaeval.io.images import decode_file, read_image
+from dynaeval.io.masks import image_size
 
 _FACTOR = re.compile(r"^\d+x$")
 
@@ -109,8 +111,6 @@ class PanelFrameRef(FrameRef):
         Raises:
             InputError: the file is not ``panels * width`` wide (not like the first render).
         """
-        from dynaeval.io.images import read_image
-
         full = read_image(self.path, background=background, decode=decode)
         if full.shape[1] != self.panels * self.width:
             raise InputError(
@@ -121,8 +121,6 @@ class PanelFrameRef(FrameRef):
 
     def size(self) -> tuple[int, int]:
         """(H, W) of the panel, from the file's header (a mask of this frame has this size)."""
-        from dynaeval.io.masks import image_size
-
         return image_size(self.path)[0], self.width
 
     def __str__(self) -> str:
@@ -166,8 +164,6 @@ def render_panels(path: Path) -> tuple[int, int]:
     Raises:
         InputError: a width that is not 2 or 3 panels of one width (naming the file).
     """
-    from dynaeval.io.images import decode_file
-
     image, _ = decode_file(path)
     w = image.shape[1]
     if w % 3 == 0 and w >= 3:

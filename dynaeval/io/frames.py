@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from dynaeval.errors import InputError
-from dynaeval.io.images import IMAGE_EXTENSIONS, frame_name_parts, read_image
+from dynaeval.io.images import IMAGE_EXTENSIONS, frame_name_parts, read_image, to_float
 from dynaeval.io.video import VIDEO_EXTENSIONS, read_video_frame, scan_video
 
 ROOT_CAMERA = "."
@@ -58,7 +58,6 @@ class FrameRef:
         image file's uint8 decoding made beforehand (``read_image``)."""
         if self.index is None:
             return read_image(self.path, background=background, decode=decode, decoded=decoded)
-        from dynaeval.io.images import to_float
 
         return to_float(read_video_frame(self.path, self.index), path=self.path)
 

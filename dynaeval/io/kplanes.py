@@ -33,7 +33,7 @@ import numpy as np
 
 from dynaeval.errors import InputError
 from dynaeval.io.frames import FramePair, FrameRef, Pairing
-from dynaeval.io.images import IMAGE_EXTENSIONS, read_image
+from dynaeval.io.images import IMAGE_EXTENSIONS, read_image, to_float
 from dynaeval.io.video import VIDEO_EXTENSIONS, read_video_frame, scan_video
 
 STACK_PARTS = ("prediction", "ground truth", "error map")
@@ -64,8 +64,6 @@ class StackedFrameRef(FrameRef):
     def read(self, background: str | float = "white", decode: str = "dynaeval") -> np.ndarray:
         """The part as (rows, W, C) float32 in [0, 1]; ``decode``: the 16-bit PNG rule of
         ``dynaeval.io.images.read_image``."""
-        from dynaeval.io.images import to_float
-
         if self.index is None:
             full = read_image(self.path, background=background, decode=decode)
         else:

@@ -46,6 +46,15 @@ from pathlib import Path
 from typing import Any
 
 from dynaeval.errors import InputError
+from dynaeval.io.dycheck import RENDER_PANELS, PanelFrameRef, find_renders, render_panels
+from dynaeval.io.kplanes import (
+    STACK_PARTS,
+    StackedFrameRef,
+    check_stack,
+    is_stack_file,
+    latest_stacks,
+)
+from dynaeval.io.layout_3dgs import GT_DIR, PRED_DIR, find_3dgs
 
 LAYOUTS: dict[str, tuple[str, str]] = {
     "nerfbaselines": ("color", "gt-color"),
@@ -107,8 +116,6 @@ def _check_not_ns_eval(folder: Path) -> None:
 
 def _stack_layout(path: Path) -> RenderLayout:
     """A K-Planes evaluation stack (``step<N>.mp4``, ``step<N>-<i>.png``) given alone."""
-    from dynaeval.io.kplanes import check_stack, is_stack_file
-
     if not is_stack_file(path):
         raise InputError(
             "one file was given: dynaeval reads a single file only as K-Planes' evaluation stack "
@@ -121,8 +128,6 @@ def _stack_layout(path: Path) -> RenderLayout:
 
 
 def _layout_3dgs(folder: Path, iteration: int | None, split: str | None) -> RenderLayout | None:
-    from dynaeval.io.layout_3dgs import GT_DIR, PRED_DIR, find_3dgs
-
     found = find_3dgs(folder, iteration=iteration, split=split)
     if found is None:
         return None
@@ -172,7 +177,6 @@ def detect_layout(pred: str | Path, gt: str | Path | None = None, *,
     if layout is not None:
         return layout
     _check_no_selection(iteration, split, pred)
-    from dynaeval.io.dycheck import find_renders
 
     renders = find_renders(pred)
     if renders is not None:  # DyCheck's panels: pairs from dycheck.pair_renders
@@ -185,8 +189,6 @@ def detect_layout(pred: str | Path, gt: str | Path | None = None, *,
     if len(found) == 1:
         return found[0]
     if not found:
-        from dynaeval.io.kplanes import latest_stacks
-
         stacks = latest_stacks(pred)
         if stacks:  # a K-Planes log folder: its latest evaluation
             video = len(stacks) == 1 and stacks[0].suffix.lower() != ".png"
@@ -217,9 +219,6 @@ def part_ref_from_text(text: str) -> Any:
     Raises:
         InputError: as ``kplanes.check_stack`` / ``dycheck.render_panels`` for the file.
     """
-    from dynaeval.io.dycheck import RENDER_PANELS, PanelFrameRef, render_panels
-    from dynaeval.io.kplanes import STACK_PARTS, StackedFrameRef, check_stack, is_stack_file
-
     where, sep, part = text.rpartition(" (")
     file, _, index = where.rpartition("#") if "#" in where else (where, "", "")
     path, part = Path(file), part[:-1] if part.endswith(")") else None

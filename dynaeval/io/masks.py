@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from dynaeval.errors import InputError
-from dynaeval.io.images import _PNG_MAGIC, IMAGE_EXTENSIONS, _read_bytes, check_complete
+from dynaeval.io.images import _PNG_MAGIC, IMAGE_EXTENSIONS, _read_bytes, check_complete, read_image
 
 THRESHOLD = 0.5
 """Weights above this are the pixels of dynaeval's ``masked_*`` region."""
@@ -82,7 +82,6 @@ def image_size(path: Path) -> tuple[int, int]:
     if head.startswith(_PNG_MAGIC) and len(head) >= 24:
         w, h = struct.unpack(">II", head[16:24])
         return int(h), int(w)
-    from dynaeval.io.images import read_image
 
     return read_image(path).shape[:2]
 

@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from dynaeval.errors import InputError
-from dynaeval.io.atomic import write_failure
+from dynaeval.io.atomic import _UMASK, parent_folders, write_failure
 
 FORMAT_VERSION = 2
 """Version of the prepared folder's layout; a folder of another version is refused. 2: the
@@ -78,8 +78,6 @@ def write_folder_atomic(out: str | Path, fill: Callable[[Path], None], *,
     Missing folders above ``out`` are created (``dynaeval.io.atomic.parent_folders``, the rule
     of every output). On any failure the temporary folder and the folders created are removed
     and ``out`` is untouched."""
-    from dynaeval.io.atomic import parent_folders
-
     out = Path(out)
     if out.exists() and not overwrite:
         raise InputError(f"{what} exists; pass --overwrite or choose another -o", path=out)
@@ -206,6 +204,4 @@ class PreparedFiles:
 
 
 def _umask() -> int:
-    from dynaeval.io.atomic import _UMASK
-
     return _UMASK

@@ -25,6 +25,9 @@ from typing import Any
 import numpy as np
 
 from dynaeval.errors import EmptyRegionError, InputError, UndefinedMetricError
+from dynaeval.io.masks import THRESHOLD
+from dynaeval.metrics.pixel import quantize
+from dynaeval.metrics.protocols import check_lpips_net, get_protocol, run_metrics
 from dynaeval.metrics.registry import (
     FrameContext,
     FrameFn,
@@ -33,8 +36,10 @@ from dynaeval.metrics.registry import (
     region_argument,
     spec,
 )
+from dynaeval.runtime import resolve_device
 from dynaeval.validation import (
     channel_first_hint,
+    check_data_range,
     check_finite_image,
     check_pair,
     check_unit_range,
@@ -109,8 +114,6 @@ class _Regions:
     boxes = None
 
     def __init__(self, weights: np.ndarray | None) -> None:
-        from dynaeval.io.masks import THRESHOLD
-
         self.weights = weights
         self.mask = None if weights is None else weights > THRESHOLD
 
@@ -149,9 +152,6 @@ class ImageMetrics:
         pretrained_backbone: bool = True,
         masked: bool = False,
     ) -> None:
-        from dynaeval.metrics.protocols import check_lpips_net, get_protocol, run_metrics
-        from dynaeval.validation import check_data_range
-
         metrics = (run_metrics(get_protocol(protocol), default_frame_metrics()) if metrics is None
                    else tuple(metrics))
         unknown = [m for m in metrics if m not in SUPPORTED]
@@ -195,8 +195,6 @@ class ImageMetrics:
     def _functions(self, device: Any) -> dict[str, FrameFn]:
         """The registry's functions, built on first use (LPIPS needs the device of the data)."""
         if self._fns is None:
-            from dynaeval.runtime import resolve_device
-
             ctx = FrameContext(data_range=self.data_range, protocol=self.protocol,
                                device=resolve_device(device), lpips_net=self.lpips_net,
                                pretrained_backbone=self.pretrained_backbone)
@@ -252,8 +250,6 @@ class ImageMetrics:
     def _score_batch(self, fns: dict[str, FrameFn], preds: list[np.ndarray],
                      gts: list[np.ndarray], weights: list) -> dict[str, list[float | None]]:
         """Every kept value of checked images, per result key."""
-        from dynaeval.metrics.pixel import quantize
-
         batch: dict[str, list[float | None]] = {k: [] for k, _, _ in self.keys}
         for p, g, w in zip(preds, gts, weights, strict=True):
             if self.protocol.quantize != "none":

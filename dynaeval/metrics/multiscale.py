@@ -34,6 +34,9 @@ from typing import Any
 import numpy as np
 
 from dynaeval.errors import InputError, UndefinedMetricError
+from dynaeval.metrics import protocol_3dgs
+from dynaeval.metrics.protocol_3dgs import MSSSIM_MIN_SIZE
+from dynaeval.metrics.structural import RADIUS, gaussian_window
 from dynaeval.validation import check_data_range, check_pair
 
 BETAS = (0.0448, 0.2856, 0.3001, 0.2363, 0.1333)
@@ -46,8 +49,6 @@ def _scale_terms(x: np.ndarray, y: np.ndarray, c1: float, c2: float) -> tuple[fl
     """(mean ssim over the full map, mean cs over the valid windows) of one scale, channels
     together. x, y: (H, W, C) float64."""
     import cv2
-
-    from dynaeval.metrics.structural import RADIUS, gaussian_window
 
     k, r = gaussian_window(), RADIUS
     ssims, css = [], []
@@ -129,8 +130,6 @@ def _whole_only(name: str, ctx: Any) -> Any:
     protocol = ctx.whole()
     clip = bool(getattr(protocol, "clip", False))
     if getattr(protocol, "msssim", "torchmetrics") == "pytorch_msssim":
-        from dynaeval.metrics import protocol_3dgs
-
         fn = {"msssim": protocol_3dgs.msssim_4dgaussians,
               "dssim": protocol_3dgs.dssim_4dgaussians}[name]
         kw: dict[str, Any] = {}  # 4DGaussians does not clip
@@ -161,8 +160,6 @@ def msssim_settings(ctx: Any, enabled: bool, unavailable: str | None) -> dict[st
     if not enabled:
         return None
     if getattr(ctx.whole(), "msssim", "torchmetrics") == "pytorch_msssim":
-        from dynaeval.metrics.protocol_3dgs import MSSSIM_MIN_SIZE
-
         return {
             "variant": "pytorch_msssim 1.0 ms_ssim(data_range=1, size_average=True) defaults, "
                        "as 4DGaussians' metrics.py calls it (its formula in float64)",

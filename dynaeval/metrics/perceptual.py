@@ -464,6 +464,51 @@ class LpipsFeatures:
         return self.distance(self.features(a), self.features(b))
 
 
+def lpips_unit_input(pred: object, gt: object, *, net: str = "vgg", device: object = None,
+                     backend: str = "torch", pretrained_backbone: bool = True) -> float:
+    """LPIPS of [0, 1] images fed to the network unscaled, as 3DGS' ``metrics.py`` does.
+
+    The network is ``dynaeval.metrics.perceptual``'s (the ``lpips`` package's v0.1 module, or its
+    ONNX export); only the input differs: the package's ``forward`` expects [-1, 1] and 3DGS
+    gives it ``to_tensor``'s [0, 1].
+
+    Args:
+        pred, gt: (H, W, 3) or (H, W) arrays/tensors in [0, 1], H, W >= ``MIN_SIZE[net]``.
+        net: ``vgg`` (3DGS) or ``alex``.
+        device, backend, pretrained_backbone: as ``dynaeval.metrics.perceptual.lpips``.
+
+    Returns:
+        LPIPS, a float >= 0 (0 for identical images).
+    """
+    _check_backend(backend)
+    p, g = _prepare(pred, gt, net)
+    a, b = (np.ascontiguousarray(x.astype(np.float32)[None].transpose(0, 3, 1, 2)) for x in (p, g))
+    if backend == "onnxruntime":
+        session = load_lpips_onnx(net, device=device, pretrained_backbone=pretrained_backbone)
+        return float(session.run(["d"], {"pred": a, "gt": b})[0].reshape(-1)[0])
+    import torch
+
+    model = load_lpips(net, device=resolve_device(device), pretrained_backbone=pretrained_backbone)
+    dev = next(model.parameters()).device
+    with torch.no_grad():
+        out = model(torch.from_numpy(a).to(dev), torch.from_numpy(b).to(dev))
+    return float(out.double().cpu().reshape(-1)[0])
+
+
+def whole_lpips(ctx: Any) -> Any:
+    """The protocol's whole-frame LPIPS for ``build_lpips``, or None when the
+    protocol feeds the network the package's way (``lpips_input == "signed"``)."""
+    if getattr(ctx.whole(), "lpips_input", "signed") != "unit":
+        return None
+
+    def fn(pred: np.ndarray, gt: np.ndarray) -> float:
+        return lpips_unit_input(pred, gt, net=ctx.lpips_net, device=ctx.device,
+                                backend=ctx.lpips_backend,
+                                pretrained_backbone=ctx.pretrained_backbone)
+
+    return fn
+
+
 def build_lpips(ctx: Any) -> Any:
     """The registry's LPIPS for a run (``dynaeval.metrics.registry.FrameContext``): loads the
     network once now, so missing weights (``WeightsUnavailableError``) or packages
@@ -472,7 +517,6 @@ def build_lpips(ctx: Any) -> Any:
     pretrained = ctx.pretrained_backbone
     loader = load_lpips_onnx if backend == "onnxruntime" else load_lpips
     loader(net, device=device, pretrained_backbone=pretrained)
-    from dynaeval.metrics.protocol_3dgs import whole_lpips
 
     whole = whole_lpips(ctx)  # a protocol that feeds the network its own way (3dgs), or None
 

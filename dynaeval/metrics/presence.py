@@ -52,6 +52,7 @@ import numpy as np
 
 from dynaeval.boxes import as_boxes, box_iou_matrix, boxes_to_mask, clip_boxes
 from dynaeval.errors import InputError
+from dynaeval.metrics.pixel import SquaredErrorStats, psnr_from_stats
 from dynaeval.metrics.pixel import psnr as _psnr
 from dynaeval.metrics.registry import PRESENCE_CLASSES, keys_of, result_key
 from dynaeval.validation import check_data_range, check_pair, values_known_in
@@ -247,8 +248,6 @@ def crop_similarity(
         crop is uniform) and the largest PSNR in dB (``inf`` when a displaced crop is identical);
         each is maximised on its own.
     """
-    from dynaeval.metrics.pixel import SquaredErrorStats, psnr_from_stats
-
     p, g = check_pair(pred, gt, data_range=data_range)
     h, w = p.shape[:2]
     b = clip_boxes(box, h, w)

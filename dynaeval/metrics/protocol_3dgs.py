@@ -28,11 +28,13 @@ LPIPS twice, ``LPIPS-vgg`` and ``LPIPS-alex`` (``lpipsPyTorch.lpips(..., net_typ
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 
 from dynaeval.errors import UndefinedMetricError
+from dynaeval.metrics.perceptual import lpips_unit_input  # noqa: F401 (3DGS' LPIPS, named here)
+from dynaeval.metrics.protocol_nerfstudio import msssim_window
+from dynaeval.metrics.windows import as_hwc, window_statistics
 from dynaeval.validation import check_data_range, check_pair
 
 MSSSIM_MIN_SIZE = 161
@@ -57,56 +59,6 @@ def psnr_3dgs(pred: object, gt: object, *, data_range: float = 1.0) -> float:
         return math.inf
     one = np.float32(data_range)
     return float(np.float32(20) * np.log10(one / np.sqrt(mse)))
-
-
-def lpips_unit_input(pred: object, gt: object, *, net: str = "vgg", device: object = None,
-                     backend: str = "torch", pretrained_backbone: bool = True) -> float:
-    """LPIPS of [0, 1] images fed to the network unscaled, as 3DGS' ``metrics.py`` does.
-
-    The network is ``dynaeval.metrics.perceptual``'s (the ``lpips`` package's v0.1 module, or its
-    ONNX export); only the input differs: the package's ``forward`` expects [-1, 1] and 3DGS
-    gives it ``to_tensor``'s [0, 1].
-
-    Args:
-        pred, gt: (H, W, 3) or (H, W) arrays/tensors in [0, 1], H, W >= ``MIN_SIZE[net]``.
-        net: ``vgg`` (3DGS) or ``alex``.
-        device, backend, pretrained_backbone: as ``dynaeval.metrics.perceptual.lpips``.
-
-    Returns:
-        LPIPS, a float >= 0 (0 for identical images).
-    """
-    from dynaeval.metrics import perceptual
-    from dynaeval.runtime import resolve_device
-
-    perceptual._check_backend(backend)
-    p, g = perceptual._prepare(pred, gt, net)
-    a, b = (np.ascontiguousarray(x.astype(np.float32)[None].transpose(0, 3, 1, 2)) for x in (p, g))
-    if backend == "onnxruntime":
-        session = perceptual.load_lpips_onnx(net, device=device,
-                                             pretrained_backbone=pretrained_backbone)
-        return float(session.run(["d"], {"pred": a, "gt": b})[0].reshape(-1)[0])
-    import torch
-
-    model = perceptual.load_lpips(net, device=resolve_device(device),
-                                  pretrained_backbone=pretrained_backbone)
-    dev = next(model.parameters()).device
-    with torch.no_grad():
-        out = model(torch.from_numpy(a).to(dev), torch.from_numpy(b).to(dev))
-    return float(out.double().cpu().reshape(-1)[0])
-
-
-def whole_lpips(ctx: Any) -> Any:
-    """The protocol's whole-frame LPIPS for the registry's ``build_lpips``, or None when the
-    protocol feeds the network the package's way (``lpips_input == "signed"``)."""
-    if getattr(ctx.whole(), "lpips_input", "signed") != "unit":
-        return None
-
-    def fn(pred: np.ndarray, gt: np.ndarray) -> float:
-        return lpips_unit_input(pred, gt, net=ctx.lpips_net, device=ctx.device,
-                                backend=ctx.lpips_backend,
-                                pretrained_backbone=ctx.pretrained_backbone)
-
-    return fn
 
 
 def _pool_pytorch_msssim(z: np.ndarray) -> np.ndarray:
@@ -144,13 +96,10 @@ def msssim_4dgaussians(pred: object, gt: object, *, data_range: float = 1.0,
         InputError: bad shapes or values. UndefinedMetricError: a side under 161 px
             (pytorch_msssim fails an assert there).
     """
-    from dynaeval.metrics.protocol_nerfstudio import msssim_window
-    from dynaeval.metrics.protocols import _as_hwc, window_statistics
-
     data_range = check_data_range(data_range)
     p, g = check_pair(pred, gt, data_range=data_range)  # as ms_ssim: 0..255 input is refused
     dtype = np.dtype(precision)
-    x, y = (_as_hwc(a).astype(np.float32).astype(dtype) for a in (p, g))
+    x, y = (as_hwc(a).astype(np.float32).astype(dtype) for a in (p, g))
     if min(x.shape[:2]) < MSSSIM_MIN_SIZE:
         raise UndefinedMetricError(
             f"4DGaussians' MS-SSIM (pytorch_msssim) needs images of at least {MSSSIM_MIN_SIZE} px "

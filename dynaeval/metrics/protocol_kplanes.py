@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from dynaeval.metrics.structural import K1, K2, RADIUS, _check_size, gaussian_window
 from dynaeval.validation import check_pair
 
 KPLANES_REFERENCE = (
@@ -76,8 +77,6 @@ def kplanes_ssim(pred: object, gt: object, *, data_range: float = 1.0, clip: boo
         InputError: bad shapes or values. UndefinedMetricError: an image under 11 x 11 pixels.
     """
     import cv2
-
-    from dynaeval.metrics.structural import K1, K2, RADIUS, _check_size, gaussian_window
 
     p, g = check_pair(pred, gt)
     p = (p[..., None] if p.ndim == 2 else p).astype(np.float32)

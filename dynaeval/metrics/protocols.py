@@ -57,15 +57,18 @@ from typing import Any
 import numpy as np
 
 from dynaeval.errors import InputError
-from dynaeval.metrics.protocol_kplanes import KPLANES_CHOICES, KPLANES_REFERENCE
+from dynaeval.metrics.pixel import psnr
+from dynaeval.metrics.protocol_3dgs import psnr_3dgs
+from dynaeval.metrics.protocol_dycheck import dycheck_lpips, dycheck_psnr, dycheck_ssim
+from dynaeval.metrics.protocol_kplanes import KPLANES_CHOICES, KPLANES_REFERENCE, kplanes_ssim
+from dynaeval.metrics.protocol_nerfbaselines import multiply_mask
+from dynaeval.metrics.protocol_nerfstudio import image_data_range, msssim_window
+from dynaeval.metrics.structural import K1, K2, _check_size, ssim
+from dynaeval.metrics.windows import as_hwc, window_statistics
 from dynaeval.validation import check_data_range, check_pair
 
 PROTOCOL_NAMES = ("dynaeval", "nerfbaselines", "nerfstudio", "kplanes", "nerfstudio-splatfacto",
                   "3dgs", "4dgaussians", "dycheck")
-
-
-def _as_hwc(p: np.ndarray) -> np.ndarray:
-    return p[..., None] if p.ndim == 2 else p
 
 
 def psnr_float32(pred: object, gt: object, *, data_range: float = 1.0, clip: bool = False) -> float:
@@ -133,8 +136,6 @@ def ssim_variant(
     Raises:
         InputError: bad shapes, values, size below 11 px, or unknown border/clamp/precision.
     """
-    from dynaeval.metrics.structural import K1, K2, _check_size
-
     for arg, value, allowed in (("border", border, SSIM_BORDERS), ("clamp", clamp, SSIM_CLAMPS),
                                 ("precision", precision, ("float32", "float64"))):
         if value not in allowed:
@@ -142,7 +143,7 @@ def ssim_variant(
     data_range = check_data_range(data_range)
     p, g = check_pair(pred, gt)
     dtype = np.dtype(precision)
-    p, g = _as_hwc(p).astype(np.float32), _as_hwc(g).astype(np.float32)
+    p, g = as_hwc(p).astype(np.float32), as_hwc(g).astype(np.float32)
     if clip:
         p, g = np.clip(p, 0, 1), np.clip(g, 0, 1)
     p, g = p.astype(dtype), g.astype(dtype)
@@ -155,56 +156,6 @@ def ssim_variant(
         den = (mx * mx + my * my + c1) * (sxx + syy + c2)
         maps.append(num / den)
     return float(np.mean(np.stack(maps), dtype=np.float64))
-
-
-def window_statistics(
-    p: np.ndarray, g: np.ndarray, *, border: str = "valid", clamp: str = "none",
-    window: np.ndarray | None = None,
-) -> list[tuple[np.ndarray, ...]]:
-    """SSIM's local statistics under the 11-tap Gaussian window, per channel.
-
-    Args:
-        p, g: (H, W, C) float32 or float64 arrays of one shape, H, W >= 11 (checked by the
-            callers); the statistics are computed in their dtype.
-        border, clamp, window: as ``ssim_variant`` (checked there).
-
-    Returns:
-        One ``(mu_x, mu_y, var_x, var_y, cov_xy)`` of maps per channel, (H - 10, W - 10) for
-        ``border="valid"``, else (H, W), in the images' dtype.
-    """
-    import cv2
-
-    from dynaeval.metrics.structural import RADIUS, gaussian_window
-
-    dtype = p.dtype
-    k = (gaussian_window() if window is None else np.asarray(window)).astype(dtype)
-    r = RADIUS
-    depth = cv2.CV_32F if dtype == np.float32 else cv2.CV_64F
-
-    def blur(a: np.ndarray) -> np.ndarray:
-        a = np.ascontiguousarray(a)
-        if border == "reflect":
-            return cv2.sepFilter2D(a, depth, k, k, borderType=cv2.BORDER_REFLECT_101)
-        if border == "zero":
-            return cv2.sepFilter2D(a, depth, k, k, borderType=cv2.BORDER_CONSTANT)
-        return cv2.sepFilter2D(a, depth, k, k, borderType=cv2.BORDER_REFLECT)[r:-r, r:-r]
-
-    out = []
-    for c in range(p.shape[2]):
-        x, y = p[..., c], g[..., c]
-        mx, my = blur(x), blur(y)
-        sxx = blur(x * x) - mx * mx
-        syy = blur(y * y) - my * my
-        sxy = blur(x * y) - mx * my
-        if clamp == "zero":
-            sxx, syy = np.maximum(sxx, 0), np.maximum(syy, 0)
-        elif clamp == "dm_pix":
-            eps = dtype.type(np.finfo(np.float32).eps) ** 2
-            sxx = np.maximum(eps, sxx)
-            syy = np.maximum(eps, syy)
-            sxy = np.sign(sxy) * np.minimum(np.sqrt(sxx * syy), np.abs(sxy))
-        out.append((mx, my, sxx, syy, sxy))
-    return out
 
 
 @dataclass(frozen=True)
@@ -292,7 +243,6 @@ class Protocol:
             return pred, gt
         if self.masks != "multiply":
             raise InputError(f"protocol {self.name} does not score the whole frame with a mask")
-        from dynaeval.metrics.protocol_nerfbaselines import multiply_mask
 
         return multiply_mask(pred, gt, weights)
 
@@ -310,16 +260,11 @@ class Protocol:
         self._check_range(data_range)
         pred, gt = self._weighted(pred, gt, weights)
         if self.psnr == "dycheck":
-            from dynaeval.metrics.protocol_dycheck import dycheck_psnr
-
             return dycheck_psnr(pred, gt, weights=weights, data_range=data_range)
         if self.psnr == "float32":
             return psnr_float32(pred, gt, data_range=data_range, clip=self.clip)
         if self.psnr == "3dgs":
-            from dynaeval.metrics.protocol_3dgs import psnr_3dgs
-
             return psnr_3dgs(pred, gt, data_range=data_range)
-        from dynaeval.metrics.pixel import psnr
 
         return psnr(pred, gt, data_range=data_range)
 
@@ -329,16 +274,10 @@ class Protocol:
         self._check_range(data_range)
         pred, gt = self._weighted(pred, gt, weights)
         if self.ssim == "dycheck":
-            from dynaeval.metrics.protocol_dycheck import dycheck_ssim
-
             return dycheck_ssim(pred, gt, weights=weights, data_range=data_range)
         if self.ssim == "skimage-gaussian":
-            from dynaeval.metrics.structural import ssim
-
             return ssim(pred, gt, data_range=data_range)
         if self.ssim == "mipnerf":
-            from dynaeval.metrics.protocol_kplanes import kplanes_ssim
-
             return kplanes_ssim(pred, gt, data_range=data_range, clip=self.clip)
         if self.ssim == "dm_pix":
             return ssim_variant(pred, gt, data_range=data_range, border="valid", clamp="dm_pix",
@@ -347,13 +286,9 @@ class Protocol:
             return ssim_variant(pred, gt, data_range=data_range, border="zero", clamp="none",
                                 clip=self.clip, precision="float32")
         if self.ssim == "pytorch_msssim":
-            from dynaeval.metrics.protocol_nerfstudio import msssim_window
-
             return ssim_variant(pred, gt, data_range=data_range, border="valid", clamp="none",
                                 clip=self.clip, precision="float32", window=msssim_window())
         if self.ssim_data_range == "image":
-            from dynaeval.metrics.protocol_nerfstudio import image_data_range
-
             data_range = image_data_range(pred, gt)
         return ssim_variant(pred, gt, data_range=data_range, border="reflect", clamp="zero",
                             clip=self.clip, precision="float32")
@@ -371,8 +306,6 @@ class Protocol:
             pred, gt = np.clip(np.asarray(pred), 0, 1), np.clip(np.asarray(gt), 0, 1)
         pred, gt = self._weighted(pred, gt, weights)
         if self.lpips_reduce == "spatial-mean":
-            from dynaeval.metrics.protocol_dycheck import dycheck_lpips
-
             return dycheck_lpips(score_map, pred, gt, weights=weights)
         return score(pred, gt)
 

@@ -36,7 +36,9 @@ from typing import Any
 
 import numpy as np
 
+from dynaeval.errors import InputError, WeightsUnavailableError
 from dynaeval.metrics.plugins import plugin_specs
+from dynaeval.metrics.protocols import get_protocol
 
 REGIONS: dict[str, str] = {"whole": "", "focused": "focused_", "masked": "masked_",
                            "covisible": "m"}
@@ -96,7 +98,6 @@ class FrameContext:
         """The protocol (dynaeval's when None)."""
         if self.protocol is not None:
             return self.protocol
-        from dynaeval.metrics.protocols import get_protocol
 
         return get_protocol("dynaeval")
 
@@ -480,8 +481,6 @@ def require_available(names: tuple[str, ...] | list[str], ctx: FrameContext) -> 
         InputError: naming the metric, what is missing, the install line, and how to score
             without it.
     """
-    from dynaeval.errors import InputError
-
     for s in selectable_specs(list(names)):
         why = s.load("requires")(ctx) if s.requires else None
         if why:
@@ -532,8 +531,6 @@ def build_frame_metrics(
     with the reason in ``unavailable`` (and its settings say so). Every per-frame metric's
     settings function is called, so a default metric switched off records ``enabled: false``.
     """
-    from dynaeval.errors import WeightsUnavailableError
-
     out = BuiltMetrics()
     built: dict[str, FrameFn] = {}
     wanted = {s.name for s in selectable_specs(list(names))}

@@ -26,6 +26,7 @@ from dynaeval.boxes import grow_box, mask_to_box
 from dynaeval.errors import EmptyRegionError, InputError, WeightsUnavailableError
 from dynaeval.metrics.flow import FlowCache, FlowConfig, check_flow, visibility, warp
 from dynaeval.metrics.pair_kernels import FramePrep, pair_flows, prepare, tof_terms, warp_errors
+from dynaeval.metrics.perceptual import LpipsFeatures, lpips
 from dynaeval.metrics.registry import result_key
 from dynaeval.validation import as_image
 
@@ -160,16 +161,11 @@ def default_lpips(net: str = "alex", device: str | None = None, backend: str = "
     ``[0, 1]`` (InputError outside); WeightsUnavailableError on the first call when the
     pretrained backbone is missing.
     """
-    import dynaeval.metrics as _metrics  # lazy: pulls in torch
-
     if backend == "torch":
-        return _metrics.perceptual.LpipsFeatures(net, device=device)
-    _lpips = _metrics.lpips
-    if not callable(_lpips):  # the submodule, not the function
-        _lpips = _lpips.lpips
+        return LpipsFeatures(net, device=device)
 
     def fn(a: np.ndarray, b: np.ndarray) -> float:
-        return float(np.asarray(_lpips(a, b, net=net, device=device, backend=backend)))
+        return float(np.asarray(lpips(a, b, net=net, device=device, backend=backend)))
 
     return fn
 

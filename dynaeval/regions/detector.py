@@ -35,6 +35,7 @@ from dynaeval.boxes import batched_nms
 from dynaeval.errors import InputError
 from dynaeval.regions import torchvision_onnx, yolo
 from dynaeval.regions.coco import COCO80_NAMES, COCO91_NAMES  # noqa: F401  (re-export)
+from dynaeval.regions.fetch import provenance, resolve_name
 from dynaeval.regions.yolo import letterbox  # noqa: F401  (re-export: reference_models, tests)
 from dynaeval.runtime import file_sha256, load_session, onnx_providers
 from dynaeval.validation import as_image, grey_to_rgb
@@ -124,7 +125,6 @@ def resolve_model_path(model: str | Path | None) -> Path:
     if path.is_file():
         return path
     if path.suffix.lower() != ".onnx" and path.parent == Path("."):  # a name: fetched detector
-        from dynaeval.regions.fetch import resolve_name
 
         return resolve_name(str(model))
     raise InputError("detector model not found: expected an .onnx file, or the name of a "
@@ -316,8 +316,6 @@ class Detector:
     def source(self) -> dict[str, Any]:
         """What made the boxes, for a boxes file's ``source`` and the results JSON."""
         import onnxruntime as ort
-
-        from dynaeval.regions.fetch import provenance
 
         settings = asdict(self.config)
         settings["model"] = str(self.path)

@@ -24,6 +24,9 @@ from pathlib import Path
 from typing import Any
 
 from dynaeval.errors import InputError
+from dynaeval.io.atomic import write_text_atomic
+from dynaeval.regions.coco import COCO80_NAMES, COCO91_NAMES
+from dynaeval.runtime import file_sha256
 
 CACHE_ENV = "DYNAEVAL_DETECTORS"
 """Environment variable that overrides the cache folder of fetched detectors."""
@@ -197,7 +200,6 @@ def fetch(name: str, *, folder: Path | None = None, overwrite: bool = False,
         os.replace(tmp, onnx)
     finally:
         tmp.unlink(missing_ok=True)
-    from dynaeval.io.atomic import write_text_atomic
 
     write_text_atomic(meta, json.dumps(record, indent=2) + "\n", overwrite=True,
                       what="detector provenance")
@@ -206,7 +208,6 @@ def fetch(name: str, *, folder: Path | None = None, overwrite: bool = False,
 
 def _common_record(spec: KnownDetector, onnx: Path, pretrained: bool) -> dict[str, Any]:
     from dynaeval import __version__
-    from dynaeval.runtime import file_sha256
 
     return {
         "schema": "dynaeval/detector/v1", "name": spec.name, "pretrained": pretrained,
@@ -303,7 +304,6 @@ def _export_torchvision(spec: KnownDetector, out: Path, pretrained: bool, kwargs
 
 
 def _class_names(weights) -> list[str]:  # noqa: ANN001
-    from dynaeval.regions.coco import COCO91_NAMES
 
     if weights is not None:
         return [str(c) for c in weights.meta["categories"]]
@@ -311,8 +311,6 @@ def _class_names(weights) -> list[str]:  # noqa: ANN001
 
 
 def _weights_record(name: str | None, path: Path | None, url: str | None) -> dict[str, Any]:
-    from dynaeval.runtime import file_sha256
-
     if name is None:
         return {"name": None, "note": "random weights (pretrained=False): for tests only"}
     return {"name": name, "url": url, "file": str(path),
@@ -368,7 +366,6 @@ def _export_ultralytics(spec: KnownDetector, out: Path, folder: Path, pretrained
     os.replace(work / exported, out)
     names = [str(model.names[i]) for i in sorted(model.names)]
     if not pretrained:  # the .yaml's names are '0'..'79': give the COCO model's, as the .pt has
-        from dynaeval.regions.coco import COCO80_NAMES
 
         names = list(COCO80_NAMES)
         write_onnx_metadata(out, {"names": repr(dict(enumerate(names)))})

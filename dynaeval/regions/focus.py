@@ -17,8 +17,16 @@ import numpy as np
 
 from dynaeval.boxes import clip_boxes
 from dynaeval.errors import InputError
+from dynaeval.io import find_frames
+from dynaeval.io.cache import FrameCache
+from dynaeval.regions.boxes_file import frame_key, read_boxes_file, records_to_boxes
+from dynaeval.regions.detector import DEFAULT_DETECTOR, Detector, DetectorConfig
 from dynaeval.regions.expand import ExpandConfig, expand_boxes
+from dynaeval.regions.motion import LazyFrames, MotionConfig, iter_motion_masks, mask_boxes
 from dynaeval.regions.packed import PackedMask
+from dynaeval.regions.static_camera import camera_motion, moving_camera_reason
+from dynaeval.regions.summary import detector_warnings
+from dynaeval.runtime import file_sha256
 
 FOCUS_SOURCES = ("detector", "motion", "boxes", "none")
 MIN_MOTION_FRAMES = 3
@@ -92,8 +100,6 @@ class FocusConfig:
 
     def detector_config(self, **kwargs: Any) -> Any:
         """The ``DetectorConfig`` of this focus (model, device, classes)."""
-        from dynaeval.regions.detector import DetectorConfig
-
         extra = {} if self.classes is None else {"classes": tuple(self.classes)}
         return DetectorConfig(model=self.detector_model, device=self.device, **extra, **kwargs)
 
@@ -191,12 +197,9 @@ def open_sources(config: FocusConfig) -> RegionSources:
     settings: dict[str, Any] = {"source": config.source, "expand": _expand_settings(config.expand)}
     src = RegionSources(config=config, settings=settings)
     if config.source == "boxes":
-        from dynaeval.regions.boxes_file import read_boxes_file
-
         bf = read_boxes_file(config.boxes_file)
         src.boxes = bf.boxes
         src.classes = ("person", "ball")
-        from dynaeval.runtime import file_sha256
 
         settings["boxes_file"] = {
             "path": str(config.boxes_file),
@@ -205,13 +208,10 @@ def open_sources(config: FocusConfig) -> RegionSources:
         }
         src.detector, src.detector_note = boxes_file_detector(bf.source, config.device)
     elif config.source == "detector":
-        from dynaeval.regions.detector import Detector
-
         det = Detector(config.detector_config())
         src.detector = det
         src.classes = det.selected_names
         settings["detector"] = det.source()
-        from dynaeval.regions.summary import detector_warnings
 
         src.warnings.extend(detector_warnings(det))
     if config.masked or config.source == "motion":
@@ -226,8 +226,6 @@ def boxes_file_detector(source: dict[str, Any] | None, device: str) -> tuple[Any
     generator's), ``(None, why)`` when its model is not here with the same SHA-256."""
     if not isinstance(source, dict) or source.get("kind") != "detector":
         return None, None  # the scene generator's boxes, or motion boxes: region test only
-    from dynaeval.regions.detector import DEFAULT_DETECTOR, Detector, DetectorConfig
-    from dynaeval.runtime import file_sha256
 
     source = source.get("detector", source)  # dynaeval detect nests it under "detector"
     sha = source.get("model_sha256")
@@ -346,7 +344,6 @@ def fit_to(r: FrameRegions, size: tuple[int, int], config: FocusConfig) -> Frame
     """
     if r.raw_boxes is None or r.size is None or tuple(size) == r.size:
         return r
-    from dynaeval.regions.boxes_file import records_to_boxes
 
     h, w = size
     raw = clip_boxes(records_to_boxes(r.records) if r.records is not None else r.raw_boxes, h, w)
@@ -365,8 +362,6 @@ _NO_BOX_REASON = {
 def _add_motion_masks(out: list[FrameRegions], camera: str, load_gt: Callable[[int], np.ndarray],
                       kind: str, executor: Executor | None, focus: str = "detector") -> None:
     """Set each frame's motion mask, or the reason it has none (too few frames, no motion)."""
-    from dynaeval.regions.motion import LazyFrames, MotionConfig, iter_motion_masks
-
     if len(out) < MIN_MOTION_FRAMES:
         for r in out:
             r.mask_reason = (
@@ -391,8 +386,6 @@ def _add_motion_masks(out: list[FrameRegions], camera: str, load_gt: Callable[[i
 def _static_check(load_gt: Callable[[int], np.ndarray], n: int, mask_fraction: float,
                   focus: str) -> dict[str, Any]:
     """``FrameRegions.camera_motion`` of a camera (``dynaeval.regions.static_camera``)."""
-    from dynaeval.regions.static_camera import camera_motion, moving_camera_reason
-
     px = camera_motion(load_gt, n)
     return {"global_motion_px": px, "reason": moving_camera_reason(px, mask_fraction, focus)}
 
@@ -407,8 +400,6 @@ def _frame_boxes(r: FrameRegions, camera: str, name: str, sources: RegionSources
         r.boxes_reason = "no focus regions requested (--focus none)"
         return None
     if source == "boxes":
-        from dynaeval.regions.boxes_file import frame_key, records_to_boxes
-
         records = sources.boxes.get(frame_key(camera, name))
         if records is None:
             r.boxes_reason = f"frame {frame_key(camera, name)!r} is not in the boxes file"
@@ -422,7 +413,6 @@ def _frame_boxes(r: FrameRegions, camera: str, name: str, sources: RegionSources
     if r.packed_mask is None:  # motion
         r.boxes_reason = r.mask_reason
         return None
-    from dynaeval.regions.motion import mask_boxes
 
     return mask_boxes(r.mask, min_area=16)
 
@@ -455,10 +445,6 @@ def detect_ground_truth(
         raw (unexpanded) boxes, and what made them, ready for ``write_boxes_file``.
     """
     from tqdm.auto import tqdm
-
-    from dynaeval.io import find_frames
-    from dynaeval.io.cache import FrameCache
-    from dynaeval.regions.boxes_file import frame_key
 
     if source not in ("detector", "motion"):
         raise InputError(f"boxes source must be detector or motion, got {source!r}")

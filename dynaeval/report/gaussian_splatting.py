@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from dynaeval.errors import InputError
+from dynaeval.io.atomic import write_files_atomic
 
 GS_FILES = ("results.json", "per_view.json")
 GS_KEYS = {"SSIM": "ssim", "PSNR": "psnr", "LPIPS": "lpips"}
@@ -88,8 +89,6 @@ def write_gs_json(results: dict[str, Any], folder: str | Path, *,
     Returns:
         The two paths written.
     """
-    from dynaeval.io.atomic import write_files_atomic
-
     write_files_atomic(gs_files(results, folder), overwrite=overwrite)
     return gs_paths(folder)
 

@@ -28,6 +28,11 @@ from typing import Any
 import numpy as np
 
 from dynaeval.errors import InputError
+from dynaeval.io.atomic import write_files_atomic
+from dynaeval.io.frames import FrameRef
+from dynaeval.io.layouts import part_ref_from_text
+from dynaeval.report.leaderboard import TABLE_CSS
+from dynaeval.report.table import fmt, region_rows, run_title
 
 BOX_COLOUR = "#ffd400"
 MASK_COLOUR = "#00e5ff"
@@ -62,16 +67,12 @@ class RegionRecorder:
 
 def _read_frame(ref: str, background: str) -> np.ndarray:
     """A frame given as the results' ``pred``/``gt`` string (``path`` or ``path#N`` for video)."""
-    from dynaeval.io.frames import FrameRef
-
     path = Path(ref)
     if not path.exists() and "#" in ref:
         file, _, index = ref.rpartition("#")
         if index.isdigit():
             return FrameRef(Path(file), int(index)).read(background)
     if not path.exists():
-        from dynaeval.io.layouts import part_ref_from_text
-
         part = part_ref_from_text(ref)  # a K-Planes stack's or a DyCheck render's part
         if part is not None:
             return part.read(background)
@@ -120,8 +121,6 @@ def _table(header: list[str], rows: list[list[str]]) -> str:
 
 
 def _summary_html(results: dict[str, Any]) -> str:
-    from dynaeval.report.table import fmt, region_rows
-
     metrics = results["metrics"]
     header, body = region_rows(results, objects=True)
     per_cam = [m for m in metrics if any(m in v for v in results["cameras"].values())]
@@ -293,8 +292,6 @@ def write_report(
         InputError: ``index.html`` exists and not ``overwrite``, ``out_dir`` is a file, a frame
             listed in the results is gone, or the disk is full (nothing is left behind).
     """
-    from dynaeval.io.atomic import write_files_atomic
-
     index = report_index(out_dir, overwrite=overwrite)
     page = render_report(results, recorder=recorder, n_worst=n_worst)
     write_files_atomic([(index, page, "report")], overwrite=overwrite)
@@ -325,9 +322,6 @@ def render_report(results: dict[str, Any], *, recorder: RegionRecorder | None = 
     Raises:
         InputError: a frame listed in the results is gone.
     """
-    from dynaeval.report.leaderboard import TABLE_CSS
-    from dynaeval.report.table import run_title
-
     title = f"dynaeval: {run_title(results)}"
     parts = [
         "<!DOCTYPE html>", "<html><head><meta charset='utf-8'>", f"<title>{escape(title)}</title>",

@@ -33,6 +33,8 @@ from typing import Any
 import numpy as np
 
 from dynaeval.errors import InputError
+from dynaeval.metrics.registry import METRICS, SPECS
+from dynaeval.report.results import load_results, strict
 
 SCHEMA = "dynaeval/leaderboard/v1"
 ALL_SCENES = "(all)"
@@ -56,8 +58,6 @@ output was taken as what: ``focus.detector.outputs`` is compared; a prepared gro
 
 
 def _ignored_settings() -> tuple[str, ...]:
-    from dynaeval.metrics.registry import SPECS
-
     return RUN_IGNORED_SETTINGS + tuple(
         f"{s.name}.{f}" for s in SPECS.values() for f in s.ignored_settings)
 
@@ -315,7 +315,6 @@ def build_leaderboard(
             incompatible settings without ``force``, or an unknown metric asked for.
     """
     from dynaeval import __version__
-    from dynaeval.report.results import load_results, strict
 
     if not paths:
         raise InputError("leaderboard needs at least one results file")
@@ -372,8 +371,6 @@ def _ordered_rows(board: dict[str, Any], by: str) -> list[dict[str, Any]]:
 def _fmt(name: str, v: float | None) -> str:
     """dB values with 2 decimals, others with 4, small errors (< 0.01) with 3 significant digits
     (units from the registry)."""
-    from dynaeval.metrics.registry import METRICS
-
     if v is None:
         return "n/a"
     if name in METRICS and METRICS[name].unit == "dB":

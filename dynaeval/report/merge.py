@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from dynaeval.errors import InputError
-from dynaeval.io.frames import natural_key
+from dynaeval.io.frames import MISSING_FRAMES, missing_frames_warning, natural_key
 from dynaeval.report.results import (
     FRAME_FIELDS,
     NO_REGIONS,
@@ -115,8 +115,6 @@ def _merged_temporal_pairs(docs: list[dict[str, Any]], skipped: list[dict], sett
                            warnings: list[dict]) -> dict[str, dict]:
     """The shards' ``inputs.temporal_pairs``, cameras in natural order; the shards' warnings
     naming their missing frames replaced, in place, by the one the unsharded run gives."""
-    from dynaeval.io.frames import MISSING_FRAMES, missing_frames_warning
-
     pairs = {c: v for d in docs for c, v in d["inputs"].get("temporal_pairs", {}).items()}
     pairs = {c: pairs[c] for c in sorted(pairs, key=natural_key)}
     warnings[:] = [w for w in warnings if "camera" in w or not w["reason"].startswith(

@@ -34,6 +34,7 @@ from typing import Any
 
 from dynaeval.errors import InputError
 from dynaeval.io.atomic import write_text_atomic
+from dynaeval.metrics.registry import METRICS, SPECS
 
 SCHEMA = "dynaeval/results/v1"
 
@@ -43,8 +44,6 @@ def _direction(name: str) -> dict[str, Any]:
     Raises:
         KeyError: the key is not registered (a bug: every reported key is in the registry).
     """
-    from dynaeval.metrics.registry import METRICS
-
     if name not in METRICS:
         raise KeyError(f"result key {name!r} is not in the metric registry "
                        "(dynaeval.metrics.registry.SPECS): register the metric")
@@ -165,7 +164,6 @@ def _without_disabled_tlp(warnings: list[dict], settings: dict[str, Any]) -> lis
     settings say so; a tLP that was on and came out null keeps its warnings."""
     if (settings.get("temporal") or {}).get("tlp") is not False:
         return warnings
-    from dynaeval.metrics.registry import SPECS
 
     keys = set(SPECS["tlp"].keys())
     return [w for w in warnings if w.get("metric") not in keys]
@@ -209,8 +207,6 @@ def no_regions_warning(regions: dict[str, Any] | None) -> dict[str, str] | None:
 
 def _explained_by_no_regions(warning: dict, regions: dict[str, Any]) -> bool:
     """A run-level null-summary warning of a metric that the no-box headline explains."""
-    from dynaeval.metrics.registry import METRICS
-
     info = METRICS.get(warning.get("metric", ""))
     if "camera" in warning or info is None or not warning["reason"].startswith("summary is null"):
         return False

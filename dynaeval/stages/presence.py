@@ -5,6 +5,7 @@ from __future__ import annotations
 import time
 from typing import TYPE_CHECKING
 
+from dynaeval.metrics.presence import PRESENCE_METRICS
 from dynaeval.stages.base import FrameWork, Stage, Value
 
 if TYPE_CHECKING:
@@ -21,8 +22,6 @@ class Presence(Stage):
         return plan.presence is not None
 
     def frame_keys(self, plan: RunPlan) -> list[str]:
-        from dynaeval.metrics.presence import PRESENCE_METRICS
-
         return list(PRESENCE_METRICS)
 
     def frame(self, plan: RunPlan, work: FrameWork) -> list[Value]:

@@ -13,8 +13,11 @@ from dynaeval.errors import InputError, UndefinedMetricError
 from dynaeval.io import FramePair
 from dynaeval.io.frames import gap_positions
 from dynaeval.metrics.flow import check_flow_size
-from dynaeval.metrics.registry import temporal_keys
-from dynaeval.regions.focus import FocusConfig, FrameRegions
+from dynaeval.metrics.perceptual import MIN_SIZE
+from dynaeval.metrics.registry import SPECS, temporal_keys
+from dynaeval.metrics.temporal import temporal_metrics
+from dynaeval.regions.focus import FocusConfig, FrameRegions, FramesDiffer, same_shape
+from dynaeval.regions.packed import union
 from dynaeval.stages.base import CameraWork, Stage
 
 if TYPE_CHECKING:
@@ -45,8 +48,6 @@ def _temporal_or_reason(camera: str, pairs: list[FramePair], regions: list[Frame
     """The camera's temporal terms, or every term null with the reason: frames that differ in
     shape (``differ``: the ``FramesDiffer`` found by the regions, or found here), frames too
     small for optical flow. InputErrors that name no file are raised naming the camera."""
-    from dynaeval.regions.focus import FramesDiffer
-
     def nulls(reason: str) -> dict[str, dict]:
         return {n: {"value": None, "reason": reason} for n in temporal_keys()}
 
@@ -84,8 +85,6 @@ def _name_gaps(pairs: list[FramePair], temporal: dict[str, dict]) -> None:
 
 def _small_for_tlp(plan: RunPlan, h: int, w: int) -> str | None:
     """Why tLP is undefined for frames of (h, w), or None (LPIPS's backbone has a minimum)."""
-    from dynaeval.metrics.perceptual import MIN_SIZE
-
     net = plan.temporal.lpips_net
     if "lpips" not in plan.fns or not plan.temporal.tlp or min(h, w) >= MIN_SIZE.get(net, 0):
         return None
@@ -96,8 +95,6 @@ def _small_for_tlp(plan: RunPlan, h: int, w: int) -> str | None:
 def static_pixels(regions: list[FrameRegions], focus: FocusConfig) -> np.ndarray | None:
     """The camera's static pixels, ``(H, W)`` bool: never moving in any frame's motion mask
     (None: no masked metrics, or no frame has a mask)."""
-    from dynaeval.regions.packed import union
-
     if not focus.masked:
         return None
     moving = union(r.packed_mask for r in regions if r.packed_mask is not None)
@@ -109,10 +106,6 @@ def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], plan
     """The temporal terms of one camera (``dynaeval.metrics.temporal.temporal_metrics`` output),
     its ground truth of ``shape`` (the first frame's); tLP null with the reason when the frames
     are smaller than LPIPS accepts."""
-    from dynaeval.metrics.registry import SPECS
-    from dynaeval.metrics.temporal import temporal_metrics
-    from dynaeval.regions.focus import same_shape
-
     cache, prepared = work.cache, plan.prepared
     static = static_pixels(regions, plan.focus)
     region_masks = None  # a frame without boxes: None, the pairs with it have no focused value

@@ -10,6 +10,7 @@ import numpy as np
 
 from dynaeval.errors import EmptyRegionError, InputError, UndefinedMetricError
 from dynaeval.io import FramePair
+from dynaeval.io.video import video_fps
 from dynaeval.stages.base import CameraWork, Stage, consecutive
 
 if TYPE_CHECKING:
@@ -49,8 +50,6 @@ class _Clip:
 def camera_fps(pairs: list[FramePair], fps: float) -> float:
     """The frame rate a camera is played at: its ground-truth video file's, else ``fps``
     (``ScoreConfig.fps``)."""
-    from dynaeval.io.video import video_fps
-
     ref = pairs[0].gt
     found = video_fps(ref.path) if ref.index is not None else None
     return found if found else fps

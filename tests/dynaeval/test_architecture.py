@@ -167,3 +167,107 @@ def test_importing_the_toolkit_stays_light(module):
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "[]", f"import {module} loads {out.stdout.strip()}"
+
+
+def _internal_graph() -> tuple[dict[str, set[str]], list[tuple[str, int, str]]]:
+    """dynaeval's import graph (every import, module level and inside functions) and the
+    internal imports made inside functions, ``(module, line, target)``.
+
+    ``from P import a`` is an edge to ``P.a`` where that is a module, else to ``P``; the
+    package's own lazy re-export (``dynaeval.score`` in ``dynaeval/__init__.py``, which keeps
+    ``import dynaeval`` light), ``from dynaeval import __version__`` and the imports under
+    ``if TYPE_CHECKING:`` (never run) are not edges.
+    """
+    modules = {_module_name(p): p for p in _sources()}
+    graph: dict[str, set[str]] = {m: set() for m in modules}
+    lazy = []
+    for module, path in modules.items():
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        inside = {id(n) for f in ast.walk(tree) if isinstance(f, (ast.FunctionDef,
+                                                                  ast.AsyncFunctionDef))
+                  for n in ast.walk(f) if n is not f}
+        typing_only = {id(n) for f in ast.walk(tree) if isinstance(f, ast.If)
+                       and "TYPE_CHECKING" in ast.unparse(f.test) for n in ast.walk(f)}
+        for node in ast.walk(tree):
+            if id(node) in typing_only:
+                continue
+            if isinstance(node, ast.Import):
+                found = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                subs = [f"{node.module}.{a.name}" for a in node.names]
+                found = [s for s in subs if s in modules]
+                if len(found) < len(subs) and not (node.module == "dynaeval" and all(
+                        a.name == "__version__" for a in node.names)):
+                    found.append(node.module)
+            else:
+                continue
+            targets = {t for t in found if t in modules and t != module}
+            if module == "dynaeval" or not targets:
+                continue
+            graph[module] |= targets
+            if id(node) in inside:
+                lazy += [(module, node.lineno, t) for t in sorted(targets)]
+    return graph, lazy
+
+
+def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected groups of more than one module (Tarjan, iterative)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    groups = []
+    for start in graph:
+        if start in index:
+            continue
+        work = [(start, iter(sorted(graph[start])))]
+        index[start] = low[start] = len(index)
+        stack.append(start)
+        on_stack.add(start)
+        while work:
+            v, children = work[-1]
+            w = next(children, None)
+            if w is not None:
+                if w not in index:
+                    index[w] = low[w] = len(index)
+                    stack.append(w)
+                    on_stack.add(w)
+                    work.append((w, iter(sorted(graph[w]))))
+                elif w in on_stack:
+                    low[v] = min(low[v], index[w])
+                continue
+            work.pop()
+            if work:
+                low[work[-1][0]] = min(low[work[-1][0]], low[v])
+            if low[v] == index[v]:
+                group = []
+                while True:
+                    w = stack.pop()
+                    on_stack.discard(w)
+                    group.append(w)
+                    if w == v:
+                        break
+                if len(group) > 1:
+                    groups.append(sorted(group))
+    return groups
+
+
+def test_no_import_cycle():
+    """No two dynaeval modules import each other, directly or round a loop, counting the imports
+    inside functions too (issue 31: three lazy cycles hid in them)."""
+    assert _cycles(_internal_graph()[0]) == []
+
+
+LAZY_INTERNAL = {
+    "dynaeval.metrics.flicker_kernels": "compiles its numba kernels at import",
+    "dynaeval.metrics.structural_kernels": "compiles its numba kernels at import",
+}
+"""The dynaeval modules imported inside functions, and why: only those heavy at import."""
+
+
+def test_internal_imports_are_at_module_level():
+    """An import inside a function hides the graph; dynaeval's own modules are imported at the
+    top of the module, but those ``LAZY_INTERNAL`` names (heavy at import)."""
+    _, lazy = _internal_graph()
+    hidden = [f"{m}:{line} imports {t}" for m, line, t in lazy if t not in LAZY_INTERNAL]
+    assert hidden == []

@@ -437,7 +437,7 @@ def test_a_failing_camera_stops_the_others_and_its_error_is_raised(monkeypatch):
     from concurrent.futures import ThreadPoolExecutor
     from types import SimpleNamespace
 
-    import dynaeval.scoring
+    import dynaeval.evaluate
     from dynaeval.evaluate import _score_one_camera
     from dynaeval.executor import cameras_at_once
     from dynaeval.progress import Progress
@@ -453,7 +453,7 @@ def test_a_failing_camera_stops_the_others_and_its_error_is_raised(monkeypatch):
             raise InputError("frame 0002.png is broken")
         return cam
 
-    monkeypatch.setattr(dynaeval.scoring, "score_camera", fake_score_camera)
+    monkeypatch.setattr(dynaeval.evaluate, "score_camera", fake_score_camera)  # as imported there
     cams = {"a": [None] * 3, "b": [None] * 3}
     progress = Progress({"regions": 6, "frames": 800, "pairs": 4, "video": 2}, enabled=False)
     run = SimpleNamespace(temporal=None, fail=False)
