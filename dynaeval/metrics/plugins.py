@@ -38,6 +38,8 @@ def _specs_of(ep: EntryPoint, spec_type: type) -> list[Any]:
     obj = ep.load()
     if callable(obj) and not isinstance(obj, spec_type):
         obj = obj()
+    if not isinstance(obj, (spec_type, list, tuple)):
+        raise TypeError(f"expected a MetricSpec or a list of them, got a {type(obj).__name__}")
     specs = [obj] if isinstance(obj, spec_type) else list(obj)
     wrong = [type(s).__name__ for s in specs if not isinstance(s, spec_type)]
     if wrong or not specs:
