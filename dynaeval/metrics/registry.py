@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from dynaeval.errors import InputError, WeightsUnavailableError
+from dynaeval.metrics.plugins import plugin_specs
 from dynaeval.metrics.protocols import get_protocol
 
 REGIONS: dict[str, str] = {"whole": "", "focused": "focused_", "masked": "masked_",
@@ -368,6 +369,22 @@ _WHERE = {
     "masked": "moving pixels of the motion mask (or the given masks)",
     "covisible": "covisibility mask (DyCheck)",
 }
+
+
+def _keys_of(spec: MetricSpec) -> list[str]:
+    """A spec's base name and every result key it makes."""
+    return [spec.name, *(spec.key(r) for r in spec.regions), *(spec.key(c) for c in spec.classes)]
+
+
+def _with_plugins(specs: dict[str, MetricSpec]) -> dict[str, MetricSpec]:
+    """``specs`` and, after them, the metrics of installed plugins (entry-point group
+    ``dynaeval.metrics``: ``dynaeval.metrics.plugins``)."""
+    taken = {key: f"dynaeval's {s.name}" for s in specs.values() for key in _keys_of(s)}
+    extra = plugin_specs(MetricSpec, taken, _keys_of)
+    return {**specs, **{s.name: s for s in extra}}
+
+
+SPECS = _with_plugins(SPECS)
 
 
 def _ordered(specs: list[MetricSpec]) -> list[tuple[MetricSpec, str]]:

@@ -1,0 +1,85 @@
+"""Metrics from other packages: the entry-point group ``dynaeval.metrics``.
+
+An installed package registers metrics by naming, in its ``pyproject.toml``::
+
+    [project.entry-points."dynaeval.metrics"]
+    toy_mae = "toy_package:SPEC"
+
+where ``SPEC`` is a ``dynaeval.metrics.registry.MetricSpec`` (or a list of them, or a function
+returning one or a list). The registry reads the group once, when it is first imported; each
+metric then has its CLI flag, ``ScoreConfig(metrics=...)``, results keys, table, report and
+leaderboard columns like a metric of dynaeval's own. A plugin that cannot be loaded is one
+``MetricPluginWarning`` naming its entry point, and the run goes on without it; a metric whose
+name or result key is already taken is refused with a warning naming both owners.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Callable
+from importlib.metadata import EntryPoint, entry_points
+from typing import Any
+
+ENTRY_POINT_GROUP = "dynaeval.metrics"
+
+
+class MetricPluginWarning(UserWarning):
+    """A metric plugin was skipped (it failed to load, or reuses a name)."""
+
+
+def _where(ep: EntryPoint) -> str:
+    dist = getattr(ep, "dist", None)
+    package = f", package {dist.name}" if dist is not None else ""
+    return f"metric plugin {ep.name!r} ({ep.value}{package})"
+
+
+def _specs_of(ep: EntryPoint, spec_type: type) -> list[Any]:
+    """The MetricSpecs an entry point names; TypeError for anything else."""
+    obj = ep.load()
+    if callable(obj) and not isinstance(obj, spec_type):
+        obj = obj()
+    if not isinstance(obj, (spec_type, list, tuple)):
+        raise TypeError(f"expected a MetricSpec or a list of them, got a {type(obj).__name__}")
+    specs = [obj] if isinstance(obj, spec_type) else list(obj)
+    wrong = [type(s).__name__ for s in specs if not isinstance(s, spec_type)]
+    if wrong or not specs:
+        raise TypeError(f"expected a MetricSpec or a list of them, got {wrong or 'nothing'}")
+    return specs
+
+
+def plugin_specs(spec_type: type, taken: dict[str, str],
+                 keys_of: Callable[[Any], list[str]],
+                 found: Callable[[], Any] = lambda: entry_points(group=ENTRY_POINT_GROUP)
+                 ) -> list[Any]:
+    """The metrics the installed plugins declare, checked, in entry-point name order.
+
+    Args:
+        spec_type: ``MetricSpec`` (passed in: the registry imports this module).
+        taken: every metric name and result key already registered -> who owns it (updated
+            with the plugins' own).
+        keys_of: a spec's base name and result keys.
+        found: the entry points to read (tests pass their own).
+
+    Warns:
+        MetricPluginWarning: per plugin that fails to load or is not a MetricSpec, and per
+            metric whose name or key is taken (it is refused, the others are kept).
+    """
+    out = []
+    for ep in sorted(found(), key=lambda e: e.name):
+        try:
+            specs = _specs_of(ep, spec_type)
+        except Exception as err:  # a broken plugin must not break dynaeval
+            warnings.warn(f"{_where(ep)} could not be loaded and is skipped: "
+                          f"{type(err).__name__}: {err}", MetricPluginWarning, stacklevel=2)
+            continue
+        for spec in specs:
+            clash = next((k for k in keys_of(spec) if k in taken), None)
+            if clash is not None:
+                warnings.warn(f"{_where(ep)} declares the metric {spec.name!r}, whose key "
+                              f"{clash!r} is already {taken[clash]}'s: it is refused (rename "
+                              "it in the plugin)", MetricPluginWarning, stacklevel=2)
+                continue
+            for key in keys_of(spec):
+                taken[key] = _where(ep)
+            out.append(spec)
+    return out

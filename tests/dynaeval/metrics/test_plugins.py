@@ -1,0 +1,142 @@
+"""Metrics from other packages (entry-point group ``dynaeval.metrics``, issue 31): a tiny package
+installed in the test (its ``.dist-info`` on ``sys.path``, as pip leaves it) shows its metric in
+the CLI, the results JSON and the table; a broken plugin or one that reuses a name is a warning
+naming it, and the run goes on."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from dynaeval.cli import sample_dir
+from dynaeval.metrics.plugins import MetricPluginWarning, plugin_specs
+from dynaeval.metrics.registry import MetricSpec
+
+TOY = '''
+import numpy as np
+
+from dynaeval.metrics.registry import MetricSpec
+
+SPEC = MetricSpec("toy_mae", "frame", False, (0.0, 1.0), "",
+                  "mean absolute error of the [0, 1] images (a plugin's toy)",
+                  default=False, build="toy_metric_pkg:build")
+
+
+def build(ctx):
+    def fn(pred, gt, region):
+        return float(np.mean(np.abs(np.asarray(pred, np.float64) - np.asarray(gt, np.float64))))
+    return fn
+'''
+
+
+def _install(root: Path, entry: str, code: str = TOY) -> Path:
+    """A package ``toy_metric_pkg`` with its dist-info under ``root`` (what pip installs)."""
+    (root / "toy_metric_pkg").mkdir(parents=True)
+    (root / "toy_metric_pkg" / "__init__.py").write_text(code)
+    info = root / "toy_metric_pkg-0.1.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: toy-metric-pkg\nVersion: 0.1\n")
+    (info / "entry_points.txt").write_text(f"[dynaeval.metrics]\n{entry}\n")
+    return root
+
+
+def _score(site: Path, out: Path, *extra: str) -> subprocess.CompletedProcess:
+    s = sample_dir()
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        [str(site), os.environ.get("PYTHONPATH", "")])}
+    return subprocess.run(
+        [sys.executable, "-m", "dynaeval", "score", str(s / "pred" / "cam07"),
+         str(s / "gt" / "cam07"), "--focus", "none", "--no-temporal", "--no-presence", "-q",
+         "-o", str(out), *extra], capture_output=True, text=True, timeout=300, env=env)
+
+
+def test_an_installed_plugin_metric_is_scored_and_reported(tmp_path):
+    site = _install(tmp_path / "site", "toy_mae = toy_metric_pkg:SPEC")
+    run = _score(site, tmp_path / "r.json", "--metrics", "psnr", "toy_mae")
+    assert run.returncode == 0, run.stderr
+    doc = json.loads((tmp_path / "r.json").read_text())
+    assert doc["metrics"]["toy_mae"]["higher_is_better"] is False
+    # an independent value: the mean over frames of the mean |pred - gt| of the files, read as
+    # dynaeval hands frames to a metric (float32 / 255)
+    s = sample_dir()
+
+    def unit(path: Path) -> np.ndarray:
+        return (cv2.imread(str(path)).astype(np.float32) / np.float32(255)).astype(np.float64)
+
+    want = np.mean([np.mean(np.abs(unit(p) - unit(s / "gt" / "cam07" / p.name)))
+                    for p in sorted((s / "pred" / "cam07").glob("*.png"))])
+    assert doc["summary"]["toy_mae"] == pytest.approx(want, rel=1e-12)
+    assert "toy_mae" in run.stdout  # the table
+    off = _score(site, tmp_path / "r2.json", "--no-lpips")  # off by default: asked by its flag
+    assert off.returncode == 0 and "toy_mae" not in json.loads((tmp_path / "r2.json")
+                                                              .read_text())["summary"]
+    flag = _score(site, tmp_path / "r3.json", "--no-lpips", "--toy-mae")
+    assert flag.returncode == 0, flag.stderr
+    assert "toy_mae" in json.loads((tmp_path / "r3.json").read_text())["summary"]
+
+
+def test_a_broken_plugin_is_one_warning_and_the_run_goes_on(tmp_path):
+    site = _install(tmp_path / "site", "toy_mae = toy_metric_pkg:NO_SUCH_SPEC")
+    run = _score(site, tmp_path / "r.json", "--metrics", "psnr")
+    assert run.returncode == 0, run.stderr
+    assert run.stderr.count("MetricPluginWarning") == 1
+    assert "metric plugin 'toy_mae' (toy_metric_pkg:NO_SUCH_SPEC, package toy-metric-pkg) could " \
+           "not be loaded and is skipped: AttributeError" in run.stderr
+    assert "Traceback" not in run.stderr
+
+
+class _EntryPoint:
+    """What ``importlib.metadata.entry_points`` yields, for the checks of ``plugin_specs``."""
+
+    def __init__(self, name: str, obj: object) -> None:
+        self.name, self.value, self.obj, self.dist = name, f"pkg:{name}", obj, None
+
+    def load(self) -> object:
+        if isinstance(self.obj, Exception):
+            raise self.obj
+        return self.obj
+
+
+def _spec(name: str, regions: tuple[str, ...] = ("whole",)) -> MetricSpec:
+    return MetricSpec(name, "frame", True, (0.0, 1.0), "", "toy", regions=regions,
+                      build="x:y")
+
+
+def _keys(spec: MetricSpec) -> list[str]:
+    return [spec.name, *(spec.key(r) for r in spec.regions)]
+
+
+def test_plugin_reusing_a_name_or_key_is_refused_naming_both():
+    taken = {"psnr": "dynaeval's psnr", "focused_psnr": "dynaeval's psnr"}
+    found = [_EntryPoint("a", _spec("psnr")), _EntryPoint("b", [_spec("good"), _spec("good2")]),
+             _EntryPoint("c", lambda: _spec("psnr2", ("whole", "focused"))),
+             _EntryPoint("d", _spec("good"))]
+    with pytest.warns(MetricPluginWarning) as caught:
+        specs = plugin_specs(MetricSpec, taken, _keys, found=lambda: found)
+    assert [s.name for s in specs] == ["good", "good2", "psnr2"]
+    messages = [str(w.message) for w in caught]
+    assert messages == [
+        "metric plugin 'a' (pkg:a) declares the metric 'psnr', whose key 'psnr' is already "
+        "dynaeval's psnr's: it is refused (rename it in the plugin)",
+        "metric plugin 'd' (pkg:d) declares the metric 'good', whose key 'good' is already "
+        "metric plugin 'b' (pkg:b)'s: it is refused (rename it in the plugin)"]
+
+
+@pytest.mark.parametrize("obj,message", [
+    (ImportError("No module named 'torch'"), "ImportError: No module named 'torch'"),
+    ("psnr", "TypeError: expected a MetricSpec or a list of them, got a str"),
+    (["psnr"], "TypeError: expected a MetricSpec or a list of them, got ['str']"),
+    ([], "TypeError: expected a MetricSpec or a list of them, got nothing"),
+])
+def test_a_plugin_that_is_not_a_metric_spec_is_skipped(obj, message):
+    with pytest.warns(MetricPluginWarning, match=re.escape(
+            "metric plugin 'x' (pkg:x) could not be loaded and is skipped: " + message)):
+        assert plugin_specs(MetricSpec, {}, _keys, found=lambda: [_EntryPoint("x", obj)]) == []
