@@ -16,7 +16,7 @@ import pytest
 PACKAGE = Path(__file__).resolve().parents[2] / "dynaeval"
 
 FLOOR = ("dynaeval.errors", "dynaeval.boxes", "dynaeval.runtime", "dynaeval.validation",
-         "dynaeval.progress")
+         "dynaeval.progress", "dynaeval.outcome")
 """The ground floor: every layer may import it; it imports nothing of dynaeval above it."""
 
 LAYERS = {
