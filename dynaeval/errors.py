@@ -37,16 +37,6 @@ class WeightsUnavailableError(RuntimeError):
     """
 
 
-class MissingPackageError(ImportError):
-    """An optional package a metric needs is not installed; the message says so and ends with
-    ``install``, the line that installs it (so nothing adds another)."""
-
-    def __init__(self, message: str, install: str) -> None:
-        super().__init__(message)
-        self.install = install
-        """The install line, e.g. ``pip install 'dynaeval[video]'``."""
-
-
 class EmptyRegionError(ValueError):
     """The region to score (mask or boxes) holds no pixel, so the metric is undefined.
 

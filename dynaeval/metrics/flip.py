@@ -41,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.errors import InputError, MissingPackageError
+from dynaeval.errors import InputError
 from dynaeval.metrics._common import absent_modules, region_mask
 from dynaeval.validation import as_image, grey_to_rgb
 
@@ -93,7 +93,7 @@ def _package() -> Any:
     try:
         import flip_evaluator
     except ImportError as err:
-        raise MissingPackageError(_ABSENT, _HINT) from err
+        raise ImportError(_ABSENT) from err
     return flip_evaluator
 
 

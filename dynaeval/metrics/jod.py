@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 
 from dynaeval.boxes import as_boxes, clip_boxes, grow_box
-from dynaeval.errors import EmptyRegionError, InputError, MissingPackageError
+from dynaeval.errors import EmptyRegionError, InputError
 from dynaeval.metrics._common import absent_modules
 from dynaeval.validation import as_image, grey_to_rgb
 
@@ -94,8 +94,7 @@ def _module(model: str) -> Any:
     try:
         return importlib.import_module(name)
     except ImportError as err:
-        raise MissingPackageError(_absent(model, getattr(err, "name", None)),
-                                  HINTS[model]) from err
+        raise ImportError(_absent(model, getattr(err, "name", None))) from err
 
 
 def missing_package(ctx: Any) -> str | None:

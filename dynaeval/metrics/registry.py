@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.errors import InputError, MissingPackageError, WeightsUnavailableError
+from dynaeval.errors import InputError, WeightsUnavailableError
 from dynaeval.metrics.plugins import plugin_specs
 from dynaeval.metrics.protocols import get_protocol
 
@@ -528,8 +528,7 @@ def build_frame_metrics(
     ``camera_fns``) for the region variants ``regions``.
 
     A metric whose ``build`` raises ``WeightsUnavailableError`` or ``ImportError`` is left out
-    with the reason in ``unavailable`` (and its settings say so); a plain ``ImportError`` gets
-    the install line of the metric's extra, a ``MissingPackageError`` names its own. Every per-frame metric's
+    with the reason in ``unavailable`` (and its settings say so). Every per-frame metric's
     settings function is called, so a default metric switched off records ``enabled: false``.
     """
     out = BuiltMetrics()
@@ -542,7 +541,7 @@ def build_frame_metrics(
                 built[s.name] = s.load("build")(ctx)
             except (WeightsUnavailableError, ImportError) as err:
                 hint = (f" (pip install 'dynaeval[{s.extra}]')" if isinstance(err, ImportError)
-                        and s.extra and not isinstance(err, MissingPackageError) else "")
+                        and s.extra and "pip install" not in str(err) else "")
                 unavailable = f"{err}{hint}"
                 out.unavailable[s.name] = unavailable
         settings_fn = s.load("settings")
