@@ -16,7 +16,7 @@ import pytest
 PACKAGE = Path(__file__).resolve().parents[2] / "dynaeval"
 
 FLOOR = ("dynaeval.errors", "dynaeval.boxes", "dynaeval.runtime", "dynaeval.validation",
-         "dynaeval.progress")
+         "dynaeval.progress", "dynaeval.deps")
 """The ground floor: every layer may import it; it imports nothing of dynaeval above it."""
 
 LAYERS = {
@@ -271,3 +271,32 @@ def test_internal_imports_are_at_module_level():
     _, lazy = _internal_graph()
     hidden = [f"{m}:{line} imports {t}" for m, line, t in lazy if t not in LAZY_INTERNAL]
     assert hidden == []
+
+
+def test_optional_packages_are_imported_only_by_deps():
+    """Whether an optional package (torch, lpips, flip_evaluator, ...) is installed is found once,
+    at import, by ``dynaeval.deps``; no other module imports one itself (``deps.load`` does, and
+    turns a missing install into ``MissingDependency`` with its install line), and none probes
+    for one with ``find_spec`` or ``try: import``."""
+    from dynaeval.deps import DEPENDENCIES
+
+    found = []
+    for path in _sources():
+        if path.name == "deps.py" and path.parent == PACKAGE:
+            continue
+        rel = path.relative_to(PACKAGE.parent)
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            names = []
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                names = [node.module]
+            elif isinstance(node, ast.Attribute) and node.attr == "find_spec":
+                found.append(f"{rel}:{node.lineno} find_spec")
+            elif (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
+                  and node.func.attr == "import_module" and node.args
+                  and isinstance(node.args[0], ast.Constant)):
+                names = [str(node.args[0].value)]
+            found += [f"{rel}:{node.lineno} import {n}" for n in names
+                      if n.split(".")[0] in DEPENDENCIES]
+    assert not found, f"optional packages imported outside dynaeval.deps: {found}"
