@@ -7,7 +7,8 @@ the CPU* — never an error. For torch that is ``"cuda"`` when ``torch.cuda.is_a
 installed onnxruntime offers it (``onnxruntime-gpu``). An explicit ``"cuda"`` that cannot be
 honoured is an :class:`~dynaeval.errors.InputError` naming the fix.
 
-Ground floor: numpy-free even; torch, onnxruntime and cv2 are imported inside the functions.
+Ground floor: numpy-free even; onnxruntime and cv2 are imported inside the functions, torch through
+``dynaeval.deps``.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+from dynaeval.deps import available, load
 from dynaeval.errors import InputError
 
 CPU_PROVIDERS: tuple[str, ...] = ("CPUExecutionProvider",)
@@ -36,17 +38,15 @@ def resolve_device(device: object = None) -> str:
         return "cpu"
     text = str(device)
     if text == "auto":
-        try:
-            import torch
-        except ImportError:  # no torch: nothing could run on a GPU anyway
+        if not available("torch"):  # no torch: nothing could run on a GPU anyway
             return "cpu"
-        return "cuda" if torch.cuda.is_available() else "cpu"
+        return "cuda" if load("torch").cuda.is_available() else "cpu"
     return text
 
 
 def torch_device(device: object = None) -> Any:
     """``torch.device`` for ``device`` (see :func:`resolve_device`; imports torch)."""
-    import torch
+    torch = load("torch")
 
     return torch.device(resolve_device(device))
 

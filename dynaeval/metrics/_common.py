@@ -76,20 +76,3 @@ def whole_or_region(whole: Any, regional: Any, data_range: float) -> Any:
         return whole(pred, gt, data_range=data_range)
 
     return fn
-
-
-def absent_modules(*names: str) -> list[str]:
-    """Those of the top-level modules ``names`` that cannot be found on this machine, without
-    importing them (``importlib.util.find_spec``: a module set to None in ``sys.modules``, or one
-    a finder refuses, counts as absent). Cheap: a metric's availability is known before a run."""
-    import importlib.util
-
-    absent = []
-    for name in names:
-        try:
-            found = importlib.util.find_spec(name) is not None
-        except (ImportError, ValueError):  # a blocking finder; sys.modules[name] without a spec
-            found = False
-        if not found:
-            absent.append(name)
-    return absent

@@ -41,8 +41,9 @@ from typing import Any
 
 import numpy as np
 
+from dynaeval.deps import MissingDependency, load, missing
 from dynaeval.errors import InputError
-from dynaeval.metrics._common import absent_modules, region_mask
+from dynaeval.metrics._common import region_mask
 from dynaeval.validation import as_image, grey_to_rgb
 
 PIXELS_PER_DEGREE = 0.7 * (3840 / 0.7) * math.pi / 180
@@ -91,16 +92,17 @@ _ABSENT = f"FLIP needs NVIDIA's {PACKAGE} package, which is not installed: {_HIN
 def _package() -> Any:
     """The ``flip_evaluator`` module; ImportError saying what to install when it is absent."""
     try:
-        import flip_evaluator
-    except ImportError as err:
-        raise ImportError(_ABSENT) from err
-    return flip_evaluator
+        return load("flip_evaluator")
+    except MissingDependency as err:
+        if err.installed:
+            raise
+        raise err.saying(_ABSENT) from err
 
 
 def missing_package(ctx: Any = None) -> str | None:
     """Why FLIP cannot run on this machine (with the install line), or None when its package is
     there; found without importing it (the registry's ``requires``)."""
-    return _ABSENT if absent_modules("flip_evaluator") else None
+    return _ABSENT if missing("flip_evaluator") else None
 
 
 def _rgb(x: object, name: str) -> np.ndarray:

@@ -41,8 +41,8 @@ from typing import Any
 import numpy as np
 
 from dynaeval.boxes import as_boxes, clip_boxes, grow_box
+from dynaeval.deps import MissingDependency, load, missing
 from dynaeval.errors import EmptyRegionError, InputError
-from dynaeval.metrics._common import absent_modules
 from dynaeval.validation import as_image, grey_to_rgb
 
 MODELS = {"cvvdp": ("cvvdp", "pycvvdp"), "fvvdp": ("pyfvvdp", "pyfvvdp")}
@@ -88,13 +88,11 @@ def _absent(model: str, missing: str | None = None) -> str:
 
 def _module(model: str) -> Any:
     """The package of ``model``; ImportError saying what to install when it is absent."""
-    import importlib
-
     name = MODELS[check_model(model)][1]
     try:
-        return importlib.import_module(name)
-    except ImportError as err:
-        raise ImportError(_absent(model, getattr(err, "name", None))) from err
+        return load(name)
+    except MissingDependency as err:
+        raise err.saying(_absent(model, err.name)) from err
 
 
 def missing_package(ctx: Any) -> str | None:
@@ -102,7 +100,7 @@ def missing_package(ctx: Any) -> str | None:
     install line (``dynaeval[fvvdp]`` for FovVideoVDP), or None when its package and torch are
     there; found without importing them (the registry's ``requires``)."""
     model = check_model(ctx.option("jod", "model", DEFAULT_MODEL))
-    absent = absent_modules(MODELS[model][1], "torch")
+    absent = missing(MODELS[model][1], "torch")
     return _absent(model, absent[0]) if absent else None
 
 
@@ -114,7 +112,7 @@ def load_model(model: str = DEFAULT_MODEL, display: str = DEFAULT_DISPLAY,
         ImportError: the package (or torch) is not installed.
         InputError: an unknown model or display name.
     """
-    import torch
+    torch = load("torch")
 
     mod = _module(model)
     known = _display_names(mod, model)
@@ -144,7 +142,7 @@ def _frame(frames: Sequence[Any], i: int, name: str) -> np.ndarray:
 def _sources(metric: Any, model: str, read: Callable[[str, int], np.ndarray],
              size: tuple[int, int, int], fps: float) -> Any:
     """A video source of the package that asks ``read("test"|"reference", i)`` for frame i."""
-    import torch
+    torch = load("torch")
 
     def tensor(kind: str, i: int, device: Any) -> Any:
         t = torch.tensor(read(kind, i)).permute(2, 0, 1)[None, :, None]  # (1, 3, 1, H, W), a copy
@@ -158,7 +156,7 @@ def _sources(metric: Any, model: str, read: Callable[[str, int], np.ndarray],
             return fps
 
     if model == "cvvdp":
-        from pycvvdp.video_source import video_source_dm
+        video_source_dm = load("pycvvdp.video_source").video_source_dm
 
         class Source(Clip, video_source_dm):  # type: ignore[misc, valid-type]
             def get_test_frame(self, i, device, colorspace):  # noqa: ANN001, ANN202
@@ -167,7 +165,7 @@ def _sources(metric: Any, model: str, read: Callable[[str, int], np.ndarray],
             def get_reference_frame(self, i, device, colorspace):  # noqa: ANN001, ANN202
                 return self.apply_dm_and_color_transform(tensor("reference", i, device), colorspace)
     else:
-        from pyfvvdp.video_source import fvvdp_video_source_dm
+        fvvdp_video_source_dm = load("pyfvvdp.video_source").fvvdp_video_source_dm
 
         class Source(Clip, fvvdp_video_source_dm):  # type: ignore[misc, valid-type, no-redef]
             def _lum(self, t):  # noqa: ANN001, ANN202
@@ -216,7 +214,7 @@ def jod(
         InputError: no frame, different counts or sizes, bad pixels, bad fps/model/display/window.
         ImportError: the model's package (or torch) is not installed.
     """
-    import torch
+    torch = load("torch")
 
     fps = check_fps(fps)
     n = len(pred)

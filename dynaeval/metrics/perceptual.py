@@ -18,8 +18,9 @@ from typing import Any
 import numpy as np
 
 from dynaeval.boxes import grow_box
+from dynaeval.deps import load, missing
 from dynaeval.errors import InputError, UndefinedMetricError, WeightsUnavailableError
-from dynaeval.metrics._common import absent_modules, clipped_boxes, region_mask
+from dynaeval.metrics._common import clipped_boxes, region_mask
 from dynaeval.runtime import new_session, onnx_providers, resolve_device, torch_device
 from dynaeval.validation import check_pair, grey_to_rgb
 
@@ -45,9 +46,8 @@ def _check_net(net: str) -> None:
 
 def _backbone_url(net: str) -> str:
     """Download URL of ``net``'s ImageNet weights, from torchvision's weights enum."""
-    from torchvision.models import AlexNet_Weights, VGG16_Weights
-
-    return (AlexNet_Weights if net == "alex" else VGG16_Weights).IMAGENET1K_V1.url
+    models = load("torchvision.models")
+    return (models.AlexNet_Weights if net == "alex" else models.VGG16_Weights).IMAGENET1K_V1.url
 
 
 def backbone_weights_file(net: str = "alex") -> Path:
@@ -58,7 +58,7 @@ def backbone_weights_file(net: str = "alex") -> Path:
     honours ``TORCH_HOME``.
     """
     _check_net(net)
-    import torch
+    torch = load("torch")
 
     return Path(torch.hub.get_dir()) / "checkpoints" / _backbone_url(net).rsplit("/", 1)[-1]
 
@@ -77,7 +77,7 @@ def missing_package(ctx: Any) -> str | None:
     """Why LPIPS cannot run on this machine (the install line, or where to place the backbone
     of ``ctx.lpips_net``), or None: the registry's ``requires``, found without building the
     network (torch is imported only when its package is there, to find the weights file)."""
-    absent = absent_modules("torch", "torchvision", "lpips")
+    absent = missing("torch", "torchvision", "lpips")
     if absent:
         return (f"LPIPS needs the torch, torchvision and lpips packages ({', '.join(absent)} "
                 f"not installed): pip install 'dynaeval[lpips]'")
@@ -85,8 +85,8 @@ def missing_package(ctx: Any) -> str | None:
 
 
 def _build(net: str, spatial: bool, pretrained_backbone: bool, seed: int) -> Any:
-    import lpips as lpips_pkg
-    import torch
+    lpips_pkg = load("lpips")
+    torch = load("torch")
 
     path = backbone_weights_file(net)
     missing = _weights_absent(net) if pretrained_backbone else None
@@ -162,7 +162,7 @@ def export_lpips_onnx(model: Any) -> bytes:
     """
     import io
 
-    import torch
+    torch = load("torch")
 
     if any(m.training for m in model.modules()):
         raise RuntimeError("LPIPS model is in training mode: call .eval() before exporting it")
@@ -239,7 +239,7 @@ def _network(net: str, spatial: bool, backend: str, kw: dict[str, Any]):  # noqa
             return out.astype(np.float64)
 
         return run_onnx
-    import torch
+    torch = load("torch")
 
     kw = {k: v for k, v in kw.items() if k != "threads"}
     kw["device"] = resolve_device(kw.get("device"))
@@ -267,7 +267,7 @@ def _check_lpips_image(p: np.ndarray, name: str) -> np.ndarray:
 
 def _to_tensor(batch: list[np.ndarray], device: Any) -> Any:
     """List of (h, w, 3) arrays in [0, 1] -> (B, 3, h, w) float32 tensor in [-1, 1]."""
-    import torch
+    torch = load("torch")
 
     arr = np.stack(batch).astype(np.float32, copy=False).transpose(0, 3, 1, 2)
     t = torch.from_numpy(np.ascontiguousarray(arr)).to(device)
@@ -430,8 +430,8 @@ class LpipsFeatures:
     def features(self, image: object) -> tuple[Any, ...]:
         """Normalised backbone features of one ``(H, W, 3)`` / ``(H, W)`` image in [0, 1]: a tuple of
         ``(1, C_k, h_k, w_k)`` float32 tensors (the package's ``normalize_tensor`` of each layer)."""
-        import lpips as lpips_pkg
-        import torch
+        lpips_pkg = load("lpips")
+        torch = load("torch")
 
         x, _ = _prepare(image, image, self.net)
         model = self._model()
@@ -442,8 +442,8 @@ class LpipsFeatures:
 
     def distance(self, fa: tuple[Any, ...], fb: tuple[Any, ...]) -> float:
         """LPIPS between two images given their ``features``: float >= 0."""
-        import lpips as lpips_pkg
-        import torch
+        lpips_pkg = load("lpips")
+        torch = load("torch")
 
         if len(fa) != len(fb) or any(a.shape != b.shape for a, b in zip(fa, fb, strict=True)):
             raise InputError("LPIPS features of images of different sizes cannot be compared")
@@ -486,7 +486,7 @@ def lpips_unit_input(pred: object, gt: object, *, net: str = "vgg", device: obje
     if backend == "onnxruntime":
         session = load_lpips_onnx(net, device=device, pretrained_backbone=pretrained_backbone)
         return float(session.run(["d"], {"pred": a, "gt": b})[0].reshape(-1)[0])
-    import torch
+    torch = load("torch")
 
     model = load_lpips(net, device=resolve_device(device), pretrained_backbone=pretrained_backbone)
     dev = next(model.parameters()).device

@@ -36,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from dynaeval.deps import MissingDependency
 from dynaeval.errors import InputError, WeightsUnavailableError
 from dynaeval.metrics.plugins import plugin_specs
 from dynaeval.metrics.protocols import get_protocol
@@ -541,7 +542,7 @@ def build_frame_metrics(
                 built[s.name] = s.load("build")(ctx)
             except (WeightsUnavailableError, ImportError) as err:
                 hint = (f" (pip install 'dynaeval[{s.extra}]')" if isinstance(err, ImportError)
-                        and s.extra and "pip install" not in str(err) else "")
+                        and s.extra and not isinstance(err, MissingDependency) else "")
                 unavailable = f"{err}{hint}"
                 out.unavailable[s.name] = unavailable
         settings_fn = s.load("settings")

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from dynaeval.deps import DEPENDENCIES, MissingDependency, load
 from dynaeval.errors import InputError
 from dynaeval.io.atomic import write_text_atomic
 from dynaeval.regions.coco import COCO80_NAMES, COCO91_NAMES
@@ -37,13 +38,9 @@ EXPORT_HW = (720, 1280)
 dynamic, so any frame size runs."""
 YOLO_RELEASE = "https://github.com/ultralytics/assets/releases/download/v8.4.0"
 """Where Ultralytics' own loader downloads ``NAME.pt`` from (named in the offline message)."""
-ULTRALYTICS_INSTALL = ("pip install --no-deps ultralytics && "
-                       "pip install torch torchvision pyyaml requests onnx")
-"""The install line of the YOLO names. Not a plain ``pip install ultralytics``: that pulls
-``opencv-python``, whose files overwrite dynaeval's ``opencv-contrib-python-headless`` in the shared
-``cv2`` folder and take ``--flow tvl1`` away. Of ultralytics' other requirements, loading a
-``.pt`` and ``YOLO.export(format="onnx")`` need only pyyaml (its import), requests (the weights
-download) and onnx (the export); tried with ultralytics 8.4.190 (docs/regions.md)."""
+ULTRALYTICS_INSTALL = DEPENDENCIES["ultralytics"].install
+"""The install line of the YOLO names (``dynaeval.deps``: not a plain ``pip install
+ultralytics``, which breaks OpenCV)."""
 TORCHVISION_INSTALL = "pip install torch torchvision onnx"
 """The install line of the torchvision names (onnx writes the class names into the export)."""
 
@@ -218,11 +215,9 @@ def _common_record(spec: KnownDetector, onnx: Path, pretrained: bool) -> dict[st
 
 def _import(names: str, what: str):  # noqa: ANN202
     """Import torch + torchvision (or ultralytics, or onnx), or InputError saying what to install."""
-    import importlib
-
     try:
-        return [importlib.import_module(n) for n in names.split()]
-    except ImportError as err:
+        return [load(n) for n in names.split()]
+    except MissingDependency as err:
         raise _missing(err, what, ULTRALYTICS_INSTALL if "ultralytics" in names
                        else TORCHVISION_INSTALL) from err
 
@@ -268,7 +263,7 @@ def _check_checkpoint(spec: KnownDetector, weights, torch) -> None:  # noqa: ANN
 def _output_names(model, x) -> list[str]:  # noqa: ANN001
     """The model's own output order (Faster R-CNN: boxes, labels, scores; RetinaNet: boxes,
     scores, labels), read from what it returns: the ONNX outputs are named after it."""
-    import torch
+    torch = load("torch")
 
     with torch.no_grad():
         return list(model([x])[0].keys())

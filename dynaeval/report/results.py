@@ -38,6 +38,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
+from dynaeval.deps import available, load
 from dynaeval.errors import InputError
 from dynaeval.io.atomic import write_text_atomic
 from dynaeval.metrics.registry import METRICS, SPECS
@@ -460,10 +461,9 @@ def _check_layout(doc: dict[str, Any], path: Path) -> None:
     if bad is not None:
         raise InputError(f"not a valid dynaeval results file: frames[{bad}] needs 'camera' and "
                          "'frame'", path=path)
-    try:
-        import jsonschema
-    except ImportError:
+    if not available("jsonschema"):  # optional: dynaeval's own checks above always run
         return
+    jsonschema = load("jsonschema")
     schema = json.loads(schema_path(doc["schema"]).read_text(encoding="utf-8"))
     validator = jsonschema.Draft202012Validator(schema)
     error = jsonschema.exceptions.best_match(validator.iter_errors(doc))

@@ -16,7 +16,7 @@ import pytest
 PACKAGE = Path(__file__).resolve().parents[2] / "dynaeval"
 
 FLOOR = ("dynaeval.errors", "dynaeval.boxes", "dynaeval.runtime", "dynaeval.validation",
-         "dynaeval.progress", "dynaeval.outcome")
+         "dynaeval.progress", "dynaeval.deps", "dynaeval.outcome")
 """The ground floor: every layer may import it; it imports nothing of dynaeval above it."""
 
 LAYERS = {
@@ -273,6 +273,35 @@ def test_internal_imports_are_at_module_level():
     assert hidden == []
 
 
+def test_optional_packages_are_imported_only_by_deps():
+    """Whether an optional package (torch, lpips, flip_evaluator, ...) is installed is found once,
+    at import, by ``dynaeval.deps``; no other module imports one itself (``deps.load`` does, and
+    turns a missing install into ``MissingDependency`` with its install line), and none probes
+    for one with ``find_spec`` or ``try: import``."""
+    from dynaeval.deps import DEPENDENCIES
+
+    found = []
+    for path in _sources():
+        if path.name == "deps.py" and path.parent == PACKAGE:
+            continue
+        rel = path.relative_to(PACKAGE.parent)
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            names = []
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                names = [node.module]
+            elif isinstance(node, ast.Attribute) and node.attr == "find_spec":
+                found.append(f"{rel}:{node.lineno} find_spec")
+            elif (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
+                  and node.func.attr == "import_module" and node.args
+                  and isinstance(node.args[0], ast.Constant)):
+                names = [str(node.args[0].value)]
+            found += [f"{rel}:{node.lineno} import {n}" for n in names
+                      if n.split(".")[0] in DEPENDENCIES]
+    assert not found, f"optional packages imported outside dynaeval.deps: {found}"
+
+
 TEXT_NAMES = {"reason", "message", "msg", "detail", "err", "exc", "error"}
 """Names (variables, attributes, dict keys) that hold the words of a warning or an error."""
 
@@ -333,7 +362,7 @@ def test_no_code_decides_by_reading_a_warning_or_an_error_message():
     assert bad == []
 
 
-def test_the_text_rule_catches_what_main_did():
+def test_the_text_rule_catches_what_main_did(tmp_path):
     """The rule fails on the text matching main had (scoring.py's ``REGIONLESS_REASONS``,
     merge.py's "summary is null" prefix, registry.py's "pip install" check)."""
     old = ('def a(w, err, entry):\n'
@@ -343,9 +372,6 @@ def test_the_text_rule_catches_what_main_did():
            '        return 2\n'
            '    reason = entry.get("reason") or ""\n'
            '    return reason.startswith(("no pair of consecutive frames has a region",))\n')
-    import tempfile
-
-    with tempfile.TemporaryDirectory() as folder:
-        path = Path(folder) / "old.py"
-        path.write_text(old, encoding="utf-8")
-        assert [line for _, line, _ in _text_matches(path)] == [2, 4, 7]
+    path = tmp_path / "old.py"
+    path.write_text(old, encoding="utf-8")
+    assert [line for _, line, _ in _text_matches(path)] == [2, 4, 7]
