@@ -178,10 +178,12 @@ class _Summaries:
 def _summaries(
     rows: list[dict[str, Any]], names: list[str],
     camera_values: dict[str, dict[str, float | None]], warnings: list[dict],
+    off: set[str] = frozenset(),
 ) -> _Summaries:
     """Per-camera means, the overall summary, the counts of defined values, the names of the
-    camera-level terms; the status of each null summary value (from the statuses of the
-    ``warnings`` of the values it averages) and its warning."""
+    camera-level terms; the status of each null summary value (``DISABLED`` for the keys
+    ``off``, else from the statuses of the ``warnings`` of the values it averages) and its
+    warning."""
     in_rows = {k for r in rows for k in r}
     camera_only = [n for n in dict.fromkeys(n for vals in camera_values.values() for n in vals)
                    if n not in in_rows]
@@ -209,7 +211,8 @@ def _summaries(
             summary[name], out.counts[name], reason = _mean(values)
             if reason is None:
                 continue
-            status = _summary_status(values, members.get((name, not per_camera), []))
+            status = (Status.DISABLED if name in off
+                      else _summary_status(values, members.get((name, not per_camera), [])))
             out.status[name] = status.value
             if rows:
                 out.warnings.append(warning(status, metric=name, reason=summary_reason(
@@ -217,15 +220,20 @@ def _summaries(
     return out
 
 
-def _without_disabled_tlp(warnings: list[dict], settings: dict[str, Any]) -> list[dict]:
-    """``warnings`` without those of tLP when the run switched it off (LPIPS not among the
-    metrics, ``settings.temporal.tlp`` false): its null values are what was asked for, and the
-    settings say so; a tLP that was on and came out null keeps its warnings."""
+def switched_off(settings: dict[str, Any]) -> set[str]:
+    """The result keys the run's ``settings`` switched off though they are reported: tLP's when
+    ``settings.temporal.tlp`` is false (LPIPS not among the metrics). Their null values are
+    what was asked for (``Status.DISABLED``), and their warnings are left out."""
     if (settings.get("temporal") or {}).get("tlp") is not False:
-        return warnings
+        return set()
+    return set(SPECS["tlp"].keys())
 
-    keys = set(SPECS["tlp"].keys())
-    return [w for w in warnings if w.get("metric") not in keys]
+
+def _without_disabled_tlp(warnings: list[dict], settings: dict[str, Any]) -> list[dict]:
+    """``warnings`` without those of the keys ``switched_off``; a tLP that was on and came out
+    null keeps its warnings."""
+    keys = switched_off(settings)
+    return [w for w in warnings if w.get("metric") not in keys] if keys else warnings
 
 
 NO_REGIONS = "no focus box in any of the"
@@ -320,7 +328,7 @@ def build_results(
         for k, v in row.items():
             if k not in FRAME_FIELDS and k not in names and (v is None or isinstance(v, float)):
                 names.append(k)
-    found = _summaries(rows, names, camera_values, warnings)
+    found = _summaries(rows, names, camera_values, warnings, switched_off(settings))
     cameras, summary, counts, camera_only = (found.cameras, found.summary, found.counts,
                                              found.camera_only)
     headline = no_regions_warning(regions)
@@ -525,18 +533,22 @@ def _v1_status(w: dict[str, Any]) -> Status:
     text = w.get("reason", "")
     low = text.lower()
     rules = (
+        (Status.NOTE, ("over the union of the boxes of the frames",
+                       "scored on the pairs of frames that both have boxes")),
         (Status.INFINITE, ("value is +infinity", "infinite value")),
         (Status.MISSING_FRAMES, ("--allow-missing: ",)),
         (Status.NOT_CONSECUTIVE, ("not a pair of consecutive", "are consecutive",
                                   "not consecutive")),
+        (Status.NO_REGION, ("frames have no box", "has no box")),  # whatever the box's cause
         (Status.UNAVAILABLE, ("not computed:", "unavailable", "not installed")),
         (Status.DISABLED, ("disabled in the configuration", "focus: none",
                            "no focus regions requested")),
         (Status.NOT_A_VIDEO, ("differ", "separate test views", "separate views")),
-        (Status.EMPTY_REGION, ("empty", "occluded", "no static pixel")),
+        (Status.EMPTY_REGION, ("empty", "occluded", "no static pixel", "no moving pixel",
+                               "holds no pixel")),
         (Status.NO_REGION, (NO_REGIONS, "no box", "not in the boxes file", "has a region",
                             "has no region", "no covisibility mask", "in the ground truth of "
-                            "this frame", "no moving pixel", "no static mask")),
+                            "this frame", "no static mask")),
     )
     if low.startswith("summary is null") and "infinite value" not in low:
         return Status.UNDEFINED
@@ -560,6 +572,7 @@ def _upgrade_v1(doc: dict[str, Any]) -> dict[str, Any]:
         if "camera" in w and "metric" in w:
             by_metric.setdefault((w["metric"], "frame" in w), set()).add(w["status"])
     frame_keys = {k for f in doc["frames"] for k in f}
+    off = switched_off(doc["settings"])  # their warnings were left out of the file
     status: dict[str, str] = {}
     for name, value in doc["summary"].items():
         if value is not None or name == "n_frames":
@@ -568,6 +581,9 @@ def _upgrade_v1(doc: dict[str, Any]) -> dict[str, Any]:
                and w["reason"].startswith("summary is null")]
         if own and own[0]["status"] == Status.INFINITE.value:
             status[name] = Status.INFINITE.value
+            continue
+        if name in off:
+            status[name] = Status.DISABLED.value
             continue
         found = by_metric.get((name, name in frame_keys), set())
         status[name] = found.pop() if len(found) == 1 else Status.UNDEFINED.value
