@@ -43,7 +43,9 @@ from dynaeval.errors import InputError
 from dynaeval.io.atomic import write_text_atomic
 from dynaeval.metrics.registry import METRICS, SPECS
 from dynaeval.outcome import (
+    NO_REGIONS,
     Status,
+    no_box_reason,
     status_of,
     summary_reason,
     warning,
@@ -236,40 +238,21 @@ def _without_disabled_tlp(warnings: list[dict], settings: dict[str, Any]) -> lis
     return [w for w in warnings if w.get("metric") not in keys] if keys else warnings
 
 
-NO_REGIONS = "no focus box in any of the"
-"""How the headline warning of a run without any box begins (``merge`` recomputes it)."""
-
-_NO_REGIONS_FIX = {
-    "bundled": ("the bundled detector knows only dynaeval's synthetic scenes: for real footage "
-                "fetch a COCO detector (dynaeval detector fetch retinanet, then --detector "
-                "retinanet) or score with --focus motion"),
-    "detector": ("check --classes (the detector keeps: {classes}) and that the footage is what "
-                 "the detector was trained on, or score with --focus motion"),
-    "boxes": ("check that the file's keys are '<camera>/<frame>' of these frames (dynaeval "
-              "detect GT -o boxes.json writes them)"),
-    "motion": ("motion boxes need a static camera and moving objects: score with --focus "
-               "detector or --focus boxes:FILE"),
-}
-
-
 def no_regions_warning(regions: dict[str, Any] | None) -> dict[str, str] | None:
     """The one headline warning of a run whose ``regions`` hold no box in any frame (None
-    otherwise): what found nothing, that every focused (and presence) value is null, the fix."""
+    otherwise; ``Status.NO_REGION``, its text ``dynaeval.outcome.no_box_reason``): what found
+    nothing, that every focused (and presence) value is null, the fix."""
     if not regions or regions.get("source") in (None, "none") or not regions.get("cameras"):
         return None
     cams = list(regions["cameras"].values())
     if any(c["frames_with_boxes"] for c in cams):
         return None
     source = regions["source"]
-    key = "bundled" if source == "detector" and regions.get("bundled_detector") else source
-    who = {"bundled": "the bundled synthetic-scene detector found none",
-           "detector": "the detector found none", "boxes": "the boxes file lists none",
-           "motion": "the motion masks hold no moving region"}[key]
+    finder = "bundled" if source == "detector" and regions.get("bundled_detector") else source
     classes = ", ".join(dict.fromkeys(c for cam in cams for c in cam["boxes"])) or "?"
-    nulls = "focused_* value" + (" and presence value" if source in ("detector", "boxes") else "")
-    return warning(Status.NO_REGION, reason=(
-        f"{NO_REGIONS} {sum(c['n_frames'] for c in cams)} ground-truth frames: {who}, so every "
-        f"{nulls} is null. Fix: {_NO_REGIONS_FIX[key].format(classes=classes)}"))
+    return warning(Status.NO_REGION, reason=no_box_reason(
+        finder, sum(c["n_frames"] for c in cams), classes,
+        presence=source in ("detector", "boxes")))
 
 
 def is_no_regions_warning(w: dict) -> bool:
