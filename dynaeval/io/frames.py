@@ -138,7 +138,8 @@ def _check_target(path: Path, role: str) -> None:
     except OSError as err:
         what = ("is a loop of symbolic links" if err.errno == errno.ELOOP else
                 f"is a broken symbolic link: its target {os.readlink(path)} "
-                f"({err.strerror or err})")
+                + ("does not exist" if err.errno == errno.ENOENT else
+                   f"cannot be read ({err.strerror or err})"))
         raise InputError(f"this {role} entry {what}, so it cannot be read; fix the link or "
                          "remove it", path=path) from None
 

@@ -29,9 +29,10 @@ OpenCV to uint8 as displayed, so 1-bit black/white reads as 0 and 1); float32 an
 float32 (the dtype every float file is scored in), under the float range rule. Refused: int8,
 int16, int32, int64, uint32, uint64 (their range to [0, 1] is not defined: the rule of
 ``dynaeval.validation``), bool arrays, complex samples, untyped TIFF samples, OpenEXR UINT
-channels, and half-float TIFFs (OpenCV cannot decode them). A TIFF's header is read for its
-type when ``find_frames`` lists it (``check_pixel_type``), so a run stops before the work; a
-TIFF under another name is checked when decoded.
+channels, and half-float TIFFs (OpenCV cannot decode them). A TIFF's header (a ``.npy.gz``
+file's too) is read for its type when ``find_frames`` lists it (``check_pixel_type``), so a run
+stops before the work; a TIFF under another name is checked when decoded, and so is an EXR's
+channel type.
 """
 
 from __future__ import annotations
@@ -268,17 +269,39 @@ def check_tiff_type(kind: tuple[str, int] | None, path: str | Path | None) -> No
     _refuse_pixel_type(f"{sample}{bits}" if " " not in sample else f"{sample} ({bits} bits)", path)
 
 
+def _array_dtype(path: Path) -> np.dtype | None:
+    """The dtype in a ``.npy.gz`` file's header (its first bytes decompressed), or None when
+    it cannot be read (``_read_array`` then names the file)."""
+    import gzip
+    import zlib
+
+    try:
+        with gzip.open(path) as f:
+            version = np.lib.format.read_magic(f)
+            read = (np.lib.format.read_array_header_1_0 if version == (1, 0)
+                    else np.lib.format.read_array_header_2_0)
+            return np.dtype(read(f)[2])
+    except (OSError, EOFError, ValueError, TypeError, zlib.error):
+        return None
+
+
 def check_pixel_type(path: str | Path) -> None:
     """Refuse an image file whose header states a pixel type that is not read (before any
     decoding: ``find_frames`` runs it on every TIFF it lists, so a run stops before the work).
-    Only TIFF headers are read (``TIFF_EXTENSIONS``): PNG, JPEG, WebP and BMP hold 8/16-bit
-    unsigned values, EXR floats (checked when read).
+    Only TIFF (``TIFF_EXTENSIONS``) and ``.npy.gz`` headers are read: PNG, JPEG, WebP and BMP
+    hold 8/16-bit unsigned values, EXR floats (its UINT channels are refused when read).
 
     Raises:
         InputError: as ``check_tiff_type``; an unreadable file as ``_read_bytes``.
     """
     path = Path(path)
-    if frame_name_parts(path)[1] not in TIFF_EXTENSIONS:
+    ext = frame_name_parts(path)[1]
+    if ext == ARRAY_EXTENSION:
+        dtype = _array_dtype(path)
+        if dtype is not None and dtype not in _READ_DTYPES:
+            _refuse_pixel_type(str(dtype), path)
+        return
+    if ext not in TIFF_EXTENSIONS:
         return
     try:
         with path.open("rb") as f:

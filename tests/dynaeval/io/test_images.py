@@ -386,3 +386,21 @@ def test_exr_of_uint_channels_is_refused_by_name(tmp_path):
         f.write(str(tmp_path / "u.exr"))
     with pytest.raises(InputError, match=r"u\.exr: unsupported pixel type uint32 \(OpenEXR UINT"):
         read_image(tmp_path / "u.exr")
+
+
+@pytest.mark.parametrize("dtype", ["int32", "bool", "int64"])
+def test_npy_gz_pixel_type_is_refused_when_listed(tmp_path, monkeypatch, dtype):
+    """A ``.npy.gz`` frame's dtype is in its header: refused when the folder is listed (it was
+    refused only when the frame was read, mid-run), naming the file and the fix."""
+    import gzip
+
+    from dynaeval.io import find_frames, images
+
+    (tmp_path / "g").mkdir()
+    for i in range(2):
+        with gzip.open(tmp_path / "g" / f"{i}.npy.gz", "wb") as f:
+            np.save(f, np.zeros((4, 4, 3), np.float32 if i == 0 else dtype))
+    monkeypatch.setattr(images, "decode_file", lambda *a, **k: 1 / 0)
+    with pytest.raises(InputError, match=rf"1\.npy\.gz: unsupported pixel type {dtype}.*"
+                                         "16-bit PNG"):
+        find_frames(tmp_path / "g")
