@@ -44,6 +44,7 @@ import numpy as np
 from dynaeval.errors import InputError
 from dynaeval.io.images import (
     IMAGE_EXTENSIONS,
+    TYPED_HEADERS,
     check_pixel_type,
     frame_name_parts,
     read_image,
@@ -215,7 +216,8 @@ def find_frames(root: str | Path, *, role: str = "input") -> dict[str, Camera]:
                         f"{name}; {KEEP_ONE}",
                         path=Path(dirpath),
                     )
-                check_pixel_type(path)
+                if ext in TYPED_HEADERS:
+                    check_pixel_type(path)
                 cam[stem] = path
             elif ext in VIDEO_EXTENSIONS:
                 cam_name = (Path(rel) / path.stem).as_posix() if rel != "." else path.stem

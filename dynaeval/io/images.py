@@ -37,6 +37,7 @@ channel type.
 
 from __future__ import annotations
 
+import os
 import struct
 from pathlib import Path
 from typing import Any
@@ -201,6 +202,10 @@ TIFF_EXTENSIONS = frozenset({".tif", ".tiff"})
 """Names whose header ``find_frames`` checks for the pixel type before the work
 (``check_pixel_type``); a TIFF under another name is checked when decoded."""
 
+TYPED_HEADERS = TIFF_EXTENSIONS | {ARRAY_EXTENSION}
+"""Extensions whose header ``check_pixel_type`` reads (the others state no pixel type to
+check)."""
+
 _TIFF_MAGIC = {b"II*\x00": ("<", False), b"MM\x00*": (">", False),
                b"II+\x00": ("<", True), b"MM\x00+": (">", True)}
 _TIFF_SAMPLE_KINDS = {1: "uint", 2: "int", 3: "float", 4: "void", 5: "complex int",
@@ -294,17 +299,16 @@ def check_pixel_type(path: str | Path) -> None:
     Raises:
         InputError: as ``check_tiff_type``; an unreadable file as ``_read_bytes``.
     """
-    path = Path(path)
-    ext = frame_name_parts(path)[1]
-    if ext == ARRAY_EXTENSION:
-        dtype = _array_dtype(path)
+    name = os.fspath(path).lower()  # not pathlib: run on every file listed
+    if name.endswith(ARRAY_EXTENSION):
+        dtype = _array_dtype(Path(path))
         if dtype is not None and dtype not in _READ_DTYPES:
             _refuse_pixel_type(str(dtype), path)
         return
-    if ext not in TIFF_EXTENSIONS:
+    if not name.endswith(tuple(TIFF_EXTENSIONS)):
         return
     try:
-        with path.open("rb") as f:
+        with open(path, "rb", buffering=0) as f:  # a few small reads
             def read_at(offset: int, size: int) -> bytes:
                 f.seek(offset)
                 return f.read(size)
