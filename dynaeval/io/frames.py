@@ -183,6 +183,7 @@ def find_frames(root: str | Path, *, role: str = "input") -> dict[str, Camera]:
     """
     root = Path(root)
     if not root.exists():
+        _check_target(root, role)  # a broken link, said as such
         raise InputError(f"{role} folder not found", path=root)
     if not root.is_dir():
         raise InputError(f"{role} must be a folder of frames (or of camera folders)", path=root)

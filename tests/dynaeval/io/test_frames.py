@@ -304,3 +304,13 @@ def test_two_videos_or_a_folder_and_a_video_of_one_camera_are_exit_2_naming_both
     assert "cam0.mp4" in err and (f"{gt / 'cam0'}/" in err if second == "cam0/" else
                                   "cam0.avi" in err)
     assert "remove one of them, or move it out of the folder" in err
+
+
+def test_prediction_folder_that_is_a_broken_link_is_named_as_such(tmp_path):
+    """Not "folder not found": the link is there, its target is not."""
+    import os
+
+    os.symlink(tmp_path / "renders-deleted", tmp_path / "pred")
+    with pytest.raises(InputError, match=r"pred: this prediction entry is a broken symbolic "
+                                         r"link: its target .*renders-deleted does not exist"):
+        find_frames(tmp_path / "pred", role="prediction")
