@@ -302,7 +302,7 @@ def check_pixel_type(path: str | Path) -> None:
     name = os.fspath(path).lower()  # not pathlib: run on every file listed
     if name.endswith(ARRAY_EXTENSION):
         dtype = _array_dtype(Path(path))
-        if dtype is not None and dtype not in _READ_DTYPES:
+        if dtype is not None and dtype.newbyteorder("=") not in _READ_DTYPES:
             _refuse_pixel_type(str(dtype), path)
         return
     if not name.endswith(tuple(TIFF_EXTENSIONS)):
@@ -320,12 +320,15 @@ def check_pixel_type(path: str | Path) -> None:
 
 
 def check_decoded_type(image: np.ndarray, path: str | Path | None) -> np.ndarray:
-    """The decoded array of an image file, float64 (and float16) as float32 (the dtype every
-    float file is scored in, rounded to nearest), other dtypes refused by name.
+    """The decoded array of an image file, in the machine's byte order, float64 (and float16)
+    as float32 (the dtype every float file is scored in, rounded to nearest), other dtypes
+    refused by name.
 
     Raises:
         InputError: a dtype outside ``_READ_DTYPES`` (int8/16/32/64, uint32/64, bool, complex).
     """
+    if image.dtype.byteorder not in "=|":  # a big-endian array (np.save keeps the order)
+        image = image.astype(image.dtype.newbyteorder("="))
     if image.dtype not in _READ_DTYPES:
         _refuse_pixel_type(str(image.dtype), path)
     return image.astype(np.float32) if image.dtype.kind == "f" and image.dtype != np.float32 \

@@ -404,3 +404,23 @@ def test_npy_gz_pixel_type_is_refused_when_listed(tmp_path, monkeypatch, dtype):
     with pytest.raises(InputError, match=rf"1\.npy\.gz: unsupported pixel type {dtype}.*"
                                          "16-bit PNG"):
         find_frames(tmp_path / "g")
+
+
+def test_big_endian_npy_gz_frames_are_read_in_the_machine_order(tmp_path):
+    """``np.save`` keeps a big-endian array's byte order: float32 and uint16 are read as the
+    native arrays of the same values (the pixel-type check compares the type, not the order)."""
+    import gzip
+
+    from dynaeval.io import find_frames
+
+    (tmp_path / "g").mkdir()
+    values = np.linspace(0, 1, 48).reshape(4, 4, 3)
+    for name, arr in (("f.npy.gz", values.astype(">f4")),
+                      ("u.npy.gz", (values * 65535).astype(">u2"))):
+        with gzip.open(tmp_path / "g" / name, "wb") as f:
+            np.save(f, arr)
+    find_frames(tmp_path / "g")
+    np.testing.assert_array_equal(read_image(tmp_path / "g" / "f.npy.gz"),
+                                  values.astype(np.float32))
+    np.testing.assert_array_equal(read_image(tmp_path / "g" / "u.npy.gz"),
+                                  (values * 65535).astype(np.uint16) / np.float32(65535))
