@@ -5,7 +5,12 @@
 (``1_00000.png``, ...) are paired with that split's ground truth only: ``pair_dycheck`` pairs
 them when the predicted frames all belong to exactly one split, so the training frames are
 neither an error nor "skipped"; a frame of the split with no prediction is still an error
-(unless ``allow_missing``). Covisibility masks: ``dynaeval.io.masks``.
+(unless ``allow_missing``). Covisibility masks: ``dynaeval.io.masks``. Every split file is
+checked before any frame is paired (``read_split``, ``check_split_frames``): one that is not
+JSON, not an object, without a list of frame-name strings in ``frame_names`` (``time_ids`` /
+``camera_ids``, when there, one whole number per name), or that lists frames ``rgb/<factor>x/``
+does not hold, is an error naming the file and its problem (it used to be skipped, and the
+training frames then reported as frames with no prediction).
 
 **Render folder** ``WORK/renders/novel_view/<split>/<frame>.png``, written by DyCheck's
 ``NovelView.finalize`` (``dycheck/core/tasks/novel_view.py``, read for the facts): each PNG is
@@ -39,21 +44,88 @@ from dynaeval.io.masks import image_size
 _FACTOR = re.compile(r"^\d+x$")
 
 
+SPLIT_IDS = ("time_ids", "camera_ids")
+"""Optional keys of a DyCheck split file: one whole number per entry of ``frame_names``."""
+
+
+def _split_error(path: Path, problem: str) -> InputError:
+    return InputError(
+        f"this DyCheck split file {problem}; it must be a JSON object whose \"frame_names\" is a "
+        f"list of frame names (strings, as in rgb/<factor>x/), with {' and '.join(SPLIT_IDS)} "
+        "lists of whole numbers of the same length when present (as DyCheck writes it): fix it, "
+        "or restore it from the dataset", path=path)
+
+
+def read_split(path: Path) -> list[str]:
+    """The ``frame_names`` of one DyCheck ``splits/<split>.json`` file, checked.
+
+    Raises:
+        InputError: unreadable, not JSON, not an object, no ``frame_names``, entries of the wrong
+            type, an empty or repeated frame name, or ``time_ids`` / ``camera_ids`` of another
+            length or type, naming the file and the problem.
+    """
+    try:
+        doc = json.loads(path.read_bytes())
+    except OSError as err:
+        raise InputError(f"cannot read this DyCheck split file ({err.strerror or err})",
+                         path=path) from err
+    except (ValueError, RecursionError) as err:
+        raise _split_error(path, f"is not valid JSON ({err})") from None
+    if not isinstance(doc, dict):
+        raise _split_error(path, f"holds a JSON {type(doc).__name__}, not an object")
+    if "frame_names" not in doc:
+        raise _split_error(path, f"has no \"frame_names\" (keys: {', '.join(sorted(doc)) or 'none'})")
+    names = doc["frame_names"]
+    if not isinstance(names, list) or not names:
+        raise _split_error(path, "has a \"frame_names\" that is "
+                           + ("an empty list" if isinstance(names, list) else
+                              f"a {type(names).__name__}, not a list"))
+    wrong = next((n for n in names if not isinstance(n, str) or not n), None)
+    if wrong is not None:
+        raise _split_error(path, f"lists {json.dumps(wrong)} in \"frame_names\", not a frame name")
+    if len(set(names)) != len(names):
+        twice = sorted({n for n in names if names.count(n) > 1}, key=natural_key)
+        raise _split_error(path, f"lists frame names twice in \"frame_names\": {', '.join(twice[:5])}")
+    for key in SPLIT_IDS:
+        ids = doc.get(key)
+        if ids is not None and not (isinstance(ids, list) and len(ids) == len(names) and all(
+                isinstance(i, int) and not isinstance(i, bool) for i in ids)):
+            raise _split_error(path, f"has a \"{key}\" that is not {len(names)} whole numbers "
+                               "(one per frame name)")
+    return names
+
+
 def dycheck_splits(gt_root: str | Path) -> dict[str, set[str]]:
     """Split name -> its frame names, for a ground truth that is DyCheck's ``rgb/<factor>x/``
-    (empty when it is not one, or its dataset has no readable ``splits/``)."""
+    (empty when it is not one, or its dataset has no ``splits/``); every ``splits/*.json`` is
+    checked (``read_split``), before any frame is paired.
+
+    Raises:
+        InputError: a split file that is broken (``read_split``).
+    """
     gt_root = Path(gt_root)
     if not (_FACTOR.match(gt_root.name) and gt_root.parent.name == "rgb"):
         return {}
-    out = {}
-    for f in sorted((gt_root.parent.parent / "splits").glob("*.json")):
-        try:
-            names = json.loads(f.read_text())["frame_names"]
-        except (OSError, ValueError, KeyError, TypeError):
-            continue
-        if isinstance(names, list) and all(isinstance(n, str) for n in names):
-            out[f.stem] = set(names)
-    return out
+    return {f.stem: set(read_split(f))
+            for f in sorted((gt_root.parent.parent / "splits").glob("*.json"))}
+
+
+def check_split_frames(splits: dict[str, set[str]], frames: set[str], gt_root: Path) -> None:
+    """Refuse a split that lists frames the ground truth ``gt_root`` (DyCheck's
+    ``rgb/<factor>x/``, whose frame names are ``frames``) does not hold.
+
+    Raises:
+        InputError: naming the split file and the frames missing.
+    """
+    for name, listed in splits.items():
+        absent = sorted(listed - frames, key=natural_key)
+        if absent:
+            shown = ", ".join(absent[:5]) + (f", ... ({len(absent)} in all)" if len(absent) > 5 else "")
+            raise InputError(
+                f"this DyCheck split lists {len(absent)} frame(s) that {gt_root} does not hold: "
+                f"{shown}; the split file and the frames are not of one dataset (or frames were "
+                "deleted): restore the frames, or the split file, from the dataset",
+                path=gt_root.parent.parent / "splits" / f"{name}.json")
 
 
 def pair_dycheck(pred_root: str | Path, gt_root: str | Path, *, allow_missing: bool = False) -> Pairing | None:
@@ -62,15 +134,21 @@ def pair_dycheck(pred_root: str | Path, gt_root: str | Path, *, allow_missing: b
     ordinary ``pair_frames`` rules then apply).
 
     Raises:
-        InputError: a frame of the split has no prediction (without ``allow_missing``).
+        InputError: a broken split file (``dycheck_splits``), a split listing frames the ground
+            truth does not hold (``check_split_frames``), or a frame of the split with no
+            prediction (without ``allow_missing``).
     """
     splits = dycheck_splits(gt_root)
     if not splits:
         return None
     pairing = pair_frames(pred_root, gt_root, allow_missing=True)
+    if pairing.unscored_cameras:  # the ground truth has camera folders: not DyCheck's rgb/
+        return None
+    check_split_frames(splits, {p.frame for p in pairing.pairs}
+                       | {s["frame"] for s in pairing.skipped}, Path(gt_root))
     predicted = {p.frame for p in pairing.pairs}
     fits = [name for name, frames in splits.items() if predicted <= frames]
-    if len(fits) != 1 or pairing.unscored_cameras:
+    if len(fits) != 1:
         return None
     split = splits[fits[0]]
     missing = sorted(split - predicted)

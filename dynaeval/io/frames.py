@@ -4,6 +4,16 @@ Layout: a folder of images (one camera, named ``"."``) or one sub-folder per cam
 the camera is the folder's path relative to the root, e.g. ``"cam03"``), or video files (one
 camera each, named by the file's path without extension). Non-image files are ignored.
 
+Symbolic links are followed: a linked camera folder or frame file is read as its target, under
+the link's name (so ``pred/cam1 -> /renders/cam1`` is camera ``cam1``, scored as the folder
+itself would be). A link that cannot be read is an error naming it, before the work: a broken
+link (its target is gone), a loop of links, or a link to a folder that holds it (``cam1/up ->
+..``: walked forever). Inputs that make the choice ambiguous are errors naming both, with the
+fix (remove one, or move it out of the folder): two files of one frame name (``0001.png`` and
+``0001.jpg``), two videos of one camera (``cam0.mp4`` and ``cam0.avi``), a folder of images and
+a video of one camera (``cam0/`` beside ``cam0.mp4``). A TIFF whose pixel type is not read
+(``dynaeval.io.images``: int32, complex, ...) is refused when listed, before the work.
+
 Pairing rules (driven by the prediction folder, see ``pair_frames``):
 
 * image cameras are matched by relative path with the extension ignored: pred ``cam03/0007.jpg``
@@ -22,6 +32,7 @@ consecutive frames for temporal metrics.
 
 from __future__ import annotations
 
+import errno
 import os
 import re
 from collections.abc import Iterable
@@ -31,7 +42,14 @@ from pathlib import Path
 import numpy as np
 
 from dynaeval.errors import InputError
-from dynaeval.io.images import IMAGE_EXTENSIONS, frame_name_parts, read_image, to_float
+from dynaeval.io.images import (
+    IMAGE_EXTENSIONS,
+    TYPED_HEADERS,
+    check_pixel_type,
+    frame_name_parts,
+    read_image,
+    to_float,
+)
 from dynaeval.io.video import VIDEO_EXTENSIONS, read_video_frame, scan_video
 from dynaeval.outcome import Status, note, warning
 
@@ -108,6 +126,44 @@ class Camera:
     """``{camera, reason}``: a damaged video file (frames dropped, ``video.VideoScan``)."""
 
 
+KEEP_ONE = ("which one to score is ambiguous: remove one of them, or move it out of the folder")
+"""The fix said for two inputs of one frame or camera (``find_frames``)."""
+
+
+def _check_target(path: Path, role: str) -> None:
+    """Refuse a symbolic link ``path`` whose target is missing or that loops (a link to a file
+    or folder is otherwise read as its target)."""
+    if not os.path.islink(path):
+        return
+    try:
+        os.stat(path)
+    except OSError as err:
+        what = ("is a loop of symbolic links" if err.errno == errno.ELOOP else
+                f"is a broken symbolic link: its target {os.readlink(path)} "
+                + ("does not exist" if err.errno == errno.ENOENT else
+                   f"cannot be read ({err.strerror or err})"))
+        raise InputError(f"this {role} entry {what}, so it cannot be read; fix the link or "
+                         "remove it", path=path) from None
+
+
+def _enter(folder: Path, seen: frozenset[str], role: str) -> frozenset[str]:
+    """The real paths of the folders from the root down to ``folder`` (``seen``: down to its
+    parent), when walking into it is safe: a symbolic link to a folder above it, or to one
+    already on the way down, would be walked forever (or would read the folder twice).
+
+    Raises:
+        InputError: such a link, naming it.
+    """
+    real = os.path.realpath(folder)
+    parent = os.path.realpath(folder.parent)
+    if real in seen or parent == real or parent.startswith(real.rstrip(os.sep) + os.sep):
+        raise InputError(
+            f"this {role} folder is a symbolic link to {real}, a folder that holds it (a loop): "
+            "its frames would be read again and again; point the link at the camera's own "
+            "folder or remove it", path=folder)
+    return seen | {real}
+
+
 def find_frames(root: str | Path, *, role: str = "input") -> dict[str, Camera]:
     """Find every camera and frame below ``root``.
 
@@ -120,11 +176,15 @@ def find_frames(root: str | Path, *, role: str = "input") -> dict[str, Camera]:
 
     Raises:
         InputError: ``root`` is not a folder, holds no frame, a folder below it cannot be
-            listed (permissions: never skipped silently), or a camera has two files with the
-            same stem (``0001.png`` and ``0001.jpg``).
+            listed (permissions: never skipped silently), a camera has two files with the
+            same stem (``0001.png`` and ``0001.jpg``) or two videos (``cam0.mp4`` and
+            ``cam0.avi``, or a ``cam0/`` folder of images beside ``cam0.mp4``), a symbolic
+            link below it is broken or loops, or an image file's header states a pixel type
+            that has no range rule (``images.check_pixel_type``).
     """
     root = Path(root)
     if not root.exists():
+        _check_target(root, role)  # a broken link, said as such
         raise InputError(f"{role} folder not found", path=root)
     if not root.is_dir():
         raise InputError(f"{role} must be a folder of frames (or of camera folders)", path=root)
@@ -138,25 +198,35 @@ def find_frames(root: str | Path, *, role: str = "input") -> dict[str, Camera]:
             path=err.filename or root,
         )
 
-    for dirpath, dirnames, filenames in os.walk(root, onerror=unreadable):
+    above: dict[str, frozenset[str]] = {str(root): frozenset({os.path.realpath(root)})}
+    for dirpath, dirnames, filenames in os.walk(root, onerror=unreadable, followlinks=True):
         dirnames[:] = sorted(d for d in dirnames if not d.startswith("."))
+        for d in dirnames:  # a linked folder is read as its target, unless that loops
+            above[os.path.join(dirpath, d)] = _enter(Path(dirpath) / d, above[dirpath], role)
         rel = Path(dirpath).relative_to(root).as_posix()
         for name in sorted(filenames):
             if name.startswith("."):
                 continue
             path = Path(dirpath) / name
+            _check_target(path, role)
             stem, ext = frame_name_parts(path)
             if ext in IMAGE_EXTENSIONS:
                 cam = images.setdefault(rel, {})
                 if stem in cam:
                     raise InputError(
                         f"two {role} files share the frame name {stem!r}: {cam[stem].name} and "
-                        f"{name}; keep one of them",
+                        f"{name}; {KEEP_ONE}",
                         path=Path(dirpath),
                     )
+                if ext in TYPED_HEADERS:
+                    check_pixel_type(path)
                 cam[stem] = path
             elif ext in VIDEO_EXTENSIONS:
                 cam_name = (Path(rel) / path.stem).as_posix() if rel != "." else path.stem
+                if cam_name in videos:
+                    raise InputError(
+                        f"two {role} videos of camera {cam_name!r}: {videos[cam_name]} and "
+                        f"{path}; {KEEP_ONE}", path=path)
                 videos[cam_name] = path
     cameras: dict[str, Camera] = {}
     for name, stems in images.items():
@@ -164,9 +234,10 @@ def find_frames(root: str | Path, *, role: str = "input") -> dict[str, Camera]:
         cameras[name] = Camera(name, [(s, FrameRef(stems[s])) for s in ordered])
     for name, path in videos.items():
         if name in cameras:
+            folder = Path(root) / name
             raise InputError(
-                f"camera {name!r} is both a folder of images and a video file; keep one", path=path
-            )
+                f"camera {name!r} is both a folder of images ({folder}/) and a video file "
+                f"({path}); {KEEP_ONE}", path=path)
         scan = scan_video(path)
         problem = scan.problem()
         cameras[name] = Camera(name, [(str(i), FrameRef(path, i)) for i in range(scan.n_frames)],

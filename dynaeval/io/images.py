@@ -21,11 +21,26 @@ must hold values in [0, 1]. Values within ``FLOAT_TOLERANCE`` outside it (a rend
 1.0000002) are clipped to [0, 1]; a float file with values further out (linear HDR above 1, a
 float TIFF of 1e30) is an ``InputError`` naming the file and its min/max, with the fix (tone-map
 or clip it to [0, 1], or save 8/16-bit). The range is never guessed from the pixel values.
+
+Pixel types (**every one is read or refused by name**, an ``InputError`` naming the file, the
+type and the fix, never a traceback): uint8 and uint16 as above (a 1-8 bit TIFF is decoded by
+OpenCV to uint8 as displayed, so 1-bit black/white reads as 0 and 1); float32 and float64 (TIFF,
+``.npy.gz``) and float16 (EXR half, ``.npy.gz``) as stored, float64 and float16 rounded to
+float32 (the dtype every float file is scored in), under the float range rule. Refused: int8,
+int16, int32, int64, uint32, uint64 (their range to [0, 1] is not defined: the rule of
+``dynaeval.validation``), bool arrays, complex samples, untyped TIFF samples, OpenEXR UINT
+channels, and half-float TIFFs (OpenCV cannot decode them). A TIFF's header (a ``.npy.gz``
+file's too) is read for its type when ``find_frames`` lists it (``check_pixel_type``), so a run
+stops before the work; a TIFF under another name is checked when decoded, and so is an EXR's
+channel type.
 """
 
 from __future__ import annotations
 
+import os
+import struct
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -136,6 +151,10 @@ def _read_exr(path: Path) -> np.ndarray:
         raise InputError(f"cannot read OpenEXR file ({err})", path=path) from err
     for names in (("R", "G", "B", "A"), ("R", "G", "B"), ("Y", "A"), ("Y",)):
         if all(n in channels for n in names):
+            kinds = sorted({str(channels[n].dtype) for n in names
+                            if channels[n].dtype.kind != "f"})
+            if kinds:  # OpenEXR's UINT channels: integers, whose range is no float's
+                _refuse_pixel_type(f"{', '.join(kinds)} (OpenEXR UINT channels)", path)
             planes = [channels[n].astype(np.float32) for n in names]
             return np.stack(planes, axis=-1)
     raise InputError(
@@ -179,6 +198,143 @@ def _read_bytes(path: Path) -> bytes:
         raise InputError(f"cannot read the file ({err.strerror or err})", path=path) from err
 
 
+TIFF_EXTENSIONS = frozenset({".tif", ".tiff"})
+"""Names whose header ``find_frames`` checks for the pixel type before the work
+(``check_pixel_type``); a TIFF under another name is checked when decoded."""
+
+TYPED_HEADERS = TIFF_EXTENSIONS | {ARRAY_EXTENSION}
+"""Extensions whose header ``check_pixel_type`` reads (the others state no pixel type to
+check)."""
+
+_TIFF_MAGIC = {b"II*\x00": ("<", False), b"MM\x00*": (">", False),
+               b"II+\x00": ("<", True), b"MM\x00+": (">", True)}
+_TIFF_SAMPLE_KINDS = {1: "uint", 2: "int", 3: "float", 4: "void", 5: "complex int",
+                      6: "complex float"}
+_READ_DTYPES = frozenset(np.dtype(d) for d in ("uint8", "uint16", "float16", "float32", "float64"))
+"""Pixel types read from a file: integers by ``UNIT_SCALE``, floats as stored (range rule)."""
+_PIXEL_TYPE_FIX = ("dynaeval reads uint8 / 255, uint16 / 65535 and float values as stored in "
+                   "[0, 1]; save it as an 8/16-bit PNG, or a 32-bit float TIFF (or EXR) with "
+                   "values in [0, 1]")
+
+
+def tiff_pixel_type(head: bytes, read_at: Any) -> tuple[str, int] | None:
+    """``(sample kind, bits per sample)`` stated by a TIFF's first image (IFD), e.g.
+    ``("int", 32)``; None when ``head`` (the file's first 16 bytes) is no TIFF or the header
+    cannot be parsed (the decoder then names the file).
+
+    Args:
+        head: the file's first 16 bytes.
+        read_at: ``read_at(offset, size) -> bytes`` reads the file at an offset.
+    """
+    kind = _TIFF_MAGIC.get(head[:4])
+    if kind is None or len(head) < 16:
+        return None
+    order, big = kind
+    word, count_fmt, entry = ("Q", "Q", 20) if big else ("I", "H", 12)
+    try:
+        ifd = struct.unpack_from(order + word, head, 8 if big else 4)[0]
+        n = struct.unpack(order + count_fmt, read_at(ifd, struct.calcsize(count_fmt)))[0]
+        entries = read_at(ifd + struct.calcsize(count_fmt), n * entry)
+        found = {}
+        for k in range(min(n, len(entries) // entry)):
+            tag, typ = struct.unpack_from(order + "HH", entries, k * entry)
+            if tag in (258, 339) and typ in (3, 4):  # BitsPerSample, SampleFormat: SHORT / LONG
+                size = 2 if typ == 3 else 4
+                count = struct.unpack_from(order + word, entries, k * entry + 4)[0]
+                value = entries[k * entry + 4 + (8 if big else 4):][:8 if big else 4]
+                if count * size > len(value):  # stored elsewhere: the first sample's
+                    value = read_at(struct.unpack(order + word, value)[0], size)
+                found[tag] = struct.unpack_from(order + ("H" if typ == 3 else "I"), value)[0]
+    except (struct.error, OSError, ValueError, OverflowError):
+        return None
+    return _TIFF_SAMPLE_KINDS.get(found.get(339, 1), "unknown"), found.get(258, 1)
+
+
+def _refuse_pixel_type(name: str, path: str | Path | None) -> None:
+    raise InputError(f"unsupported pixel type {name}: it has no defined mapping to [0, 1] "
+                     f"({_PIXEL_TYPE_FIX})", path=path)
+
+
+def check_tiff_type(kind: tuple[str, int] | None, path: str | Path | None) -> None:
+    """Refuse a TIFF whose stated pixel type (``tiff_pixel_type``) is not read: integers other
+    than 1-8 bit (OpenCV gives uint8: 1-bit black/white is 0 and 1) or 16-bit unsigned, float
+    other than 32/64 bit (OpenCV cannot decode half-float TIFFs), complex or untyped samples.
+
+    Raises:
+        InputError: naming the file, the pixel type and the fix.
+    """
+    if kind is None:
+        return
+    sample, bits = kind
+    if sample == "uint" and (bits <= 8 or bits == 16) or sample == "float" and bits in (32, 64):
+        return
+    if sample == "float" and bits == 16:
+        raise InputError("16-bit (half) float TIFF: OpenCV cannot decode it; save it as a 32-bit "
+                         "float TIFF, or as EXR (half floats are read from EXR)", path=path)
+    _refuse_pixel_type(f"{sample}{bits}" if " " not in sample else f"{sample} ({bits} bits)", path)
+
+
+def _array_dtype(path: Path) -> np.dtype | None:
+    """The dtype in a ``.npy.gz`` file's header (its first bytes decompressed), or None when
+    it cannot be read (``_read_array`` then names the file)."""
+    import gzip
+    import zlib
+
+    try:
+        with gzip.open(path) as f:
+            version = np.lib.format.read_magic(f)
+            read = (np.lib.format.read_array_header_1_0 if version == (1, 0)
+                    else np.lib.format.read_array_header_2_0)
+            return np.dtype(read(f)[2])
+    except (OSError, EOFError, ValueError, TypeError, zlib.error):
+        return None
+
+
+def check_pixel_type(path: str | Path) -> None:
+    """Refuse an image file whose header states a pixel type that is not read (before any
+    decoding: ``find_frames`` runs it on every TIFF it lists, so a run stops before the work).
+    Only TIFF (``TIFF_EXTENSIONS``) and ``.npy.gz`` headers are read: PNG, JPEG, WebP and BMP
+    hold 8/16-bit unsigned values, EXR floats (its UINT channels are refused when read).
+
+    Raises:
+        InputError: as ``check_tiff_type``; an unreadable file as ``_read_bytes``.
+    """
+    name = os.fspath(path).lower()  # not pathlib: run on every file listed
+    if name.endswith(ARRAY_EXTENSION):
+        dtype = _array_dtype(Path(path))
+        if dtype is not None and dtype.newbyteorder("=") not in _READ_DTYPES:
+            _refuse_pixel_type(str(dtype), path)
+        return
+    if not name.endswith(tuple(TIFF_EXTENSIONS)):
+        return
+    try:
+        with open(path, "rb", buffering=0) as f:  # a few small reads
+            def read_at(offset: int, size: int) -> bytes:
+                f.seek(offset)
+                return f.read(size)
+            kind = tiff_pixel_type(f.read(16), read_at)
+    except OSError:
+        _read_bytes(path)  # names the file and the reason
+        raise
+    check_tiff_type(kind, path)
+
+
+def check_decoded_type(image: np.ndarray, path: str | Path | None) -> np.ndarray:
+    """The decoded array of an image file, in the machine's byte order, float64 (and float16)
+    as float32 (the dtype every float file is scored in, rounded to nearest), other dtypes
+    refused by name.
+
+    Raises:
+        InputError: a dtype outside ``_READ_DTYPES`` (int8/16/32/64, uint32/64, bool, complex).
+    """
+    if image.dtype.byteorder not in "=|":  # a big-endian array (np.save keeps the order)
+        image = image.astype(image.dtype.newbyteorder("="))
+    if image.dtype not in _READ_DTYPES:
+        _refuse_pixel_type(str(image.dtype), path)
+    return image.astype(np.float32) if image.dtype.kind == "f" and image.dtype != np.float32 \
+        else image
+
+
 def check_float_range(image: np.ndarray, path: str | Path | None = None) -> np.ndarray:
     """A float image read from a file, in [0, 1]: values within ``FLOAT_TOLERANCE`` outside it
     are clipped; further out raise InputError with the file's min/max and the fix."""
@@ -220,12 +376,12 @@ def pil_png_bytes(image: np.ndarray, path: str | Path | None = None) -> np.ndarr
 def decode_file(path: str | Path) -> tuple[np.ndarray, str]:
     """An image file decoded as stored, and its kind by content (``"exr"``, ``"png"`` or
     ``"image"``; ``"array"`` for ``.npy.gz``, by name): OpenCV's channel order (BGR/BGRA) and
-    dtype (uint8, uint16, float), or an EXR's float RGB data, or the array as saved (RGB); the
-    checks of :func:`read_image` that need the file.
+    dtype (uint8, uint16, float32: float64 and float16 rounded to it), or an EXR's float RGB
+    data, or the array as saved (RGB); the checks of :func:`read_image` that need the file.
 
     Raises:
         InputError: missing, unreadable, truncated JPEG or PNG, unsupported extension, not an
-            image.
+            image, a pixel type that is not read (module docstring).
     """
     import cv2
 
@@ -239,15 +395,16 @@ def decode_file(path: str | Path) -> tuple[np.ndarray, str]:
             path=path,
         )
     if ext == ARRAY_EXTENSION:
-        return _read_array(path), "array"
+        return check_decoded_type(_read_array(path), path), "array"
     data = _read_bytes(path)
     if data.startswith(_EXR_MAGIC):
         return _read_exr(path), "exr"
     check_complete(data, path)
+    check_tiff_type(tiff_pixel_type(data[:16], lambda at, n: data[at:at + n]), path)
     image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED) if data else None
     if image is None:
         raise InputError("cannot decode image (corrupt, truncated or not an image)", path=path)
-    return image, "png" if data.startswith(_PNG_MAGIC) else "image"
+    return check_decoded_type(image, path), "png" if data.startswith(_PNG_MAGIC) else "image"
 
 
 def read_image(path: str | Path, *, background: str | float = "white",
@@ -268,7 +425,8 @@ def read_image(path: str | Path, *, background: str | float = "white",
 
     Raises:
         InputError: the file is missing, unreadable (permissions), truncated, of an unsupported
-            type, holds NaN/Inf values, or float values outside [0, 1] (module docstring).
+            type or pixel type, holds NaN/Inf values, or float values outside [0, 1] (module
+            docstring).
     """
     import cv2
 

@@ -31,7 +31,7 @@ SIZES = [(1, 1), (2, 3), (7, 9), (11, 11), (16, 16), (24, 32), (10, 10000), (100
 FORMATS = {
     ".png": ("uint8", "uint16"),
     ".jpg": ("uint8",),
-    ".tif": ("uint8", "uint16", "float32"),
+    ".tif": ("uint8", "uint16", "float32", "float64", "int16", "int32"),  # int: exit 2 by name
     ".exr": ("float32",),
 }
 CORRUPTIONS = ["none", "none", "none", "truncate", "garbage", "nan", "inf", "huge", "negative",
@@ -72,12 +72,12 @@ def scene_spec(draw):  # noqa: ANN001, ANN201
 def _pixels(rng: np.random.Generator, spec: dict) -> np.ndarray:
     h, w = spec["size"]
     c = spec["channels"]
-    if spec["dtype"] == "float32":
-        img = rng.random((h, w, c), dtype=np.float32)
+    if spec["dtype"].startswith("float"):
+        img = rng.random((h, w, c)).astype(spec["dtype"])
     else:
         top = np.iinfo(spec["dtype"]).max
         img = rng.integers(0, top, (h, w, c), endpoint=True).astype(spec["dtype"])
-    if spec["corrupt"] in ("nan", "inf", "huge", "negative") and spec["dtype"] == "float32":
+    if spec["corrupt"] in ("nan", "inf", "huge", "negative") and img.dtype.kind == "f":
         img.flat[rng.integers(img.size)] = {"nan": np.nan, "inf": np.inf, "huge": 1e30,
                                             "negative": -3.0}[spec["corrupt"]]
     return img[..., 0] if c == 1 else img
@@ -117,8 +117,8 @@ def _write_images(root: Path, spec: dict, rng: np.random.Generator) -> None:
     for i, f in enumerate(spec["frames"]):
         gt = _pixels(rng, f)
         noise = rng.normal(0, 0.02, gt.shape)
-        if gt.dtype == np.float32:
-            pred = np.clip(gt + noise, 0, 1).astype(np.float32) if np.isfinite(gt).all() and \
+        if gt.dtype.kind == "f":
+            pred = np.clip(gt + noise, 0, 1).astype(gt.dtype) if np.isfinite(gt).all() and \
                 gt.max() <= 1 and gt.min() >= 0 else gt.copy()
         else:
             top = np.iinfo(gt.dtype).max

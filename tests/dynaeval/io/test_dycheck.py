@@ -18,7 +18,9 @@ def test_splits_read_from_the_dataset(tmp_path):
                       "val": {"1_00000", "1_00001", "1_00002"}}
     assert dycheck_splits(pred) == {}  # not rgb/<factor>x
     (gt.parent.parent / "splits" / "broken.json").write_text("{not json")
-    assert set(dycheck_splits(gt)) == {"train", "val"}  # an unreadable split is ignored
+    with pytest.raises(InputError, match=r"splits/broken\.json: this DyCheck split file is not "
+                                         "valid JSON"):
+        dycheck_splits(gt)  # was ignored (issue 34 item 4)
 
 
 def test_pairing_one_split(tmp_path):
@@ -94,7 +96,7 @@ def test_dycheck_render_folder_is_scored_panel_2_against_panel_1(tmp_path, maske
                  "-o", str(out)]) == 0
     assert "dycheck render folder" in capsys.readouterr().err
     doc = json.loads(out.read_text())
-    want = [psnr(p / np.float32(255), g / np.float32(255)) for p, g in zip(preds, gts)]
+    want = [psnr(p / np.float32(255), g / np.float32(255)) for p, g in zip(preds, gts, strict=True)]
     assert [r["frame"] for r in doc["frames"]] == ["1_00000", "1_00001", "1_00002"]
     assert [r["psnr"] for r in doc["frames"]] == pytest.approx(want, rel=1e-6)
     assert doc["inputs"]["layout"]["split"] == "val"
@@ -165,6 +167,59 @@ def test_dycheck_render_with_the_datasets_covisible_masks_gives_the_masked_numbe
     res = dynaeval.score(split, masks=str(cov), protocol="dycheck", metrics=("psnr",),
                          focus=FocusConfig(source="none"), progress=False)
     want = [psnr(p[:, :15] / np.float32(255), g[:, :15] / np.float32(255))
-            for p, g in zip(preds, gts)]
+            for p, g in zip(preds, gts, strict=True)]
     assert [r["masked_psnr"] for r in res["frames"]] == pytest.approx(want, rel=1e-6)
     assert res["summary"]["mpsnr"] is not None
+
+
+# ------------------------------------------- issue 34 item 4: a broken DyCheck split file
+
+BROKEN_SPLITS = {
+    "not JSON": ("{\"frame_names\": [\"1_00000\",", "is not valid JSON"),
+    "a list": ('["1_00000", "1_00001", "1_00002"]', "holds a JSON list, not an object"),
+    "no frame_names": ('{"frames": ["1_00000"]}', 'has no "frame_names" (keys: frames)'),
+    "frame_names a string": ('{"frame_names": "1_00000"}', 'a str, not a list'),
+    "empty frame_names": ('{"frame_names": []}', '"frame_names" that is an empty list'),
+    "numbers as names": ('{"frame_names": [1, 2]}', 'lists 1 in "frame_names", not a frame name'),
+    "a name twice": ('{"frame_names": ["1_00000", "1_00000"]}', "frame names twice"),
+    "time_ids of another length": ('{"frame_names": ["1_00000", "1_00001", "1_00002"], '
+                                   '"time_ids": [0, 1]}', '"time_ids" that is not 3 whole numbers'),
+    "frames not in rgb/2x": ('{"frame_names": ["1_00000", "1_00001", "1_00002", "1_00007"]}',
+                             "lists 1 frame(s) that"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BROKEN_SPLITS))
+def test_broken_split_file_is_exit_2_naming_it(tmp_path, capsys, case):
+    """A broken splits/val.json was skipped and the user told of missing frames instead (the
+    training frames of rgb/2x/): exit 2 naming splits/val.json and its problem, before the
+    work; no results file."""
+    from dynaeval.cli import main
+
+    pred, gt = dycheck_dataset(tmp_path)
+    text, problem = BROKEN_SPLITS[case]
+    split_file = gt.parent.parent / "splits" / "val.json"
+    split_file.write_text(text)
+    out = tmp_path / "r.json"
+    code = main(["score", str(pred), str(gt), "--no-lpips", "--focus", "none", "-q",
+                 "-o", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and not out.exists() and "Traceback" not in err
+    assert f"{split_file}: this DyCheck split" in err and problem in err
+    assert "no prediction" not in err
+    if case == "frames not in rgb/2x":
+        assert f"{gt} does not hold: 1_00007" in err
+
+
+def test_split_file_intact_still_scores(tmp_path, capsys):
+    """The checks pass DyCheck's own files: time_ids and camera_ids of the same length."""
+    import json
+
+    from dynaeval.cli import main
+
+    pred, gt = dycheck_dataset(tmp_path)
+    out = tmp_path / "r.json"
+    assert main(["score", str(pred), str(gt), "--no-lpips", "--focus", "none", "--no-masked",
+                 "-q", "-o", str(out)]) == 0, capsys.readouterr().err
+    assert [f["frame"] for f in json.loads(out.read_text())["frames"]] == [
+        "1_00000", "1_00001", "1_00002"]

@@ -188,3 +188,129 @@ def test_unreadable_ground_truth_folder_is_named(tmp_path, monkeypatch):
     _refuse_listing(monkeypatch, "gt")
     with pytest.raises(InputError, match=r"gt: cannot list this ground truth folder"):
         pair_frames(tmp_path / "pred", tmp_path / "gt")
+
+
+# ------------------------------------------------ issue 34 item 4: symbolic links, two videos
+
+
+def _score(tmp_path, pred, gt, name="r.json"):
+    """``dynaeval score PRED GT`` through the CLI: (exit code, stderr, results or None)."""
+    import json
+
+    from dynaeval.cli import main
+
+    out = tmp_path / name
+    code = main(["score", str(pred), str(gt), "--no-lpips", "--focus", "none", "-q",
+                 "-o", str(out)])
+    return code, json.loads(out.read_text()) if out.exists() else None
+
+
+def _scene(root: Path, seed: int, cams=("cam0", "cam1"), n: int = 3) -> Path:
+    rng = np.random.default_rng(seed)
+    for cam in cams:
+        (root / cam).mkdir(parents=True)
+        for i in range(n):
+            cv2.imwrite(str(root / cam / f"{i:04d}.png"),
+                        rng.integers(0, 256, (24, 32, 3), dtype=np.uint8))
+    return root
+
+
+def test_symlinked_camera_folders_are_scored_as_their_targets(tmp_path, capsys):
+    """A prediction camera folder that is a symbolic link was skipped (exit 0, listed as
+    unscored), a linked ground-truth camera reported missing: both are read as their targets,
+    with the numbers of the real folders."""
+    import os
+
+    pred, gt = _scene(tmp_path / "pred", 1), _scene(tmp_path / "gt", 2)
+    for side, real in (("pred_links", pred), ("gt_links", gt)):
+        (tmp_path / side).mkdir()
+        for cam in ("cam0", "cam1"):
+            os.symlink(real / cam, tmp_path / side / cam)
+    code, want = _score(tmp_path, pred, gt, "real.json")
+    assert code == 0
+    for i, (p, g) in enumerate([(tmp_path / "pred_links", gt), (pred, tmp_path / "gt_links"),
+                                (tmp_path / "pred_links", tmp_path / "gt_links")]):
+        code, got = _score(tmp_path, p, g, f"l{i}.json")
+        assert code == 0, capsys.readouterr().err
+        assert got["inputs"]["unscored_cameras"] == []
+        assert [(r["camera"], r["frame"], r["psnr"], r["ssim"]) for r in got["frames"]] == [
+            (r["camera"], r["frame"], r["psnr"], r["ssim"]) for r in want["frames"]]
+        assert len(got["frames"]) == 6
+
+
+def test_symlinked_frame_files_are_read_as_their_targets(tmp_path):
+    import os
+
+    gt = _scene(tmp_path / "gt", 3, cams=("cam0",))
+    (tmp_path / "pred" / "cam0").mkdir(parents=True)
+    for f in sorted((gt / "cam0").iterdir()):
+        os.symlink(f, tmp_path / "pred" / "cam0" / f.name)
+    code, doc = _score(tmp_path, tmp_path / "pred", gt)
+    assert code == 0 and [r["ssim"] for r in doc["frames"]] == pytest.approx([1.0] * 3)
+
+
+@pytest.mark.parametrize("case", ["parent", "self", "loop", "dangling", "dangling-file"])
+def test_symlink_loops_and_dangling_links_are_exit_2_naming_the_link(tmp_path, capsys, case):
+    """A link to a folder that holds it (walked forever), a loop of links or a link to nothing
+    is exit 2 naming the link, before the work; no results file."""
+    import os
+
+    pred, gt = _scene(tmp_path / "pred", 4), _scene(tmp_path / "gt", 5)
+    link = pred / "cam1" / "back" if case != "dangling-file" else pred / "cam1" / "0003.png"
+    if case == "parent":
+        os.symlink(pred, link)  # pred/cam1/back -> pred
+    elif case == "self":
+        os.symlink(pred / "cam1", link)  # pred/cam1/back -> pred/cam1
+    elif case == "loop":
+        os.symlink(pred / "cam1" / "back2", link)
+        os.symlink(link, pred / "cam1" / "back2")
+    else:
+        os.symlink(tmp_path / "gone", link)
+    code, doc = _score(tmp_path, pred, gt)
+    err = capsys.readouterr().err
+    assert code == 2 and doc is None and "Traceback" not in err
+    assert f"{link}: " in err or f"{pred / 'cam1' / 'back2'}: " in err
+    want = {"parent": "a folder that holds it", "self": "a folder that holds it",
+            "loop": "loop of symbolic links", "dangling": "broken symbolic link",
+            "dangling-file": "broken symbolic link"}[case]
+    assert want in err and "remove" in err
+
+
+def test_symlinked_ground_truth_folder_above_is_a_loop(tmp_path):
+    """``gt/cam0/up -> gt/..`` (a folder above the root): refused at once, not walked."""
+    import os
+
+    gt = _scene(tmp_path / "gt", 6, cams=("cam0",))
+    os.symlink(tmp_path, gt / "cam0" / "up")
+    with pytest.raises(InputError, match=r"cam0/up: this ground truth folder is a symbolic "
+                                         r"link to .*a folder that holds it"):
+        find_frames(gt, role="ground truth")
+
+
+@pytest.mark.parametrize("second", ["cam0.avi", "cam0/"])
+def test_two_videos_or_a_folder_and_a_video_of_one_camera_are_exit_2_naming_both(
+        tmp_path, capsys, second):
+    """``cam0.mp4`` beside ``cam0.avi``: one was silently ignored (the last listed won)."""
+    gt = tmp_path / "gt"
+    _video(gt / "cam0.mp4", 3)
+    if second == "cam0/":
+        layout(gt, [f"cam0/{i}.png" for i in range(3)])
+    else:
+        _video(gt / second, 3)
+    pred = _scene(tmp_path / "pred", 7, cams=("cam0",))
+    code, doc = _score(tmp_path, pred, gt)
+    err = capsys.readouterr().err
+    assert code == 2 and doc is None
+    assert "cam0.mp4" in err and (f"{gt / 'cam0'}/" in err if second == "cam0/" else
+                                  "cam0.avi" in err)
+    assert "remove one of them, or move it out of the folder" in err
+
+
+def test_prediction_folder_that_is_a_broken_link_is_named_as_such(tmp_path):
+    """Not "folder not found": the link is there, its target is not."""
+    import os
+
+    os.symlink(tmp_path / "renders-deleted", tmp_path / "pred")
+    with pytest.raises(InputError, match=r"pred: this prediction entry is a broken symbolic "
+                                         r"link: its target .*renders-deleted does not exist"):
+        find_frames(tmp_path / "pred", role="prediction")

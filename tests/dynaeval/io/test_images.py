@@ -259,3 +259,168 @@ def test_npy_gz_frames_are_read_as_stored_rgb_under_the_dtype_rule(tmp_path):
         read_image(save("d.npy.gz", rgb + 2))
     with pytest.raises(InputError, match="unsupported pixel type int32"):
         read_image(save("e.npy.gz", np.zeros((4, 5, 3), np.int32)))
+
+
+# ------------------------------------------- issue 34 item 4: every TIFF pixel type, by name
+
+REFUSED_TIFF = ("int8", "int16", "int32", "uint32")
+"""Integer pixel types without a range rule (OpenCV writes and decodes them)."""
+
+
+def _tiff_scene(tmp_path, dtype, value=0.25) -> tuple:
+    """pred/cam0/0000..0002.tif and gt/ the same, of ``dtype`` (cv2's writer)."""
+    for side in ("pred", "gt"):
+        (tmp_path / side / "cam0").mkdir(parents=True)
+        for i in range(3):
+            img = np.full((20, 24, 3), value * (i + 1), np.float64).astype(dtype)
+            assert cv2.imwrite(str(tmp_path / side / "cam0" / f"{i:04d}.tif"), img)
+    return tmp_path / "pred", tmp_path / "gt"
+
+
+def _cli(pred, gt, out) -> int:
+    from dynaeval.cli import main
+
+    return main(["score", str(pred), str(gt), "--no-lpips", "--focus", "none", "-q",
+                 "-o", str(out)])
+
+
+@pytest.mark.parametrize("dtype", REFUSED_TIFF)
+def test_integer_tiffs_without_a_range_rule_are_exit_2_naming_file_and_dtype(
+        tmp_path, capsys, dtype):
+    """int32 / int16 / int8 / uint32 TIFFs ended in a cv2.error traceback (exit 1): exit 2
+    naming the file, its pixel type and the fix, before the work (no results file)."""
+    pred, gt = _tiff_scene(tmp_path, dtype, value=3)
+    assert _cli(pred, gt, tmp_path / "r.json") == 2
+    err = capsys.readouterr().err
+    assert f"0000.tif: unsupported pixel type {dtype}" in err and "Traceback" not in err
+    assert "save it as an 8/16-bit PNG, or a 32-bit float TIFF" in err
+    assert not (tmp_path / "r.json").exists()
+    with pytest.raises(InputError, match=f"unsupported pixel type {dtype}"):
+        read_image(gt / "cam0" / "0002.tif")  # also when read (a TIFF under another name)
+
+
+def test_pixel_type_is_refused_before_the_work(tmp_path, monkeypatch):
+    """The header check runs when the folder is listed, not when the frame is scored: the
+    last ground-truth frame's int32 stops the run before any frame is decoded."""
+    from dynaeval.io import find_frames, images
+
+    pred, gt = _tiff_scene(tmp_path, np.float32)
+    assert cv2.imwrite(str(gt / "cam0" / "0002.tif"), np.zeros((20, 24, 3), np.int32))
+    decoded = []
+    monkeypatch.setattr(images, "decode_file", lambda *a, **k: decoded.append(a) or 1 / 0)
+    with pytest.raises(InputError, match=r"gt/cam0/0002\.tif: unsupported pixel type int32"):
+        find_frames(gt, role="ground truth")
+    assert decoded == []
+
+
+def test_float64_tiff_is_read_as_float32_under_the_float_rule(tmp_path, capsys, rng):
+    """A float64 TIFF ended in a traceback (OpenCV's colour conversion has no 64-bit float):
+    read as stored, as float32 (nearest), like a float32 TIFF of the same values, so it scores
+    as that file; outside [0, 1] the float rule refuses it naming the file."""
+    img = rng.random((20, 24, 3))
+    cv2.imwrite(str(tmp_path / "a64.tif"), img[..., ::-1])
+    cv2.imwrite(str(tmp_path / "a32.tif"), img[..., ::-1].astype(np.float32))
+    np.testing.assert_array_equal(read_image(tmp_path / "a64.tif"), img.astype(np.float32))
+    np.testing.assert_array_equal(read_image(tmp_path / "a64.tif"), read_image(tmp_path / "a32.tif"))
+    p64, g64 = _tiff_scene(tmp_path / "f64", np.float64)
+    p32, g32 = _tiff_scene(tmp_path / "f32", np.float32)
+    cv2.imwrite(str(p64 / "cam0" / "0001.tif"), np.full((20, 24, 3), 0.4))
+    cv2.imwrite(str(p32 / "cam0" / "0001.tif"), np.full((20, 24, 3), 0.4, np.float32))
+    assert _cli(p64, g64, tmp_path / "r64.json") == 0
+    assert _cli(p32, g32, tmp_path / "r32.json") == 0
+    import json
+
+    r64, r32 = (json.loads((tmp_path / f"r{b}.json").read_text()) for b in (64, 32))
+    assert [f["psnr"] for f in r64["frames"]] == [f["psnr"] for f in r32["frames"]]
+    cv2.imwrite(str(tmp_path / "big.tif"), np.full((4, 4, 3), 2.0))
+    with pytest.raises(InputError, match=r"big\.tif: float pixel values must be in \[0, 1\]"):
+        read_image(tmp_path / "big.tif")
+
+
+def test_complex_half_float_and_big_tiffs_are_refused_by_name(tmp_path):
+    """OpenCV cannot decode complex or half-float TIFFs ("cannot decode image (corrupt ...)",
+    a wrong reason): the header names the pixel type. A BigTIFF header is read too."""
+    tifffile = pytest.importorskip("tifffile")
+    from dynaeval.io import find_frames
+
+    cases = {"c.tif": (np.complex64, {}, r"unsupported pixel type complex float"),
+             "h.tif": (np.float16, {}, r"16-bit \(half\) float TIFF: OpenCV cannot decode it"),
+             "b.tif": (np.int32, {"bigtiff": True}, r"unsupported pixel type int32")}
+    for name, (dtype, kw, match) in cases.items():
+        folder = tmp_path / name[0]
+        folder.mkdir()
+        tifffile.imwrite(folder / name, np.zeros((8, 8, 3), dtype), photometric="rgb", **kw)
+        with pytest.raises(InputError, match=rf"{name}: {match}"):
+            find_frames(folder)
+        with pytest.raises(InputError, match=rf"{name}: {match}"):
+            read_image(folder / name)
+
+
+def test_bilevel_tiff_is_read_as_0_and_1(tmp_path):
+    """A 1-bit (black/white) TIFF: OpenCV decodes it to uint8 0 / 255 as displayed (its
+    photometric tag honoured: a "min is white" file's 0 bits are white), so it reads as 0 and 1."""
+    tifffile = pytest.importorskip("tifffile")
+    bits = np.zeros((8, 8), bool)
+    bits[2:5] = True
+    for photometric, white in (("minisblack", bits), ("miniswhite", ~bits)):
+        tifffile.imwrite(tmp_path / "b.tif", bits, photometric=photometric)
+        np.testing.assert_array_equal(read_image(tmp_path / "b.tif")[..., 0],
+                                      white.astype(np.float32))
+
+
+def test_int32_tiff_named_png_is_refused_when_decoded(tmp_path):
+    """The header check is by name (``.tif``); a TIFF under another name is checked when read."""
+    cv2.imwrite(str(tmp_path / "a.tif"), np.zeros((4, 4, 3), np.int32))
+    (tmp_path / "a.png").write_bytes((tmp_path / "a.tif").read_bytes())
+    with pytest.raises(InputError, match=r"a\.png: unsupported pixel type int32"):
+        read_image(tmp_path / "a.png")
+
+
+def test_exr_of_uint_channels_is_refused_by_name(tmp_path):
+    """OpenEXR's UINT channels were read as floats: 0/1 ids silently as black and white, 3 as
+    "float pixel values must be in [0, 1]" (a wrong reason)."""
+    OpenEXR = pytest.importorskip("OpenEXR")  # noqa: N806
+    hdr = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    planes = {c: np.ones((4, 4), np.uint32) for c in "RGB"}
+    with OpenEXR.File(hdr, planes) as f:
+        f.write(str(tmp_path / "u.exr"))
+    with pytest.raises(InputError, match=r"u\.exr: unsupported pixel type uint32 \(OpenEXR UINT"):
+        read_image(tmp_path / "u.exr")
+
+
+@pytest.mark.parametrize("dtype", ["int32", "bool", "int64"])
+def test_npy_gz_pixel_type_is_refused_when_listed(tmp_path, monkeypatch, dtype):
+    """A ``.npy.gz`` frame's dtype is in its header: refused when the folder is listed (it was
+    refused only when the frame was read, mid-run), naming the file and the fix."""
+    import gzip
+
+    from dynaeval.io import find_frames, images
+
+    (tmp_path / "g").mkdir()
+    for i in range(2):
+        with gzip.open(tmp_path / "g" / f"{i}.npy.gz", "wb") as f:
+            np.save(f, np.zeros((4, 4, 3), np.float32 if i == 0 else dtype))
+    monkeypatch.setattr(images, "decode_file", lambda *a, **k: 1 / 0)
+    with pytest.raises(InputError, match=rf"1\.npy\.gz: unsupported pixel type {dtype}.*"
+                                         "16-bit PNG"):
+        find_frames(tmp_path / "g")
+
+
+def test_big_endian_npy_gz_frames_are_read_in_the_machine_order(tmp_path):
+    """``np.save`` keeps a big-endian array's byte order: float32 and uint16 are read as the
+    native arrays of the same values (the pixel-type check compares the type, not the order)."""
+    import gzip
+
+    from dynaeval.io import find_frames
+
+    (tmp_path / "g").mkdir()
+    values = np.linspace(0, 1, 48).reshape(4, 4, 3)
+    for name, arr in (("f.npy.gz", values.astype(">f4")),
+                      ("u.npy.gz", (values * 65535).astype(">u2"))):
+        with gzip.open(tmp_path / "g" / name, "wb") as f:
+            np.save(f, arr)
+    find_frames(tmp_path / "g")
+    np.testing.assert_array_equal(read_image(tmp_path / "g" / "f.npy.gz"),
+                                  values.astype(np.float32))
+    np.testing.assert_array_equal(read_image(tmp_path / "g" / "u.npy.gz"),
+                                  (values * 65535).astype(np.uint16) / np.float32(65535))
