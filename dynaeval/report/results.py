@@ -300,6 +300,10 @@ def build_results(
     the null-summary warnings of the focused and presence metrics.
     """
     warnings = list(warnings)
+    unmarked = [w for w in warnings if "status" not in w]
+    if unmarked:
+        raise ValueError(f"warning without a status: {unmarked[0]} (a bug: make warnings with "
+                         "dynaeval.outcome.warning or note)")
     camera_values = {c: dict(v) for c, v in (camera_values or {}).items()}
     if temporal:
         placed, more = place_temporal(rows, temporal)
