@@ -239,7 +239,7 @@ class _CameraTerms:
         if n_frames < 2:
             return _null(Status.UNDEFINED, f"needs at least 2 frames, got {n_frames}")
         if self.flicker is None:
-            return _null(Status.NO_REGION,
+            return _null(Status.UNDEFINED,  # no static region known (not a missing box)
                          "no static mask given (moving camera, or motion masks unavailable)")
         if focused and not has_regions:
             return _null(Status.DISABLED, _NO_REGIONS)

@@ -92,6 +92,7 @@ def _summary_status(values: list[float | None], members: list[dict]) -> Status:
 FRAME_FIELDS = ("camera", "frame", "index", "pred", "gt")
 """Keys of a frame row that are not metric values."""
 
+
 def restore_infinite(rows: list[dict[str, Any]], warnings: list[dict]) -> int:
     """Put ``inf`` back, in place, into the rows of a results file where a frame warning's
     status says the ``null`` stands for +infinity (``Status.INFINITE``), so re-summarising them
@@ -527,7 +528,7 @@ def _v1_status(w: dict[str, Any]) -> Status:
         (Status.NOT_CONSECUTIVE, ("not a pair of consecutive", "are consecutive",
                                   "not consecutive")),
         (Status.NO_REGION, ("frames have no box", "has no box")),  # whatever the box's cause
-        (Status.UNAVAILABLE, ("not computed:", "unavailable", "not installed")),
+        (Status.UNAVAILABLE, ("not computed:", "lpips unavailable", "not installed")),
         (Status.DISABLED, ("disabled in the configuration", "focus: none",
                            "no focus regions requested")),
         (Status.NOT_A_VIDEO, ("differ", "separate test views", "separate views")),
@@ -535,7 +536,7 @@ def _v1_status(w: dict[str, Any]) -> Status:
                                "holds no pixel")),
         (Status.NO_REGION, (NO_REGIONS, "no box", "not in the boxes file", "has a region",
                             "has no region", "no covisibility mask", "in the ground truth of "
-                            "this frame", "no static mask")),
+                            "this frame")),
     )
     if low.startswith("summary is null") and "infinite value" not in low:
         return Status.UNDEFINED

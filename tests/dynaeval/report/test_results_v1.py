@@ -5,8 +5,8 @@ writes inferred once, at load (``dynaeval.report.results._upgrade_v1``).
 The v1 files in ``data/v1`` were written by dynaeval at commit 033dc1f (main before issue 31's
 statuses; each file's ``provenance`` has the command) on the scene ``_scene`` makes again here:
 three cameras, a prediction frame equal to its ground truth (PSNR +inf), a missing frame
-(``--allow-missing``), once with motion masks and once with an empty boxes file (no box in any
-frame)."""
+(``--allow-missing``), with motion masks, with an empty boxes file (no box in any frame) and
+with neither boxes nor masks."""
 
 from __future__ import annotations
 
@@ -29,7 +29,8 @@ from dynaeval.report.table import summary_table
 from ..helpers import three_camera_scene
 
 V1 = Path(__file__).resolve().parents[1] / "data" / "v1"
-RUNS = {"motion": ["--focus", "motion", "--no-presence"], "noboxes": ["--focus", "boxes:{boxes}"]}
+RUNS = {"motion": ["--focus", "motion", "--no-presence"], "noboxes": ["--focus", "boxes:{boxes}"],
+        "none": ["--focus", "none", "--no-masked"]}
 NUMBERS = ("frames", "cameras", "summary", "counts", "metrics")
 
 
