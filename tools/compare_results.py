@@ -1,5 +1,5 @@
-"""compare_results.py [--statuses-added] BEFORE AFTER [ROOT_BEFORE ROOT_AFTER]: every results
-JSON of BEFORE against AFTER, number for number.
+"""compare_results.py BEFORE AFTER [ROOT_BEFORE ROOT_AFTER]: every results JSON of BEFORE against
+AFTER, number for number.
 
 With two checkout roots, paths under ROOT_BEFORE in BEFORE count as equal to the same paths under
 ROOT_AFTER (``dynaeval demo`` scores the sample inside its own checkout).
@@ -9,25 +9,16 @@ Compares every field exactly (floats with ``==``) except ``created`` and ``timin
 and that the printed tables (``*.txt`` beside the JSON) are the same text. Prints every
 difference; exits 1 when there is one. Written for the before/after check of a refactor
 (``tools/score_sample_configs.sh``, docs/architecture.md).
-
-``--statuses-added``: BEFORE is ``dynaeval/results/v1``, AFTER ``v2`` (issue 31); the fields v2
-adds (``schema``, ``summary_status``, each warning's ``status``) are counted and shown apart,
-and every other field must be the same.
 """
 
 from __future__ import annotations
 
 import json
-import re
 import sys
 from pathlib import Path
 
 IGNORED = ("created", "timing")
 ORDERED = ("summary", "metrics", "counts")
-ADDED_BY_V2 = re.compile(r"^/schema: 'dynaeval/results/v1' != 'dynaeval/results/v2'$"
-                         r"|^/summary_status: only after: "
-                         r"|^/warnings\[\d+\]/status: only after: ")
-"""The differences a v1 -> v2 comparison expects (``--statuses-added``)."""
 
 
 def differences(a: object, b: object, path: str = "") -> list[str]:
@@ -51,8 +42,7 @@ def differences(a: object, b: object, path: str = "") -> list[str]:
     return [] if a == b else [f"{path}: {str(a)[:150]!r} != {str(b)[:150]!r}"]
 
 
-def main(before: Path, after: Path, roots: tuple[str, str] | None = None,
-         statuses_added: bool = False) -> int:
+def main(before: Path, after: Path, roots: tuple[str, str] | None = None) -> int:
     bad = 0
     for f in sorted(before.glob("*.json")):
         g = after / f.name
@@ -67,10 +57,7 @@ def main(before: Path, after: Path, roots: tuple[str, str] | None = None,
         out = differences(a, b)
         out += [f"/{s}: key order differs" for s in ORDERED
                 if s in a and list(a[s]) != list(b.get(s, {}))]
-        added = [d for d in out if statuses_added and ADDED_BY_V2.match(d)]
-        out = [d for d in out if d not in added]
-        note = f" ({len(added)} status fields added)" if added else ""
-        print(f"{f.name}: {'same' if not out else f'{len(out)} differences'}{note}")
+        print(f"{f.name}: {'same' if not out else f'{len(out)} differences'}")
         for line in out[:30]:
             print("   ", line)
         bad += bool(out)
@@ -83,10 +70,7 @@ def main(before: Path, after: Path, roots: tuple[str, str] | None = None,
 
 
 if __name__ == "__main__":
-    args = sys.argv[1:]
-    added = "--statuses-added" in args
-    args = [a for a in args if a != "--statuses-added"]
-    if len(args) not in (2, 4):
+    if len(sys.argv) not in (3, 5):
         sys.exit(__doc__)
-    roots = (args[2], args[3]) if len(args) == 4 else None
-    sys.exit(main(Path(args[0]), Path(args[1]), roots, added))
+    roots = (sys.argv[3], sys.argv[4]) if len(sys.argv) == 5 else None
+    sys.exit(main(Path(sys.argv[1]), Path(sys.argv[2]), roots))
