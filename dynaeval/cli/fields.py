@@ -5,12 +5,12 @@ from __future__ import annotations
 
 import ast
 import functools
-import inspect
 import re
-import textwrap
+import sys
 import typing
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 
@@ -58,14 +58,20 @@ def field_docs(cls: type) -> dict[str, str]:
     annotated line, as config.py documents fields), whitespace collapsed; ``{}`` where the
     source cannot be read (an install without ``.py`` files: the options then have no help)."""
     try:
-        body = ast.parse(textwrap.dedent(inspect.getsource(cls))).body[0].body  # type: ignore[attr-defined]
-    except (OSError, TypeError):
+        tree = ast.parse(Path(sys.modules[cls.__module__].__file__ or "").read_text("utf-8"))
+    except (OSError, KeyError, ValueError):
         return {}
+    body = next((n.body for n in tree.body
+                 if isinstance(n, ast.ClassDef) and n.name == cls.__name__), [])
     return {node.target.id: " ".join(after.value.value.split())
             for node, after in zip(body, body[1:], strict=False)
             if isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name)
             and isinstance(after, ast.Expr) and isinstance(after.value, ast.Constant)
             and isinstance(after.value.value, str)}
+
+
+_hints = functools.cache(typing.get_type_hints)
+"""``typing.get_type_hints`` of a class, evaluated once."""
 
 
 def _help(doc: str) -> str:
@@ -88,7 +94,7 @@ def _number_type(hint: Any) -> type | None:
 def option_of(cls: type, default: Any, path: str, cli: Cli) -> Option:
     """The row of field ``path`` of ``cls`` (whose instance holds ``default``)."""
     name = path.rpartition(".")[2]
-    hint = typing.get_type_hints(cls)[name]
+    hint = _hints(cls)[name]
     doc = _help(field_docs(cls).get(name, ""))
     dash = name.replace("_", "-")
     if isinstance(default, bool) or hint == bool | None:  # a switch: given -> the other value

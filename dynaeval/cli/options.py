@@ -79,7 +79,7 @@ EXPOSED: dict[str, Cli | str] = {
     "temporal": Cli(),
     "flow": Cli(choices=FLOW_METHODS),
     "workers": Cli(metavar="N"),
-    "device": Cli(choices=DEVICES),
+    "device": Cli(choices=DEVICES, help="torch device for LPIPS and the detector"),
     "progress": Cli(flags=("-q", "--quiet"), help="no progress bar"),
     "cache_mb": Cli(metavar="MB"),
     "shard": Cli(metavar="I/N", read=lambda spec: spec or None,
