@@ -310,4 +310,3 @@ def test_internal_imports_are_at_module_level():
     _, lazy = _internal_graph()
     hidden = [f"{m}:{line} imports {t}" for m, line, t in lazy if t not in LAZY_INTERNAL]
     assert hidden == []
-
