@@ -39,6 +39,8 @@ from dynaeval.report.results import load_results, strict
 SCHEMA = "dynaeval/leaderboard/v1"
 ALL_SCENES = "(all)"
 FORMATS = ("md", "csv", "json", "html")
+GROUP_BY = ("method", "scene")
+"""What the rows of a rendered leaderboard are grouped by (``dynaeval leaderboard --by``)."""
 
 RUN_IGNORED_SETTINGS = (
     "allow_missing",
@@ -357,7 +359,7 @@ def build_leaderboard(
 
 
 def _ordered_rows(board: dict[str, Any], by: str) -> list[dict[str, Any]]:
-    if by not in ("method", "scene"):
+    if by not in GROUP_BY:
         raise InputError(f"--by must be 'method' or 'scene', got {by!r}")
     scene_order = {s: i for i, s in enumerate([*board["scenes"], ALL_SCENES])}
     method_order = {m: i for i, m in enumerate(board["methods"])}
