@@ -53,7 +53,7 @@ def test_a_deep_document_is_refused_before_parsing_and_fast():
     with pytest.raises(InputError, match=rf"f\.json: nested deeper than {MAX_DEPTH} levels "
                                          r"\(500000\).*; fix it"):
         parse_json(text, path="f.json", fix="fix it")
-    assert time.perf_counter() - start < 1.0  # measured: about 0.03 s
+    assert time.perf_counter() - start < 2.0  # measured: 0.03 to 0.2 s on a loaded 2-core machine
     assert parse_json("[" * MAX_DEPTH + "]" * MAX_DEPTH, path="f", fix="") is not None
 
 

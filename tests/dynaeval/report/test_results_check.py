@@ -275,7 +275,7 @@ def test_a_1_mb_deeply_nested_file_is_refused_fast(tmp_path):
     start = time.perf_counter()
     with pytest.raises(InputError, match="nested deeper than 64 levels"):
         load_results(path)
-    assert time.perf_counter() - start < 2.0  # measured: about 0.06 s
+    assert time.perf_counter() - start < 2.0  # measured: 0.06 to 0.2 s on a loaded 2-core machine
 
 
 def test_the_region_sources_are_the_focus_sources():
