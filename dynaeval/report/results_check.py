@@ -114,10 +114,12 @@ class _Check:
         self.path = path
 
     def fail(self, where: str, expected: str, value: Any, fix: str = _FIX) -> NoReturn:
+        """Refuse ``value`` at ``where``: what was expected, what came, what to do."""
         raise InputError(f"not a valid dynaeval results file: '{where}' must be {expected}, got "
                          f"{_shown(value)}; {fix}", path=self.path)
 
     def required(self, part: dict[str, Any], where: str, keys: Iterable[str]) -> None:
+        """Refuse ``part`` (at ``where``) when one of ``keys`` is missing, naming them all."""
         missing = [k for k in keys if k not in part]
         if missing:
             field = f"{where}." if where else ""
@@ -126,25 +128,30 @@ class _Check:
                              "truncated? score again to get the whole file)", path=self.path)
 
     def kind(self, value: Any, where: str, kind: type) -> None:
+        """``value`` is a JSON object, array or string (``kind`` dict, list or str)."""
         if not isinstance(value, kind):
             self.fail(where, _KINDS[kind], value)
 
-    def optional_string(self, part: dict[str, Any], where: str, keys: Iterable[str]) -> None:
+    def string_fields(self, part: dict[str, Any], where: str, keys: Iterable[str]) -> None:
+        """Those of ``keys`` that ``part`` holds are strings."""
         for key in keys:
             if key in part:
                 self.kind(part[key], f"{where}.{key}" if where else key, str)
 
-    def strings(self, value: Any, where: str) -> None:
+    def string_list(self, value: Any, where: str) -> None:
+        """``value`` is an array of strings."""
         self.kind(value, where, list)
         for i, item in enumerate(value):
             self.kind(item, f"{where}[{i}]", str)
 
     def whole(self, value: Any, where: str, minimum: int = 0) -> None:
+        """``value`` is a JSON integer >= ``minimum`` (not a boolean, not ``1.0``)."""
         if not _is_whole(value) or value < minimum:
             self.fail(where, f"a whole number >= {minimum}", value, _fix(value))
 
     def number(self, value: Any, where: str, *, null: bool = True, minimum: float | None = None,
                ) -> None:
+        """``value`` is a number (not a boolean) within ``VALUE_LIMIT``, or null when ``null``."""
         if value is None and null:
             return
         if not _is_number(value):
@@ -156,6 +163,7 @@ class _Check:
             self.fail(where, f"a number >= {minimum:g}", value)
 
     def object(self, value: Any, where: str, required: Iterable[str] = ()) -> dict[str, Any]:
+        """``value`` is a JSON object holding ``required``; returned."""
         self.kind(value, where, dict)
         self.required(value, where, required)
         return value
@@ -207,20 +215,20 @@ def check_results(doc: dict[str, Any], path: str | Path) -> None:
         check.number(seconds, f"timing.{name}", null=False, minimum=0)
     for i, warning in enumerate(doc["warnings"]):
         check.object(warning, f"warnings[{i}]", ("reason",))
-        check.optional_string(warning, f"warnings[{i}]", ("reason", "metric", "camera", "frame"))
+        check.string_fields(warning, f"warnings[{i}]", ("reason", "metric", "camera", "frame"))
     if "regions" in doc:
         _check_regions(check, doc["regions"])
 
 
 def _check_inputs(check: _Check, inputs: dict[str, Any]) -> None:
-    check.optional_string(inputs, "inputs", ("pred", "gt"))
+    check.string_fields(inputs, "inputs", ("pred", "gt"))
     check.whole(inputs["n_frames"], "inputs.n_frames")
-    check.strings(inputs["cameras"], "inputs.cameras")
-    check.strings(inputs["unscored_cameras"], "inputs.unscored_cameras")
+    check.string_list(inputs["cameras"], "inputs.cameras")
+    check.string_list(inputs["unscored_cameras"], "inputs.unscored_cameras")
     check.kind(inputs["skipped_frames"], "inputs.skipped_frames", list)
     for i, skipped in enumerate(inputs["skipped_frames"]):
         check.object(skipped, f"inputs.skipped_frames[{i}]", ("camera", "frame"))
-        check.optional_string(skipped, f"inputs.skipped_frames[{i}]", ("camera", "frame"))
+        check.string_fields(skipped, f"inputs.skipped_frames[{i}]", ("camera", "frame"))
     if "shard" in inputs:
         shard = check.object(inputs["shard"], "inputs.shard", ("index", "count"))
         check.whole(shard["count"], "inputs.shard.count", minimum=1)
@@ -237,7 +245,7 @@ def _check_inputs(check: _Check, inputs: dict[str, Any]) -> None:
             check.whole(pairs["expected"], f"{where}.expected")
     if "layout" in inputs:
         check.object(inputs["layout"], "inputs.layout", ("name", "root"))
-        check.optional_string(inputs["layout"], "inputs.layout", ("name", "root"))
+        check.string_fields(inputs["layout"], "inputs.layout", ("name", "root"))
 
 
 def _check_values(check: _Check, part: dict[str, Any], where: str, names: set[str],
@@ -257,7 +265,7 @@ def _check_values(check: _Check, part: dict[str, Any], where: str, names: set[st
 
 def _check_frame(check: _Check, row: Any, where: str, names: set[str]) -> None:
     check.object(row, where, FRAME_FIELDS)
-    check.optional_string(row, where, ("camera", "frame", "pred", "gt"))
+    check.string_fields(row, where, ("camera", "frame", "pred", "gt"))
     check.whole(row["index"], f"{where}.index")
     if "objects" in row:
         check.kind(row["objects"], f"{where}.objects", list)
