@@ -16,6 +16,7 @@ from dynaeval.io.frames import parse_shard
 from dynaeval.metrics.flow import FlowConfig
 from dynaeval.metrics.jod import check_fps
 from dynaeval.metrics.perceptual import LPIPS_BACKENDS, LPIPS_NETS
+from dynaeval.metrics.pixel import QUANTIZE_MODES
 from dynaeval.metrics.protocols import (
     check_background,
     check_lpips_net,
@@ -31,7 +32,6 @@ from dynaeval.metrics.registry import (
 )
 from dynaeval.regions.focus import FOCUS_SOURCES, FocusConfig
 
-QUANTIZE_MODES = ("none", "round", "truncate")
 BACKGROUNDS = ("white", "black")
 DEVICES = ("cpu", "cuda", "auto")
 

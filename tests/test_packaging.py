@@ -72,7 +72,7 @@ def test_the_dynaeval_wheel_holds_dynaeval_only(source_tree, tmp_path):
     dist_info = re.compile(r"dynaeval-[^/]+\.dist-info/")
     outside = [n for n in names if not (n.startswith("dynaeval/") or dist_info.match(n))]
     assert outside == []
-    for needed in ("dynaeval/__init__.py", "dynaeval/cli.py", "dynaeval/models/detector.onnx",
+    for needed in ("dynaeval/__init__.py", "dynaeval/cli/__init__.py", "dynaeval/models/detector.onnx",
                    "dynaeval/data/sample/sample.json"):
         assert needed in names
     assert not any(n.startswith("dynaeval/bench") for n in names)  # the benchmark is benchmarks/

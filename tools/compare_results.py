@@ -6,7 +6,10 @@ ROOT_AFTER (``dynaeval demo`` scores the sample inside its own checkout).
 
 Compares every field exactly (floats with ``==``) except ``created`` and ``timing``, checks that
 ``summary``, ``metrics`` and ``counts`` keep their key order (the order of the printed tables),
-and that the printed tables (``*.txt`` beside the JSON) are the same text. Prints every
+and that the printed tables (``*.txt`` beside the JSON) are the same text. A BEFORE file of
+results schema v1 against an AFTER file of v2 may differ only by v2's additions: the ``schema``
+string and the ``status`` / ``summary_status`` fields (counted and printed, not differences).
+Prints every
 difference; exits 1 when there is one. Written for the before/after check of a refactor
 (``tools/score_sample_configs.sh``, docs/architecture.md).
 """
@@ -18,27 +21,35 @@ import sys
 from pathlib import Path
 
 IGNORED = ("created", "timing")
+V2_ADDED = ("status", "summary_status")
+"""Keys results schema v2 adds beside the values of v1 (docs/results-format.md)."""
 ORDERED = ("summary", "metrics", "counts")
 
 
-def differences(a: object, b: object, path: str = "") -> list[str]:
-    """Every place where two JSON values differ, as ``path: before != after`` lines."""
+def differences(a: object, b: object, path: str = "", added: list[str] | None = None) -> list[str]:
+    """Every place where two JSON values differ, as ``path: before != after`` lines. With
+    ``added`` (a list), keys of ``V2_ADDED`` present only after are appended to it instead."""
     if isinstance(a, dict) and isinstance(b, dict):
         out = []
         for k in [*a, *(k for k in b if k not in a)]:
             if not path and k in IGNORED:
                 continue
+            if added is not None and k not in a and k in V2_ADDED:
+                added.append(f"{path}/{k}")
+                continue
+            if added is not None and not path and k == "schema":
+                continue
             if k not in a or k not in b:
                 side = "after" if k not in a else "before"
                 out.append(f"{path}/{k}: only {side}: {str(b.get(k, a.get(k)))[:120]}")
             else:
-                out += differences(a[k], b[k], f"{path}/{k}")
+                out += differences(a[k], b[k], f"{path}/{k}", added)
         return out
     if isinstance(a, list) and isinstance(b, list):
         if len(a) != len(b):
             return [f"{path}: length {len(a)} != {len(b)}"]
         return [d for i, (x, y) in enumerate(zip(a, b, strict=True))
-                for d in differences(x, y, f"{path}[{i}]")]
+                for d in differences(x, y, f"{path}[{i}]", added)]
     return [] if a == b else [f"{path}: {str(a)[:150]!r} != {str(b)[:150]!r}"]
 
 
@@ -54,10 +65,14 @@ def main(before: Path, after: Path, roots: tuple[str, str] | None = None) -> int
         if roots:
             text = text.replace(json.dumps(roots[0])[1:-1], json.dumps(roots[1])[1:-1])
         a, b = json.loads(text), json.loads(g.read_text())
-        out = differences(a, b)
+        v1_to_v2 = (a.get("schema") == "dynaeval/results/v1"
+                    and b.get("schema") == "dynaeval/results/v2")
+        added: list[str] | None = [] if v1_to_v2 else None
+        out = differences(a, b, "", added)
         out += [f"/{s}: key order differs" for s in ORDERED
                 if s in a and list(a[s]) != list(b.get(s, {}))]
-        print(f"{f.name}: {'same' if not out else f'{len(out)} differences'}")
+        note = f" (schema v1 -> v2: {len(added)} status fields added)" if added is not None else ""
+        print(f"{f.name}: {'same' if not out else f'{len(out)} differences'}{note}")
         for line in out[:30]:
             print("   ", line)
         bad += bool(out)

@@ -207,7 +207,7 @@ def _instance_masks(parent: Path, name: str) -> bool:
     try:
         frames = json.loads((parent / "transforms.json").read_text()).get("frames", [])
         return any(str(f.get("instance_mask_path", "")).startswith(f"{name}/") for f in frames)
-    except (OSError, ValueError, AttributeError):
+    except (OSError, ValueError, AttributeError, RecursionError):  # not the generator's file
         return False
 
 

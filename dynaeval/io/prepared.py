@@ -22,6 +22,7 @@ from typing import Any
 
 from dynaeval.errors import InputError
 from dynaeval.io.atomic import _UMASK, parent_folders, write_failure
+from dynaeval.io.jsonfile import read_json
 
 FORMAT_VERSION = 2
 """Version of the prepared folder's layout; a folder of another version is refused. 2: the
@@ -56,11 +57,8 @@ def read_manifest(folder: str | Path) -> dict[str, Any]:
     if not path.is_file():
         raise InputError("not a prepared ground truth (no manifest.json): make one with "
                          "'dynaeval prepare GT -o PREP'", path=folder)
-    try:
-        manifest = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as err:
-        raise InputError(f"cannot read the prepared ground truth's manifest ({err})",
-                         path=path) from err
+    manifest = read_json(path, what="prepared ground truth's manifest",
+                         fix="prepare it again: 'dynaeval prepare GT -o PREP'")
     version = manifest.get("format_version") if isinstance(manifest, dict) else None
     if version != FORMAT_VERSION:
         raise InputError(f"prepared ground truth of format version {version!r}; this dynaeval "

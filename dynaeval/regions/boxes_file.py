@@ -20,8 +20,10 @@ frame" is information) of records. A record needs ``"class"`` (non-empty string)
 (``[x_min, y_min, x_max, y_max]``, four JSON integers, max exclusive, ``x_max > x_min`` and
 ``y_max > y_min``; coordinates outside the image are allowed and clipped where the box is used).
 Non-integer coordinates (``10.5``, also ``10.0``: the scene generator and ``dynaeval detect`` write
-integers) and inverted boxes (corners swapped) are refused when the file is read, before any
-frame is scored, naming the file, the frame key and the record.
+integers), coordinates beyond ``MAX_COORD`` and inverted boxes (corners swapped) are refused when
+the file is read, before any frame is scored, naming the file, the frame key and the record.
+The file is read as strict JSON: nested deeper than 64 levels, a NaN token or a number out of
+range (``1e999``) is refused naming it (``dynaeval.io.jsonfile``).
 Optional typed fields: ``"id"`` (int; a track id from the generator, a per-frame index from a
 detector), ``"visible"`` (number in [0, 1]), ``"score"`` (number in [0, 1]). Any other field is
 kept as is.
@@ -41,9 +43,14 @@ import numpy as np
 from dynaeval.boxes import as_boxes, inverted_box_problem
 from dynaeval.errors import InputError
 from dynaeval.io.atomic import write_text_atomic
+from dynaeval.io.jsonfile import read_json
 
 BOXES_SCHEMA = "dynaeval/boxes/v1"
 """Value of the ``"schema"`` field of the wrapper layout."""
+
+MAX_COORD = 2**31 - 1
+"""Largest magnitude of a box coordinate read (boxes are stored as int64 and clipped to the image
+where used; a larger number would wrap around)."""
 
 _IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".exr", ".tif", ".tiff", ".bmp", ".webp", ".npy")
 
@@ -121,6 +128,12 @@ def validate_record(record: object, *, key: str, index: int, path: str | Path | 
             "round them outwards when writing the file (floor x_min, y_min; ceil x_max, y_max)",
             path=path,
         )
+    if any(abs(int(v)) > MAX_COORD for v in box):
+        raise InputError(
+            f"{where}: 'box' coordinates must be within ±{MAX_COORD} pixels, got {list(box)!r} "
+            "(out of range: such a box would be stored wrapped around, with other corners)",
+            path=path,
+        )
     x0, y0, x1, y1 = (int(v) for v in box)
     _check_order([x0, y0, x1, y1], where, path)
     out["box"] = [x0, y0, x1, y1]
@@ -187,22 +200,17 @@ def parse_boxes(data: object, path: str | Path | None = None) -> BoxesFile:
     )
 
 
+_MAKE_ONE = " (make one with `dynaeval detect GT -o boxes.json`)"
+
+
 def read_boxes_file(path: str | Path) -> BoxesFile:
-    """Read and strictly validate a boxes file (either layout); InputError names file and key."""
-    path = Path(path)
-    if path.is_dir():
-        raise InputError("is a folder, not a boxes file (give the boxes JSON inside it)", path=path)
-    if not path.is_file():
-        raise InputError("boxes file not found (make one with `dynaeval detect GT -o boxes.json`)", path=path)
-    try:
-        with path.open("r", encoding="utf-8") as f:
-            data = json.load(f)
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise InputError(f"not valid JSON: {exc}", path=path) from exc
-    except PermissionError as exc:
-        raise InputError("boxes file is not readable (permission denied)", path=path) from exc
-    except OSError as exc:
-        raise InputError(f"cannot read the boxes file ({exc.strerror or exc})", path=path) from exc
+    """Read and strictly validate a boxes file (either layout); InputError names file and key.
+
+    Read as strict JSON (``dynaeval.io.jsonfile.read_json``): a file nested deeper than
+    ``MAX_DEPTH`` levels, a NaN token or a number out of range is refused naming it."""
+    data = read_json(path, what="boxes file", missing_hint=_MAKE_ONE,
+                     fix="correct the file, or write it again with `dynaeval detect GT -o "
+                         "boxes.json`")
     return parse_boxes(data, path)
 
 

@@ -141,10 +141,10 @@ def _parse_names(raw: str | None) -> dict[int, str] | None:
         return None
     try:
         value = ast.literal_eval(raw)
-    except (ValueError, SyntaxError):
+    except (ValueError, SyntaxError, RecursionError, MemoryError):  # not Python: try JSON
         try:
             value = json.loads(raw)
-        except json.JSONDecodeError:
+        except (json.JSONDecodeError, RecursionError):
             return None
     if isinstance(value, Mapping):
         try:

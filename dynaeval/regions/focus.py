@@ -30,6 +30,8 @@ from dynaeval.regions.summary import detector_warnings
 from dynaeval.runtime import file_sha256
 
 FOCUS_SOURCES = ("detector", "motion", "boxes", "none")
+BOXES_SOURCES = ("detector", "motion")
+"""The sources ``detect_ground_truth`` (``dynaeval detect --source``) makes boxes from."""
 MIN_MOTION_FRAMES = 3
 """Motion masks compare a frame with the temporal median: fewer frames give no stable median."""
 NOT_A_VIDEO = "not a video: frames differ in size/channels"
@@ -456,7 +458,7 @@ def detect_ground_truth(
     """
     from tqdm.auto import tqdm
 
-    if source not in ("detector", "motion"):
+    if source not in BOXES_SOURCES:
         raise InputError(f"boxes source must be detector or motion, got {source!r}")
     cameras = find_frames(gt_dir, role="ground truth")
     total = sum(len(c.frames) for c in cameras.values())

@@ -1,7 +1,7 @@
 """Leaderboards: many results files (methods x scenes) -> one table with bootstrap intervals.
 
-``build_leaderboard(paths)`` reads results files (``dynaeval/results/v1``), refuses to mix files
-whose number-changing settings differ (unless ``force``), and returns a leaderboard document
+``build_leaderboard(paths)`` reads results files (``dynaeval/results/v2``; v1 ones read as v2),
+refuses to mix files whose number-changing settings differ (unless ``force``), and returns a leaderboard document
 (``dynaeval/leaderboard/v1``, fields in docs/results-format.md):
 
 * per (method, scene): the file's summary value of each metric (mean of per-frame values) and a
@@ -39,6 +39,8 @@ from dynaeval.report.results import load_results, strict
 SCHEMA = "dynaeval/leaderboard/v1"
 ALL_SCENES = "(all)"
 FORMATS = ("md", "csv", "json", "html")
+GROUP_BY = ("method", "scene")
+"""What the rows of a rendered leaderboard are grouped by (``dynaeval leaderboard --by``)."""
 
 RUN_IGNORED_SETTINGS = (
     "allow_missing",
@@ -357,7 +359,7 @@ def build_leaderboard(
 
 
 def _ordered_rows(board: dict[str, Any], by: str) -> list[dict[str, Any]]:
-    if by not in ("method", "scene"):
+    if by not in GROUP_BY:
         raise InputError(f"--by must be 'method' or 'scene', got {by!r}")
     scene_order = {s: i for i, s in enumerate([*board["scenes"], ALL_SCENES])}
     method_order = {m: i for i, m in enumerate(board["methods"])}

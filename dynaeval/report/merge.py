@@ -18,6 +18,7 @@ from typing import Any
 
 from dynaeval.errors import InputError
 from dynaeval.io.frames import missing_frames_warning, natural_key
+from dynaeval.metrics.registry import METRICS
 from dynaeval.outcome import Status, status_of
 from dynaeval.report.results import (
     FRAME_FIELDS,
@@ -32,7 +33,8 @@ def merge_results(paths: list[str | Path]) -> dict[str, Any]:
     """Merge the results files of all shards of one run.
 
     Raises:
-        InputError: a file is unreadable or not a shard, the shards come from different runs
+        InputError: a file is unreadable, damaged (``load_results``) or not a shard, holds a
+            metric this dynaeval does not know, the shards come from different runs
             (method, scene, inputs or settings differ), a shard is missing or given twice, or
             two files hold the same camera (both named).
     """
@@ -52,6 +54,12 @@ def merge_results(paths: list[str | Path]) -> dict[str, Any]:
             raise InputError(f"shard {shard['index']}/{shard['count']} given twice: also "
                              f"{seen[shard['index']]}", path=path)
         seen[shard["index"]] = path
+        unknown = next((n for n in doc["metrics"] if n not in METRICS), None)
+        if unknown is not None:
+            raise InputError(f"metric {unknown!r} (in 'metrics') is not one this dynaeval knows, "
+                             "and merge takes each metric's direction and unit from its registry: "
+                             "install the package that adds it (a plugin?) or remove it",
+                             path=path)
         cameras = [*doc["inputs"]["cameras"], *(f["camera"] for f in doc["frames"])]
         for cam in dict.fromkeys(cameras):
             if cam in owner:

@@ -41,6 +41,7 @@ from typing import Any
 from dynaeval.deps import available, load
 from dynaeval.errors import InputError
 from dynaeval.io.atomic import write_text_atomic
+from dynaeval.io.jsonfile import read_json
 from dynaeval.metrics.registry import METRICS, SPECS
 from dynaeval.outcome import (
     NO_REGIONS,
@@ -50,6 +51,7 @@ from dynaeval.outcome import (
     summary_reason,
     warning,
 )
+from dynaeval.report.results_check import FRAME_FIELDS, check_results
 
 SCHEMA = "dynaeval/results/v2"
 SCHEMA_V1 = "dynaeval/results/v1"
@@ -88,9 +90,6 @@ def _summary_status(values: list[float | None], members: list[dict]) -> Status:
     found = {status_of(w) for w in members} - {Status.NOTE}
     return found.pop() if len(found) == 1 else Status.UNDEFINED
 
-
-FRAME_FIELDS = ("camera", "frame", "index", "pred", "gt")
-"""Keys of a frame row that are not metric values."""
 
 
 def restore_infinite(rows: list[dict[str, Any]], warnings: list[dict]) -> int:
@@ -394,70 +393,10 @@ def schema_path(schema: str = SCHEMA) -> Path:
     return Path(__file__).resolve().parent.parent / "schemas" / f"results-{version}.schema.json"
 
 
-class _NonFinite:
-    """Stands for a NaN/Infinity token while parsing, so the key holding it can be named."""
-
-    def __init__(self, token: str) -> None:
-        self.token = token
-
-
-def _non_finite_key(obj: Any, where: str = "") -> tuple[str, str] | None:
-    """``(key path, token)`` of the first ``_NonFinite`` in a parsed document, e.g.
-    ``("frames[3].psnr", "NaN")``; None when there is none."""
-    if isinstance(obj, _NonFinite):
-        return where or "(top level)", obj.token
-    items = (obj.items() if isinstance(obj, dict)
-             else ((f"[{i}]", v) for i, v in enumerate(obj)) if isinstance(obj, list) else ())
-    for key, value in items:
-        sub = f"{where}{key}" if key.startswith("[") else f"{where}.{key}" if where else key
-        found = _non_finite_key(value, sub)
-        if found:
-            return found
-    return None
-
-
-RESULTS_REQUIRED = {
-    "": ("schema", "dynaeval_version", "created", "method", "scene", "inputs", "settings",
-         "metrics", "frames", "cameras", "summary", "summary_status", "counts", "timing",
-         "warnings"),
-    "inputs": ("pred", "gt", "n_frames", "cameras", "unscored_cameras", "skipped_frames"),
-    "summary": ("n_frames",),
-}
-"""The keys the schema requires, checked without jsonschema (a test holds them to the schema);
-a ``dynaeval/results/v1`` file has all but ``V2_ONLY``."""
-
-V2_ONLY = ("summary_status",)
-
-_TYPES = {"inputs": dict, "settings": dict, "metrics": dict, "frames": list, "cameras": dict,
-          "summary": dict, "summary_status": dict, "counts": dict, "timing": dict,
-          "warnings": list, "method": str, "scene": str}
-
-
-def _check_layout(doc: dict[str, Any], path: Path) -> None:
-    """Raise InputError naming the first missing or mistyped part of a results document: with
-    jsonschema (a test dependency) against the shipped schema, else the required keys."""
-    for where, keys in RESULTS_REQUIRED.items():
-        part = doc.get(where) if where else doc
-        if not isinstance(part, dict):
-            continue  # reported below as a wrong type
-        missing = [k for k in keys if k not in part
-                   and not (doc.get("schema") == SCHEMA_V1 and k in V2_ONLY)]
-        if missing:
-            field = f"{where}." if where else ""
-            raise InputError(f"not a complete dynaeval results file: no "
-                             f"{', '.join(repr(field + k) for k in missing)} (was it edited or "
-                             "truncated? score again to get the whole file)", path=path)
-    for key, kind in _TYPES.items():
-        if key in doc and not isinstance(doc[key], kind):
-            raise InputError(f"not a valid dynaeval results file: {key!r} must be a JSON "
-                             f"{ {dict: 'object', list: 'array', str: 'string'}[kind]}, got "
-                             f"{type(doc[key]).__name__}", path=path)
-    bad = next((i for i, f in enumerate(doc["frames"])
-                if not isinstance(f, dict) or "camera" not in f or "frame" not in f), None)
-    if bad is not None:
-        raise InputError(f"not a valid dynaeval results file: frames[{bad}] needs 'camera' and "
-                         "'frame'", path=path)
-    if not available("jsonschema"):  # optional: dynaeval's own checks above always run
+def _check_against_schema(doc: dict[str, Any], path: Path) -> None:
+    """With jsonschema installed (a test dependency), also hold ``doc`` to the shipped schema:
+    an extra check beside ``check_results``, which needs no package."""
+    if not available("jsonschema"):  # optional: check_results always runs
         return
     jsonschema = load("jsonschema")
     schema = json.loads(schema_path(doc["schema"]).read_text(encoding="utf-8"))
@@ -471,36 +410,17 @@ def _check_layout(doc: dict[str, Any], path: Path) -> None:
 
 def load_results(path: str | Path) -> dict[str, Any]:
     """Read a results file, checking it is a complete one, in strict JSON, of a schema version
-    this dynaeval reads.
+    this dynaeval reads, every field merge and the leaderboard read of the right type.
 
     Raises:
-        InputError: naming the file: missing, a folder, unreadable, not JSON, holding a NaN or
-            Infinity token (the key is named: such a value would be counted but not averaged),
-            not a dynaeval results file, another schema version, or a required key missing.
+        InputError: naming the file: missing, a folder, unreadable, not JSON, nested deeper than
+            ``dynaeval.io.jsonfile.MAX_DEPTH`` levels, holding a NaN or Infinity token or a number
+            out of range (``1e999``; the key is named: such a value would be counted but not
+            averaged, or taken for identical images), not a dynaeval results file, another schema
+            version, or a field missing or of the wrong type (``check_results``: the key path).
     """
     path = Path(path)
-    if path.is_dir():
-        raise InputError("is a folder, not a results file (give the results JSON inside it)",
-                         path=path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError as err:
-        raise InputError("results file not found", path=path) from err
-    except PermissionError as err:
-        raise InputError("results file is not readable (permission denied)", path=path) from err
-    except UnicodeDecodeError as err:
-        raise InputError(f"not a JSON file ({err})", path=path) from err
-    except OSError as err:
-        raise InputError(f"cannot read the results file ({err.strerror or err})",
-                         path=path) from err
-    try:
-        doc = json.loads(text, parse_constant=_NonFinite)
-    except json.JSONDecodeError as err:
-        raise InputError(f"not a JSON file ({err})", path=path) from err
-    found = _non_finite_key(doc)
-    if found:
-        raise InputError(f"{found[0]} is {found[1]}, which is not strict JSON (dynaeval writes "
-                         "null with a warning instead); fix or re-score the file", path=path)
+    doc = read_json(path, what="results file", fix="fix it by hand or score again")
     schema = doc.get("schema") if isinstance(doc, dict) else None
     if not isinstance(schema, str) or not schema.startswith("dynaeval/results/"):
         raise InputError("not a dynaeval results file (no 'schema' field)", path=path)
@@ -510,7 +430,8 @@ def load_results(path: str | Path) -> dict[str, Any]:
             f"({' or '.join(map(repr, READS))}); score again with this version",
             path=path,
         )
-    _check_layout(doc, path)
+    check_results(doc, path)
+    _check_against_schema(doc, path)
     return _upgrade_v1(doc) if schema == SCHEMA_V1 else doc
 
 

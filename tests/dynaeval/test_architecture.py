@@ -116,6 +116,45 @@ def test_no_function_longer_than_100_lines():
     assert not long, f"functions over 100 lines: {long}"
 
 
+CLI = PACKAGE / "cli"
+CLI_MODULE_LINES = 250
+"""The most lines a module of the CLI may have (issue 31: cli.py had grown to 658)."""
+
+
+def _cli_sources() -> list[Path]:
+    return sorted(CLI.rglob("*.py")) if CLI.is_dir() else [PACKAGE / "cli.py"]
+
+
+def test_the_cli_is_one_small_module_per_command():
+    """``dynaeval/cli/`` is a package of modules of at most ``CLI_MODULE_LINES`` lines, and every
+    command ``dynaeval --help`` lists is its own module ``cli/<NAME>.py``, registered in
+    ``COMMANDS`` (a new command: one module and one entry there)."""
+    import argparse
+
+    import dynaeval.cli as cli
+
+    long = [f"{p.relative_to(PACKAGE.parent)}: {n} lines" for p in _cli_sources()
+            if (n := len(p.read_text(encoding="utf-8").splitlines())) > CLI_MODULE_LINES]
+    assert CLI.is_dir() and long == []
+    sub = next(a for a in cli.build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    commands = getattr(cli, "COMMANDS", ())
+    assert list(sub.choices) == [c.NAME for c in commands]
+    assert [c.__name__ for c in commands] == [f"dynaeval.cli.{c.NAME}" for c in commands]
+
+
+def test_no_getattr_list_in_the_cli():
+    """The CLI reads a command's settings back from the option table (``cli/options.py``), not
+    name by name: no ``getattr(args, ...)`` in it (issue 31: ``config_from_args`` had ~25)."""
+    calls = []
+    for path in _cli_sources():
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if (isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
+                    and node.func.id == "getattr" and node.args
+                    and isinstance(node.args[0], ast.Name) and node.args[0].id == "args"):
+                calls.append(f"{path.relative_to(PACKAGE.parent)}:{node.lineno}")
+    assert calls == []
+
+
 _NO_TORCH = """
 import importlib.abc, sys
 

@@ -239,3 +239,106 @@ def test_score_with_a_mutated_prepared_folder_is_exit_2_naming_the_file(seed, ho
         named = str(target) if target.name != "manifest.json" else str(target.parent)
         assert named in stderr, (target, stderr)
         assert not out.exists()
+
+
+_SHARDS: dict[str, list[str]] = {}
+
+
+def _sample_shards() -> list[str]:
+    """The texts of the bundled sample scored as two shards (``--shard 1/2``, ``2/2``), once per
+    session: detector boxes, objects, temporal terms and their warnings, regions, the shard."""
+    if "texts" not in _SHARDS:
+        from dynaeval.cli import sample_dir
+
+        out = Path(tempfile.mkdtemp(prefix="dynaeval-fuzz-shards-"))
+        texts = []
+        for i in (1, 2):
+            argv = ["score", str(sample_dir() / "pred"), str(sample_dir() / "gt"), "--no-lpips",
+                    "-q", "--shard", f"{i}/2", "-o", str(out / f"s{i}.json")]
+            with contextlib.redirect_stderr(io.StringIO()), contextlib.redirect_stdout(io.StringIO()):
+                assert main(argv) == 0
+            texts.append((out / f"s{i}.json").read_text())
+        _SHARDS["texts"] = texts
+    return _SHARDS["texts"]
+
+
+def _places(value: object, where: tuple = ()) -> list[tuple]:
+    """Every key path of a parsed document (dict keys and list positions), the root excluded."""
+    items = (value.items() if isinstance(value, dict)
+             else enumerate(value) if isinstance(value, list) else ())
+    out = []
+    for key, sub in items:
+        out.append((*where, key))
+        out.extend(_places(sub, (*where, key)))
+    return out
+
+
+SWAPS = ["31.5", "x", "", True, False, None, 0, -1, 1.5, 1e308, -1e300, 2**70, [], {}, [1, "a"],
+         {"index": 1}, {"reason": 3}]
+"""What a value is swapped for: the type mistakes of a hand edit and the edge values."""
+
+TOKENS = ["1e999", "-1e999", "9" * 5000, "NaN", "Infinity", '"\\ud800"', "true", '"31.5"']
+"""What a number of the text is replaced by."""
+
+
+def _mutate(text: str, how: str, rng: np.random.Generator) -> str:
+    import re
+
+    doc = json.loads(text)
+    places = _places(doc)
+    place = places[int(rng.integers(len(places)))]
+    parent = doc
+    for key in place[:-1]:
+        parent = parent[key]
+    if how == "swap":
+        parent[place[-1]] = SWAPS[int(rng.integers(len(SWAPS)))]
+    elif how == "delete":
+        del parent[place[-1]]
+    elif how == "deep":
+        parent[place[-1]] = None
+        marker = json.dumps(doc)
+        depth = int(rng.choice([65, 1000, 300_000]))
+        return marker.replace("null", "[" * depth + "]" * depth, 1) if "null" in marker else marker
+    elif how == "number":
+        numbers = list(re.finditer(r"(?<=[:\[,] )-?\d+(\.\d+)?([eE][-+]?\d+)?", text))
+        m = numbers[int(rng.integers(len(numbers)))]
+        token = TOKENS[int(rng.integers(len(TOKENS)))]
+        return text[:m.start()] + token + text[m.end():]
+    elif how == "truncate":
+        return text[: int(rng.integers(1, len(text)))]
+    return json.dumps(doc, indent=1, ensure_ascii=False)
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=list(HealthCheck))
+@given(st.integers(0, 10**6), st.sampled_from(["swap", "swap", "delete", "deep", "number",
+                                               "truncate"]), st.integers(0, 1))
+def test_leaderboard_and_merge_of_a_mutated_results_file_exit_0_or_2(seed, how, which):
+    """Issue 34 item 3: a shard's results file with a value swapped for another type, a key
+    deleted, a value nested deep, a number made 1e999 / NaN / 5000 digits / a string, or the text
+    cut: ``leaderboard`` and ``merge`` exit 0 or 2, never a traceback; on 2 nothing is written,
+    on 0 the merged file reads back."""
+    from dynaeval.report import load_results
+
+    rng = np.random.default_rng(seed)
+    texts = list(_sample_shards())
+    texts[which] = _mutate(texts[which], how, rng)
+    with tempfile.TemporaryDirectory() as d:
+        paths = [Path(d) / f"s{i}.json" for i in (1, 2)]
+        for path, text in zip(paths, texts, strict=True):
+            path.write_text(text, encoding="utf-8", errors="surrogatepass")
+        merged = Path(d) / "merged.json"
+        for argv in (["leaderboard", str(paths[which])],
+                     ["merge", *map(str, paths), "-o", str(merged)]):
+            err, out = io.StringIO(), io.StringIO()
+            with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out):
+                code = main(argv)
+            stderr = err.getvalue()
+            assert code in (0, 2), (how, argv[0], stderr)
+            assert "Traceback" not in stderr, (how, argv[0], stderr)
+            if code == 2:
+                assert str(paths[which]) in stderr or "shard" in stderr, (how, stderr)
+                assert argv[0] != "merge" or not merged.exists()
+            elif argv[0] == "leaderboard":
+                assert out.getvalue().startswith("| method"), out.getvalue()
+        if merged.exists():
+            assert load_results(merged)["summary"]["n_frames"] >= 0

@@ -149,6 +149,20 @@ def test_edited_manifest_refused(tmp_path, prepared_motion):
               prepared=str(prep), **FAST)
 
 
+@pytest.mark.parametrize("text", ["[" * 100_000 + "]" * 100_000, '{"format_version": 1e999}',
+                                  "{not json"])
+def test_a_damaged_manifest_is_exit_2_naming_it(tmp_path, prepared_motion, capsys, text):
+    """A manifest nested 100,000 deep (a RecursionError traceback before), holding a number out
+    of range, or not JSON: exit 2 naming manifest.json, no traceback."""
+    prep = tmp_path / "prep"
+    shutil.copytree(prepared_motion, prep)
+    (prep / "manifest.json").write_text(text)
+    code = main(["score", str(SAMPLE / "pred"), str(SAMPLE / "gt"), "--prepared", str(prep),
+                 "--focus", "motion", "--no-lpips", "-q"])
+    err = capsys.readouterr().err
+    assert code == 2 and "manifest.json" in err and "Traceback" not in err, err
+
+
 def test_no_clobber_and_atomic(tmp_path, prepared_motion, monkeypatch, capsys):
     prep = tmp_path / "prep"
     prep.mkdir()

@@ -106,7 +106,7 @@ def test_invalid_files_name_file_and_key(tmp_path, data, match):
 def test_nan_visible_rejected(tmp_path):
     p = tmp_path / "b.json"
     p.write_text('{"cam00/1": [{"class": "ball", "box": [0, 0, 2, 2], "visible": NaN}]}')
-    with pytest.raises(InputError, match="'visible' must be a number"):
+    with pytest.raises(InputError, match=r"cam00/1\[0\]\.visible is NaN, which is not strict JSON"):
         read_boxes_file(p)
 
 
@@ -202,3 +202,45 @@ def test_files_the_generator_and_detect_write_still_load():
     raw = json.loads((sample_dir() / "boxes.json").read_text())
     assert bf.boxes == raw and all(isinstance(v, int) for recs in raw.values()
                                    for r in recs for v in r["box"])
+
+
+_DEEP = "[" * 500_000 + "]" * 500_000  # 1 MB; Python's parser recursed into it (a traceback)
+
+
+@pytest.mark.parametrize(("edit", "match"), [
+    (lambda t: '{"deep": ' + _DEEP + ", " + t[1:],
+     r"boxes\.json: nested deeper than 64 levels \(500001\)"),
+    (lambda t: json.dumps({"schema": BOXES_SCHEMA, "source": {"settings": json.loads(
+        "[" * 70 + "]" * 70)}, "boxes": json.loads(t)}),
+     r"boxes\.json: nested deeper than 64 levels \(72\)"),
+    (lambda t: t.replace("[206, 54, 226, 104]", "[206, 54, " + "9" * 5000 + ", 104]", 1),
+     r"boxes\.json: cam07/0000\[0\]\.box\[2\] is 999999999999\.\.\.\(5000 characters\): out "
+     "of range"),
+    (lambda t: t.replace('"visible": 1.0', '"visible": 1e999', 1),
+     r"boxes\.json: cam07/0000\[0\]\.visible is 1e999: out of range"),
+    (lambda t: t.replace("[206, 54, 226, 104]", "[206, 54, 100000000000000000000000, 104]", 1),
+     r"boxes\.json: frame 'cam07/0000', record 0: 'box' coordinates must be within "
+     r"±2147483647 pixels"),
+    (lambda t: t.replace('"class": "person"', '"class": "person\\udc00"', 1),
+     r"boxes\.json: cam07/0000\[0\]\.class holds a lone UTF-16 surrogate"),
+])
+def test_damaged_boxes_file_is_exit_2_naming_it(tmp_path, capsys, edit, match):
+    """Issue 34 item 3, as a boxes file: a deep or damaged file is exit 2 before scoring, naming
+    the file (and the key), never a traceback; a coordinate too large for the int64 boxes is
+    refused (it was wrapped around into an "inverted box" with other corners)."""
+    import re
+
+    from dynaeval.cli import main, sample_dir
+
+    root = sample_dir()
+    text = json.dumps(json.loads((root / "boxes.json").read_text()))
+    p = tmp_path / "boxes.json"
+    p.write_text(edit(text))
+    with pytest.raises(InputError, match=match):
+        read_boxes_file(p)
+    out = tmp_path / "r.json"
+    code = main(["score", str(root / "pred"), str(root / "gt"), "--focus", f"boxes:{p}",
+                 "--no-lpips", "--no-temporal", "-q", "-o", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and re.search(match, err) and "Traceback" not in err, err
+    assert not out.exists()

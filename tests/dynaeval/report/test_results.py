@@ -94,7 +94,7 @@ def test_load_results_checks_schema(tmp_path):
         load_results(other)
     bad = tmp_path / "bad.json"
     bad.write_text("{")
-    with pytest.raises(InputError, match="not a JSON file"):
+    with pytest.raises(InputError, match="not valid JSON"):
         load_results(bad)
 
 

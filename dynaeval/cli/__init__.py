@@ -1,0 +1,71 @@
+"""Command line: a thin layer of argument parsing over the library.
+
+One module per command (``score``, ``merge``, ``detect``, ``detector``, ``prepare``,
+``leaderboard``, ``demo``), each with ``NAME``, ``add(subparsers)`` and ``run(args) -> exit
+code``, registered in ``COMMANDS``; ``options`` is the one option table of the scoring settings
+(made from ``ScoreConfig``'s fields) that ``score``, ``demo`` and ``prepare`` share.
+
+Exit codes: 0 scored; 2 bad input or usage (the message names the file and what is wrong);
+1 a bug (a traceback is printed: please report it).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import traceback
+
+from dynaeval import __version__
+from dynaeval.errors import InputError
+from dynaeval.runtime import check_opencv, keep_freed_memory
+
+from . import demo, detect, detector, leaderboard, merge, prepare, score
+from .common import EXIT_BUG, EXIT_INPUT, EXIT_OK, FOLDERS_RULE, sample_dir
+from .console import print_frame_warnings as _print_frame_warnings
+from .options import config_from_args, parse_classes
+
+__all__ = ["COMMANDS", "EXIT_BUG", "EXIT_INPUT", "EXIT_OK", "FOLDERS_RULE", "build_parser",
+           "config_from_args", "main", "parse_classes", "sample_dir", "_print_frame_warnings"]
+
+COMMANDS = (score, merge, detect, detector, prepare, leaderboard, demo)
+"""The commands, in the order ``dynaeval --help`` lists them. A new command is a module with
+``NAME``, ``add`` and ``run``, and its entry here."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="dynaeval",
+        description="Score novel views of dynamic scenes: whole-frame, focused, masked and "
+                    "temporal metrics.",
+    )
+    parser.add_argument("--version", action="version", version=f"dynaeval {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for command in COMMANDS:
+        command.add(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``dynaeval`` command; returns the exit code."""
+    args = build_parser().parse_args(argv)
+    given = vars(args)  # the run-wide checks, for the commands that have these options
+    keep_freed_memory(given.get("workers") or 1)
+    try:
+        if note := check_opencv(needs_tvl1=given.get("flow") == "tvl1"):
+            print(f"dynaeval: warning: {note}", file=sys.stderr)
+        return {c.NAME: c.run for c in COMMANDS}[args.command](args)
+    except InputError as err:
+        print(f"dynaeval: error: {err}", file=sys.stderr)
+        return EXIT_INPUT
+    except BrokenPipeError:  # stdout closed early (| head): the work is done, stay quiet
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_OK
+    except KeyboardInterrupt:
+        print("dynaeval: interrupted; no results written", file=sys.stderr)
+        return 130
+    except Exception:
+        traceback.print_exc()
+        print("dynaeval: internal error (a bug): please report it with the traceback above",
+              file=sys.stderr)
+        return EXIT_BUG
