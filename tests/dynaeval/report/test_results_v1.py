@@ -131,16 +131,29 @@ def test_a_v1_file_is_checked_against_the_v1_schema(tmp_path):
                         json.loads(schema_path().read_text()))
     doc["warnings"][0]["reason"] = 3
     (tmp_path / "bad.json").write_text(json.dumps(doc))
-    with pytest.raises(InputError, match=r"warnings\[0\]\.reason: 3 is not of type"):
+    with pytest.raises(InputError, match=r"'warnings\[0\]\.reason' must be a JSON string, got 3"):
         load_results(tmp_path / "bad.json")
 
 
 def test_a_v2_file_without_statuses_is_refused(tmp_path):
-    """A file that says v2 must have them (only v1 files are given statuses)."""
-    pytest.importorskip("jsonschema")
+    """A file that says v2 must have them (only v1 files are given statuses), each one of the
+    statuses, with or without jsonschema (``check_results``)."""
     doc = json.loads((V1 / "v1-motion-all.json").read_text())
     doc["schema"] = SCHEMA
+    (tmp_path / "r.json").write_text(json.dumps(doc))
+    with pytest.raises(InputError, match=r"no 'summary_status'"):
+        load_results(tmp_path / "r.json")
     doc["summary_status"] = {}
     (tmp_path / "r.json").write_text(json.dumps(doc))
-    with pytest.raises(InputError, match=r"warnings\[\d+\]: 'status' is a required property"):
+    with pytest.raises(InputError, match=r"no 'warnings\[0\]\.status'"):
+        load_results(tmp_path / "r.json")
+    doc = load_results(V1 / "v1-motion-all.json")
+    doc["warnings"][2]["status"] = "ok"
+    (tmp_path / "r.json").write_text(json.dumps(doc))
+    with pytest.raises(InputError, match=r"'warnings\[2\]\.status' must be one of infinite, "):
+        load_results(tmp_path / "r.json")
+    doc["warnings"][2]["status"] = "infinite"
+    doc["summary_status"]["psnr"] = "+inf"
+    (tmp_path / "r.json").write_text(json.dumps(doc))
+    with pytest.raises(InputError, match=r"'summary_status\.psnr' must be one of infinite, "):
         load_results(tmp_path / "r.json")
