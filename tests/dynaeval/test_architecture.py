@@ -409,3 +409,24 @@ def test_no_protocol_setting_read_outside_the_protocol_classes():
              for path in _sources() if path not in inside
              for line, text in _protocol_flag_reads(path.read_text(encoding="utf-8"), flags)]
     assert reads == []
+
+
+PROTOCOL_LABELS = {"psnr", "ssim", "ssim_data_range", "lpips_input", "lpips_reduce", "masks",
+                   "msssim", "family", "reference", "choices"}
+"""The settings that only name a protocol's choices in the results: its methods implement them."""
+
+
+def test_protocol_labels_are_read_by_describe_only():
+    """Inside the protocol classes too, a label is never dispatched on (the old
+    ``if self.ssim == "dm_pix"`` chains): the behaviour is the overriding method, the label
+    what ``describe`` writes."""
+    reads = []
+    for path in sorted({p for pattern in PROTOCOL_MODULES for p in PACKAGE.parent.glob(pattern)}):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        for fn in ast.walk(tree):
+            if not isinstance(fn, ast.FunctionDef) or fn.name == "describe":
+                continue
+            reads += [f"{path.name}:{node.lineno} {fn.name}: {ast.unparse(node)}"
+                      for node in ast.walk(fn) if isinstance(node, ast.Attribute)
+                      and node.attr in PROTOCOL_LABELS and getattr(node.value, "id", "") == "self"]
+    assert reads == []
