@@ -17,12 +17,7 @@ from dynaeval.metrics.flow import FlowConfig
 from dynaeval.metrics.jod import check_fps
 from dynaeval.metrics.perceptual import LPIPS_BACKENDS, LPIPS_NETS
 from dynaeval.metrics.pixel import QUANTIZE_MODES
-from dynaeval.metrics.protocols import (
-    check_background,
-    check_lpips_net,
-    get_protocol,
-    resolve_quantize,
-)
+from dynaeval.metrics.protocols import get_protocol
 from dynaeval.metrics.registry import (
     SPECS,
     FrameContext,
@@ -181,8 +176,8 @@ class ScoreConfig:
         if self.masks is not None and not isinstance(self.masks, (str, PathLike)):
             raise InputError(f"masks must be a folder path or None, got {self.masks!r}")
         protocol = get_protocol(self.protocol)
-        check_lpips_net(protocol, self.resolved_lpips_net())
-        check_background(protocol, self.background)
+        protocol.check_lpips_net(self.resolved_lpips_net())
+        protocol.check_background(self.background)
         self.resolved_quantize()  # raises when the protocol fixes another 8-bit step
         if self.prepared is not None:
             from pathlib import Path
@@ -214,11 +209,11 @@ class ScoreConfig:
 
     def resolved_lpips_net(self) -> str:
         """The LPIPS backbone of the run: the one asked for, else the protocol's."""
-        return self.lpips_net or get_protocol(self.protocol).lpips_net
+        return get_protocol(self.protocol).resolve_lpips_net(self.lpips_net)
 
     def resolved_quantize(self) -> str:
         """The 8-bit step of the run: the protocol's unless a compatible one was asked for."""
-        return resolve_quantize(get_protocol(self.protocol), self.quantize)
+        return get_protocol(self.protocol).resolve_quantize(self.quantize)
 
 
 def _check_choice(name: str, value: object, choices: tuple[str, ...]) -> None:

@@ -236,7 +236,7 @@ def _given_masks(config: ScoreConfig, layout: Any, pairs: list[FramePair]) -> tu
     """
     protocol = get_protocol(config.protocol)
     gt_files = [p.gt.path for p in pairs if p.gt.index is None]
-    masks = find_masks(config.masks, layout.gt, gt_files, layout.root, protocol.decode)
+    masks = find_masks(config.masks, layout.gt, gt_files, layout.root, protocol.decode_rule())
     if masks is not None:
         if len(gt_files) != len(pairs):
             raise InputError("given masks need ground truth as image files, not video frames",
@@ -249,9 +249,9 @@ def _given_masks(config: ScoreConfig, layout: Any, pairs: list[FramePair]) -> tu
         warnings.append(note(
             f"mask folder {folder} is not used (NeRFBaselines or DyCheck would apply it): pass "
             "--masks with it to score masked_* over it, and the protocol's masked numbers"))
-    if masks is not None and not config.focus.masked and protocol.masks == "region":
+    if masks is not None and not config.focus.masked and not protocol.uses_masks():
         warnings.append(note(f"masks {masks.folder} are not used: --no-masked skips masked_*"))
-    if masks is None and protocol.masks == "covisible":
+    if masks is None and protocol.mask_regions():
         warnings.append(note(
             f"protocol {protocol.name}: no covisibility masks found, so mpsnr, mssim and mlpips "
             "are not computed; pass --masks DATASET/covisible/<factor>x/<split>"))

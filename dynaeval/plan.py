@@ -23,7 +23,7 @@ from dynaeval.io.cache import FrameCache
 from dynaeval.metrics import quantize
 from dynaeval.metrics.flow import FlowConfig
 from dynaeval.metrics.presence import PRESENCE_METRICS, PresenceConfig, frame_presence
-from dynaeval.metrics.protocols import get_protocol, run_metrics
+from dynaeval.metrics.protocols import get_protocol
 from dynaeval.metrics.registry import (
     COVISIBLE_RULE,
     REGION_RULES,
@@ -113,7 +113,7 @@ class RunPlan:
     @property
     def decode(self) -> str:
         """The protocol's 16-bit PNG rule (``dynaeval.io.images.DECODES``)."""
-        return self.protocol.decode
+        return self.protocol.decode_rule()
 
     def read_gt(self, pair: FramePair, cache: FrameCache) -> np.ndarray:
         """The ground truth of ``pair`` as the metrics see it, ``(H, W, C)`` float32 in [0, 1]
@@ -178,8 +178,8 @@ def build_plan(config: ScoreConfig, *, scope: Scope | None = None, masks: MaskSe
     regions = ("whole",
                *(("focused",) if focus.source != "none" else ()),
                *(("masked",) if focus.masked else ()),
-               *(("covisible",) if masks is not None and protocol.masks == "covisible" else ()))
-    built = build_frame_metrics(ctx, run_metrics(protocol, config.metrics), regions)
+               *(protocol.mask_regions() if masks is not None else ()))
+    built = build_frame_metrics(ctx, protocol.run_metrics(config.metrics), regions)
     warnings = [warning(Status.UNAVAILABLE, metric=name,
                         reason=unavailable_reason(SPECS[name].title, why))
                 for name, why in built.unavailable.items()]

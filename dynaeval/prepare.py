@@ -86,7 +86,7 @@ def prepared_settings(config: ScoreConfig, sources: Any,
     compared key by key when it is used."""
     return _jsonable({
         "background": config.background, "quantize": config.resolved_quantize(),
-        "decode": get_protocol(config.protocol).decode, "focus": sources.settings,
+        "decode": get_protocol(config.protocol).decode_rule(), "focus": sources.settings,
         "flow": (FlowConfig(method=config.flow).describe()
                  if (config.temporal if temporal is None else temporal) else None),
     })

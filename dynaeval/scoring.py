@@ -102,7 +102,7 @@ def _score_frame(pair: FramePair, regions: FrameRegions, plan: RunPlan, cache: F
     pred, gt = plan.read_pair(pair, cache)
     elapsed = {"read": time.perf_counter() - t0}
     regions = fit_to(regions, gt.shape[:2], plan.focus)
-    if plan.masks is not None and plan.protocol.masks != "region":
+    if plan.masks is not None and plan.protocol.uses_masks():
         regions = with_weights(regions, pair.gt.path, plan.masks)
     row: dict[str, Any] = {"camera": pair.camera, "frame": pair.frame, "index": pair.index,
                            "pred": str(pair.pred), "gt": str(pair.gt)}

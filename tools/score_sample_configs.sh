@@ -7,7 +7,9 @@
 # `python tools/compare_results.py BEFORE AFTER`: the before/after check of a refactor
 # (docs/architecture.md). LPIPS needs backbone weights: set TORCH_HOME to a cache holding them
 # (random-weight files made by torchvision.models.alexnet(weights=None) are enough to compare
-# two versions), else LPIPS is reported unavailable in both.
+# two versions), else LPIPS is reported unavailable in both. Every run starts in OUTDIR, so
+# `python -m` (which puts the working folder first on the import path) imports DYNAEVAL_CHECKOUT
+# wherever the script is started from.
 set -u
 out=$1; mkdir -p "$out"; out=$(cd "$out" && pwd)
 repo=$(cd "$(dirname "$0")/.." && pwd)
@@ -15,7 +17,7 @@ code=${2:-$repo}
 py=${PYTHON:-python}
 S=$repo/dynaeval/data/sample
 run() { name=$1; shift
-  PYTHONPATH=$code $py -m dynaeval "$@" -q -o "$out/$name.json" --overwrite > "$out/$name.txt" 2> "$out/$name.err"
+  (cd "$out" && PYTHONPATH=$code $py -m dynaeval "$@" -q -o "$out/$name.json" --overwrite > "$out/$name.txt" 2> "$out/$name.err")
   echo "$name rc=$?"; }
 run boxes score $S/pred $S/gt --focus boxes:$S/boxes.json
 run detector score $S/pred $S/gt

@@ -26,8 +26,7 @@ import numpy as np
 
 from dynaeval.errors import EmptyRegionError, InputError, UndefinedMetricError
 from dynaeval.io.masks import THRESHOLD
-from dynaeval.metrics.pixel import quantize
-from dynaeval.metrics.protocols import check_lpips_net, get_protocol, run_metrics
+from dynaeval.metrics.protocols import get_protocol
 from dynaeval.metrics.registry import (
     FrameContext,
     FrameFn,
@@ -152,7 +151,7 @@ class ImageMetrics:
         pretrained_backbone: bool = True,
         masked: bool = False,
     ) -> None:
-        metrics = (run_metrics(get_protocol(protocol), default_frame_metrics()) if metrics is None
+        metrics = (get_protocol(protocol).run_metrics(default_frame_metrics()) if metrics is None
                    else tuple(metrics))
         unknown = [m for m in metrics if m not in SUPPORTED]
         if unknown or not metrics:
@@ -164,12 +163,12 @@ class ImageMetrics:
         self.data_range = check_data_range(data_range)
         self.device = device
         self.protocol = get_protocol(protocol)
-        self.lpips_net = lpips_net or self.protocol.lpips_net
-        check_lpips_net(self.protocol, self.lpips_net)
+        self.lpips_net = self.protocol.resolve_lpips_net(lpips_net)
+        self.protocol.check_lpips_net(self.lpips_net)
         self.pretrained_backbone = pretrained_backbone
         self.masked = bool(masked)
-        regions = (("whole", "masked", *(("covisible",) if self.protocol.masks == "covisible"
-                                         else ())) if self.masked else ("whole",))
+        regions = (("whole", "masked", *self.protocol.mask_regions()) if self.masked
+                   else ("whole",))
         self.keys: tuple[tuple[str, str, str], ...] = tuple(
             (spec(m).key(r), m, r) for r in regions for m in self.metrics if r in spec(m).regions)
         """(result key, metric, region variant) of every value kept, in report order."""
@@ -228,7 +227,7 @@ class ImageMetrics:
             raise InputError(f"pred has {len(preds)} images but gt has {len(gts)}")
         # every image checked once (shape, layout, values in [0, data_range]) before any is
         # scored; a protocol that clips (or quantises: clips, then 8 bit) takes floats outside
-        clipped = self.protocol.clip or self.protocol.quantize != "none"
+        clipped = self.protocol.clips_images()
         checked = [check_pair(p, g, data_range=self.data_range, clipped=clipped)
                    for p, g in zip(preds, gts, strict=True)]
         preds, gts = [p for p, _ in checked], [g for _, g in checked]
@@ -252,8 +251,7 @@ class ImageMetrics:
         """Every kept value of checked images, per result key."""
         batch: dict[str, list[float | None]] = {k: [] for k, _, _ in self.keys}
         for p, g, w in zip(preds, gts, weights, strict=True):
-            if self.protocol.quantize != "none":
-                p, g = quantize(p, self.protocol.quantize), quantize(g, self.protocol.quantize)
+            p, g = self.protocol.prepare_images(p, g)
             regions = _Regions(w)
             for key, m, region in self.keys:
                 batch[key].append(self._value(fns[m], p, g, region_argument(

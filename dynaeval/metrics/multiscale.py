@@ -19,8 +19,8 @@ torchmetrics itself). Definition, read from torchmetrics 1.9 ``functional/image/
 * ``MS-SSIM = prod_{i<4} relu(cs_i)^beta_i * relu(ssim_4)^beta_4``, betas (0.0448, 0.2856,
   0.3001, 0.2363, 0.1333).
 
-Under ``--protocol 4dgaussians`` (``Protocol.msssim == "pytorch_msssim"``) the registry's
-``msssim``/``dssim`` are 4DGaussians' instead (``dynaeval.metrics.protocol_3dgs``).
+The registry's ``msssim``/``dssim`` are the run's protocol's (``Protocol.whole_msssim``): these
+functions, but under ``--protocol 4dgaussians`` 4DGaussians' (``dynaeval.metrics.protocol_3dgs``).
 
 It needs images of at least 176 x 176 pixels (torchmetrics: ``H // 16 > 10``); smaller ones are
 ``UndefinedMetricError`` (the frame's value is null with the reason). Only the whole frame:
@@ -34,8 +34,6 @@ from typing import Any
 import numpy as np
 
 from dynaeval.errors import InputError, UndefinedMetricError
-from dynaeval.metrics import protocol_3dgs
-from dynaeval.metrics.protocol_3dgs import MSSSIM_MIN_SIZE
 from dynaeval.metrics.structural import RADIUS, gaussian_window
 from dynaeval.validation import check_data_range, check_pair
 
@@ -125,21 +123,15 @@ def d_ssim(pred: object, gt: object, *, data_range: float = 1.0, clip: bool = Fa
 
 
 def _whole_only(name: str, ctx: Any) -> Any:
-    """``fn(pred, gt, region)`` of ``msssim`` or ``dssim`` in the protocol's MS-SSIM variant
-    (``Protocol.msssim``)."""
+    """``fn(pred, gt, region)`` of ``msssim`` or ``dssim``: the protocol's MS-SSIM variant
+    (``Protocol.whole_msssim`` / ``whole_dssim``), whole frame only."""
     protocol = ctx.whole()
-    clip = bool(getattr(protocol, "clip", False))
-    if getattr(protocol, "msssim", "torchmetrics") == "pytorch_msssim":
-        fn = {"msssim": protocol_3dgs.msssim_4dgaussians,
-              "dssim": protocol_3dgs.dssim_4dgaussians}[name]
-        kw: dict[str, Any] = {}  # 4DGaussians does not clip
-    else:
-        fn, kw = {"msssim": ms_ssim, "dssim": d_ssim}[name], {"clip": clip}
+    whole = protocol.whole_msssim if name == "msssim" else protocol.whole_dssim
 
     def score(pred: np.ndarray, gt: np.ndarray, region: dict[str, Any]) -> float:
         if region:
             raise InputError("MS-SSIM and D-SSIM are whole-frame metrics (no region variant)")
-        return fn(pred, gt, data_range=ctx.data_range, **kw)
+        return whole(pred, gt, data_range=ctx.data_range)
 
     return score
 
@@ -156,25 +148,22 @@ def build_dssim(ctx: Any) -> Any:
 
 
 def msssim_settings(ctx: Any, enabled: bool, unavailable: str | None) -> dict[str, Any] | None:
-    """What the results record of MS-SSIM / D-SSIM (None when neither was asked for)."""
+    """What the results record of MS-SSIM / D-SSIM (None when neither was asked for): the
+    protocol's variant (``Protocol.msssim_settings``)."""
     if not enabled:
         return None
-    if getattr(ctx.whole(), "msssim", "torchmetrics") == "pytorch_msssim":
-        return {
-            "variant": "pytorch_msssim 1.0 ms_ssim(data_range=1, size_average=True) defaults, "
-                       "as 4DGaussians' metrics.py calls it (its formula in float64)",
-            "win_size": 11, "sigma": 1.5, "k1": 0.01, "k2": 0.03, "betas": list(BETAS),
-            "padding": "none (valid windows at every scale)", "normalize": "relu",
-            "pooling": "2x2 average, odd sides zero-padded", "reduction": "product per channel, "
-            "then the mean over channels", "min_size": MSSSIM_MIN_SIZE, "clip": False,
-            "dssim": "(1 - msssim) / 2",
-        }
+    return ctx.whole().msssim_settings()
+
+
+def torchmetrics_settings(clip: bool) -> dict[str, Any]:
+    """The results' record of this module's MS-SSIM (``clip``: the images clipped to [0, 1]
+    first, as ``ms_ssim(clip=...)``)."""
     return {
         "variant": "torchmetrics 1.9 MultiScaleStructuralSimilarityIndexMeasure defaults "
                    "(re-implemented in float64)",
         "win_size": 11, "sigma": 1.5, "k1": 0.01, "k2": 0.03, "betas": list(BETAS),
         "padding": "reflect, 5 px (cs over the valid windows, the last scale's ssim over all)",
         "normalize": "relu", "pooling": "2x2 average", "min_size": MIN_SIZE,
-        "clip": bool(getattr(ctx.whole(), "clip", False)),
+        "clip": clip,
         "dssim": "(1 - msssim) / 2",
     }

@@ -495,41 +495,25 @@ def lpips_unit_input(pred: object, gt: object, *, net: str = "vgg", device: obje
     return float(out.double().cpu().reshape(-1)[0])
 
 
-def whole_lpips(ctx: Any) -> Any:
-    """The protocol's whole-frame LPIPS for ``build_lpips``, or None when the
-    protocol feeds the network the package's way (``lpips_input == "signed"``)."""
-    if getattr(ctx.whole(), "lpips_input", "signed") != "unit":
-        return None
-
-    def fn(pred: np.ndarray, gt: np.ndarray) -> float:
-        return lpips_unit_input(pred, gt, net=ctx.lpips_net, device=ctx.device,
-                                backend=ctx.lpips_backend,
-                                pretrained_backbone=ctx.pretrained_backbone)
-
-    return fn
-
-
 def build_lpips(ctx: Any) -> Any:
     """The registry's LPIPS for a run (``dynaeval.metrics.registry.FrameContext``): loads the
     network once now, so missing weights (``WeightsUnavailableError``) or packages
-    (``ImportError``) are known before the first frame; whole frame or region as ``lpips``."""
+    (``ImportError``) are known before the first frame; the whole frame (and a given mask's
+    weights) as the protocol scores it (``Protocol.whole_lpips``), a region as ``lpips``."""
     net, device, backend = ctx.lpips_net, ctx.device, ctx.lpips_backend
     pretrained = ctx.pretrained_backbone
     loader = load_lpips_onnx if backend == "onnxruntime" else load_lpips
     loader(net, device=device, pretrained_backbone=pretrained)
 
-    whole = whole_lpips(ctx)  # a protocol that feeds the network its own way (3dgs), or None
-
     kw = {"net": net, "device": device, "backend": backend, "pretrained_backbone": pretrained}
     protocol = ctx.whole()
 
     def fn(pred: np.ndarray, gt: np.ndarray, region: dict[str, Any]) -> float:
-        if whole is not None and not region:
-            return whole(pred, gt)
-        if "weights" in region or (not region and protocol.lpips_reduce != "network"):
-            return protocol.whole_lpips(lambda p, g: lpips(p, g, **kw),
-                                        lambda p, g: lpips_map(p, g, **kw),
-                                        pred, gt, weights=region.get("weights"))
+        if not region or "weights" in region:
+            return protocol.whole_lpips(pred, gt, score=lambda p, g: lpips(p, g, **kw),
+                                        score_map=lambda p, g: lpips_map(p, g, **kw),
+                                        score_unit=lambda p, g: lpips_unit_input(p, g, **kw),
+                                        weights=region.get("weights"))
         return lpips(pred, gt, **kw, **region)
 
     return fn

@@ -192,6 +192,29 @@ def psnr(
     return psnr_from_stats(stats, data_range=data_range)
 
 
+def psnr_float32(pred: object, gt: object, *, data_range: float = 1.0, clip: bool = False) -> float:
+    """PSNR in dB from a float32 mean squared error (as NeRFBaselines and torchmetrics compute it).
+
+    Args:
+        pred, gt: (H, W) or (H, W, C) arrays/tensors in [0, data_range].
+        data_range: peak value L.
+        clip: clip both images to [0, 1] first (NeRFBaselines' input normalisation).
+
+    Returns:
+        ``10 log10(L^2 / MSE)`` as a Python float; ``math.inf`` for identical images.
+    """
+    data_range = check_data_range(data_range)
+    p, g = check_pair(pred, gt)
+    p32, g32 = p.astype(np.float32), g.astype(np.float32)
+    if clip:
+        p32, g32 = np.clip(p32, 0, 1), np.clip(g32, 0, 1)
+    d = p32 - g32
+    mse = float(np.mean(d * d, dtype=np.float32))
+    if mse == 0.0:
+        return math.inf
+    return 10.0 * math.log10(data_range * data_range / mse)
+
+
 QUANTIZE_MODES = ("none", "round", "truncate")
 
 

@@ -23,18 +23,24 @@ LPIPS twice, ``LPIPS-vgg`` and ``LPIPS-alex`` (``lpipsPyTorch.lpips(..., net_typ
 ``lpips`` package's v0.1 AlexNet, again on [0, 1] unscaled), and adds
 ``ms_ssim(render, gt, data_range=1, size_average=True)`` of ``pytorch_msssim`` 1.0 and
 ``D-SSIM = (1 - MS-SSIM) / 2`` (``msssim_4dgaussians``, ``dssim_4dgaussians``).
+
+``GaussianSplattingProtocol`` and ``FourDGaussiansProtocol`` (a subclass: the same three, plus its
+MS-SSIM and LPIPS-alex) are the two protocols.
 """
 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
 from dynaeval.errors import UndefinedMetricError
+from dynaeval.metrics.multiscale import BETAS
 from dynaeval.metrics.perceptual import lpips_unit_input  # noqa: F401 (3DGS' LPIPS, named here)
+from dynaeval.metrics.protocol_base import Protocol, Score
 from dynaeval.metrics.protocol_nerfstudio import msssim_window
-from dynaeval.metrics.windows import as_hwc, window_statistics
+from dynaeval.metrics.windows import as_hwc, ssim_variant, window_statistics
 from dynaeval.validation import check_data_range, check_pair
 
 MSSSIM_MIN_SIZE = 161
@@ -125,3 +131,67 @@ def dssim_4dgaussians(pred: object, gt: object, *, data_range: float = 1.0) -> f
     """4DGaussians' ``D-SSIM = (1 - MS-SSIM) / 2`` (``msssim_4dgaussians``), in [0, 0.5],
     lower is better; same arguments and errors."""
     return (1.0 - msssim_4dgaussians(pred, gt, data_range=data_range)) / 2.0
+
+
+class GaussianSplattingProtocol(Protocol):
+    """gaussian-splatting / 4DGaussians / Deformable-3DGS ``metrics.py``: PSNR ``psnr_3dgs``,
+    SSIM zero-padded over every pixel's window in float32 (``ssim_variant(border="zero")``),
+    LPIPS VGG fed the [0, 1] images unscaled (``lpips_unit_input``)."""
+
+    name = "3dgs"
+    reference = ("gaussian-splatting / 4DGaussians / Deformable-3DGS metrics.py "
+                 "(utils/image_utils.psnr, utils/loss_utils.ssim, lpipsPyTorch or "
+                 "lpips.LPIPS(net='vgg') on [0, 1] images)")
+    psnr = "3dgs"
+    ssim = "3dgs"
+    lpips_net = "vgg"
+    lpips_input = "unit"
+    family = "gaussian-splatting, 4DGaussians, Deformable-3DGS"
+
+    def psnr_of(self, pred: Any, gt: Any, data_range: float) -> float:
+        return psnr_3dgs(pred, gt, data_range=data_range)
+
+    def ssim_of(self, pred: Any, gt: Any, data_range: float) -> float:
+        return ssim_variant(pred, gt, data_range=data_range, border="zero", clamp="none",
+                            clip=self.clip, precision="float32")
+
+    def whole_lpips(self, pred: Any, gt: Any, *, score: Score, score_map: Any,
+                    score_unit: Score, weights: Any = None) -> float:
+        """The network fed the [0, 1] images as they are (``score_unit``)."""
+        if weights is None:
+            return score_unit(pred, gt)
+        return super().whole_lpips(pred, gt, score=score, score_map=score_map,
+                                   score_unit=score_unit, weights=weights)
+
+
+class FourDGaussiansProtocol(GaussianSplattingProtocol):
+    """4DGaussians' ``metrics.py``: the 3DGS metrics, plus pytorch_msssim's MS-SSIM / D-SSIM
+    (``msssim_4dgaussians``) and its ``LPIPS-alex`` beside ``LPIPS-vgg`` (``--lpips-net alex``,
+    again on unscaled [0, 1] input)."""
+
+    name = "4dgaussians"
+    reference = ("4DGaussians metrics.py (utils/image_utils.psnr, utils/loss_utils.ssim, "
+                 "pytorch_msssim.ms_ssim(data_range=1, size_average=True), D-SSIM = "
+                 "(1 - MS-SSIM) / 2, lpipsPyTorch.lpips(net_type='vgg' and 'alex') on [0, 1] "
+                 "images)")
+    metrics = ("msssim", "dssim")
+    family = "4DGaussians"
+    msssim = "pytorch_msssim"
+    lpips_nets = ("alex",)
+
+    def whole_msssim(self, pred: Any, gt: Any, *, data_range: float = 1.0) -> float:
+        return msssim_4dgaussians(pred, gt, data_range=data_range)  # 4DGaussians does not clip
+
+    def whole_dssim(self, pred: Any, gt: Any, *, data_range: float = 1.0) -> float:
+        return dssim_4dgaussians(pred, gt, data_range=data_range)
+
+    def msssim_settings(self) -> dict[str, Any]:
+        return {
+            "variant": "pytorch_msssim 1.0 ms_ssim(data_range=1, size_average=True) defaults, "
+                       "as 4DGaussians' metrics.py calls it (its formula in float64)",
+            "win_size": 11, "sigma": 1.5, "k1": 0.01, "k2": 0.03, "betas": list(BETAS),
+            "padding": "none (valid windows at every scale)", "normalize": "relu",
+            "pooling": "2x2 average, odd sides zero-padded", "reduction": "product per channel, "
+            "then the mean over channels", "min_size": MSSSIM_MIN_SIZE, "clip": False,
+            "dssim": "(1 - msssim) / 2",
+        }

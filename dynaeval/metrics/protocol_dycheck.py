@@ -23,16 +23,20 @@
 
 DyCheck runs in float32 (jax); these functions compute in float64 from the float32 images
 (differences are float32 rounding: docs/protocols.md gives the measured sizes).
+``DyCheckProtocol`` is the protocol: these metrics over the whole frame and, as the ``covisible``
+variant (``mask_regions``), over the covisibility mask.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
 from dynaeval.errors import InputError
+from dynaeval.metrics.protocol_base import Pair, Protocol, Score
 from dynaeval.validation import check_pair
 
 EPS = 1e-6
@@ -193,3 +197,51 @@ def dycheck_lpips(score_map: Callable[[np.ndarray, np.ndarray], np.ndarray], pre
     w32 = w.astype(np.float32)
     smap = np.asarray(score_map(p * w32, g * w32), dtype=np.float64)
     return masked_mean(smap[..., None], w)
+
+
+class DyCheckProtocol(Protocol):
+    """DyCheck's evaluation: 8-bit truncation, ``dycheck_psnr`` / ``dycheck_ssim`` /
+    ``dycheck_lpips`` over the whole frame, and over the covisibility mask as its ``m*``
+    metrics (the ``covisible`` region variant, ``mpsnr``, ``mssim``, ``mlpips``)."""
+
+    name = "dycheck"
+    reference = ("DyCheck dycheck/core/tasks/novel_view.py (to_quantized_float32, "
+                 "mpsnr/mssim/mlpips), dycheck/core/metrics/image.py, "
+                 "dycheck/nn/functional/common.py (masked_mean)")
+    quantize = "truncate"
+    psnr = "dycheck"
+    ssim = "dycheck"
+    clip = True
+    masks = "covisible"
+    lpips_reduce = "spatial-mean"
+
+    def mask_regions(self) -> tuple[str, ...]:
+        return ("covisible",)
+
+    def apply_masks(self, pred: Any, gt: Any, weights: Any) -> Pair:
+        """The images as they are: DyCheck's metrics weigh by the mask themselves."""
+        return pred, gt
+
+    def psnr_of(self, pred: Any, gt: Any, data_range: float) -> float:
+        return dycheck_psnr(pred, gt, data_range=data_range)
+
+    def ssim_of(self, pred: Any, gt: Any, data_range: float) -> float:
+        return dycheck_ssim(pred, gt, data_range=data_range)
+
+    def whole_psnr(self, pred: Any, gt: Any, *, data_range: float = 1.0,
+                   weights: Any = None) -> float:
+        """``dycheck_psnr``, over the mask's weights when given."""
+        self.check_range(data_range)
+        return dycheck_psnr(pred, gt, weights=weights, data_range=data_range)
+
+    def whole_ssim(self, pred: Any, gt: Any, *, data_range: float = 1.0,
+                   weights: Any = None) -> float:
+        """``dycheck_ssim``, over the mask's weights when given."""
+        self.check_range(data_range)
+        return dycheck_ssim(pred, gt, weights=weights, data_range=data_range)
+
+    def whole_lpips(self, pred: Any, gt: Any, *, score: Score, score_map: Callable[[Any, Any], Any],
+                    score_unit: Score, weights: Any = None) -> float:
+        """The mean of the spatial map (``dycheck_lpips``), over the mask when given."""
+        pred, gt = np.clip(np.asarray(pred), 0, 1), np.clip(np.asarray(gt), 0, 1)
+        return dycheck_lpips(score_map, pred, gt, weights=weights)

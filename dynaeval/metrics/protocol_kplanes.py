@@ -7,7 +7,7 @@ Read from the K-Planes repository (sarafridov/K-Planes, ``plenoxels/ops/image/me
   truth is blended over white (``gt[..., :3] * a + (1 - a)``); no 8-bit step: the metrics are
   computed on the float render, before the evaluation video is written;
 * PSNR: ``10 log10(1 / mse)``, ``mse = torch.mean((rgb - gts) ** 2).item()`` of float32 tensors
-  (a float32 mean, the logarithm in double precision) = ``protocols.psnr_float32``;
+  (a float32 mean, the logarithm in double precision) = ``pixel.psnr_float32``;
 * SSIM: mip-NeRF's (``metrics.ssim``): 1-D Gaussian of 11 taps, sigma 1.5, normalised; each
   channel blurred along rows then columns with ``scipy.signal.convolve2d(mode="valid")`` (only
   the windows entirely inside the image); the float32 images (and their float32 squares and
@@ -23,13 +23,16 @@ Read from the K-Planes repository (sarafridov/K-Planes, ``plenoxels/ops/image/me
 K-Planes logs ``psnr``, ``ssim`` and ``ms-ssim`` per image; it computes no D-SSIM. dynaeval's
 ``dssim`` is ``(1 - MS-SSIM) / 2``, as the DyNeRF-benchmark tables that report D-SSIM compute it
 (hustvl/4DGaussians ``metrics.py``: ``(1 - ms_ssim) / 2``). docs/protocols.md lists each choice
-with its source and the measured agreement.
+with its source and the measured agreement; ``KPlanesProtocol`` is the protocol.
 """
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
+from dynaeval.metrics.protocol_base import Float32PsnrProtocol
 from dynaeval.metrics.structural import K1, K2, RADIUS, _check_size, gaussian_window
 from dynaeval.validation import check_pair
 
@@ -67,7 +70,7 @@ def kplanes_ssim(pred: object, gt: object, *, data_range: float = 1.0, clip: boo
     Args:
         pred, gt: (H, W) or (H, W, C) arrays/tensors in [0, 1], H, W >= 11; float64 input is
             taken to float32 first (K-Planes' tensors are float32).
-        data_range: must be 1 (K-Planes' ``max_val``); ``Protocol`` checks it.
+        data_range: must be 1 (K-Planes' ``max_val``); ``Protocol.check_range`` checks it.
         clip: clamp both images to [0, 1] first (K-Planes clamps the prediction).
 
     Returns:
@@ -101,3 +104,20 @@ def kplanes_ssim(pred: object, gt: object, *, data_range: float = 1.0, clip: boo
         sxy = np.sign(sxy) * np.minimum(np.sqrt(sxx * syy), np.abs(sxy))
         maps.append((2 * mx * my + c1) * (2 * sxy + c2) / ((mx * mx + my * my + c1) * (sxx + syy + c2)))
     return float(np.mean(np.stack(maps, -1)))
+
+
+class KPlanesProtocol(Float32PsnrProtocol):
+    """K-Planes' trainers (module docstring): float renders clipped to [0, 1], PSNR from a
+    float32 MSE, mip-NeRF's SSIM (``kplanes_ssim``), MS-SSIM / D-SSIM added to the run's
+    metrics, LPIPS AlexNet, RGBA ground truth over white."""
+
+    name = "kplanes"
+    reference = KPLANES_REFERENCE
+    ssim = "mipnerf"
+    clip = True
+    metrics = ("msssim", "dssim")
+    background = "white"
+    choices = KPLANES_CHOICES
+
+    def ssim_of(self, pred: Any, gt: Any, data_range: float) -> float:
+        return kplanes_ssim(pred, gt, data_range=data_range, clip=self.clip)

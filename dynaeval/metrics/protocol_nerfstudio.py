@@ -15,14 +15,19 @@ metrics (read, not copied; docs/protocols.md cites the files), and two families 
   ``conv2d`` without padding), float32, no clamp, mean over the map.
 
 Both use torchmetrics' ``PeakSignalNoiseRatio(data_range=1.0)`` and
-``LearnedPerceptualImagePatchSimilarity(normalize=True)`` (AlexNet).
+``LearnedPerceptualImagePatchSimilarity(normalize=True)`` (AlexNet): ``NerfstudioProtocol`` and
+``SplatfactoProtocol`` differ in their SSIM only.
 """
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from dynaeval.errors import UndefinedMetricError
+from dynaeval.metrics.protocol_base import Float32PsnrProtocol
+from dynaeval.metrics.windows import ssim_variant
 from dynaeval.validation import check_pair
 
 
@@ -62,3 +67,42 @@ def msssim_window() -> np.ndarray:
     arg = -(x * x) / np.float32(2 * 1.5**2)  # float32, as torch computes the exponent
     g = np.exp(arg.astype(np.float64)).astype(np.float32)
     return g / np.float32(g.astype(np.float64).sum())
+
+
+class NerfstudioProtocol(Float32PsnrProtocol):
+    """nerfacto and its siblings: float renders, torchmetrics' float32 PSNR
+    (``data_range=1``), torchmetrics 1.9's SSIM without ``data_range`` (each pair's own range,
+    ``image_data_range``; reflect-padded, every window, variances clamped at 0, float32), LPIPS
+    AlexNet with ``normalize=True``."""
+
+    name = "nerfstudio"
+    reference = ("nerfstudio models' get_image_metrics_and_images (torchmetrics PSNR, SSIM, LPIPS "
+                 "normalize=True) averaged per image by ns-eval; torchmetrics 1.9 "
+                 "functional/image/ssim.py (data_range=None: the images' own range)")
+    ssim = "torchmetrics"
+    ssim_data_range = "image"
+    family = "nerfacto, instant-ngp, mipnerf, tensorf, vanilla-nerf, semantic-nerfw"
+
+    def ssim_of(self, pred: Any, gt: Any, data_range: float) -> float:
+        """torchmetrics' SSIM with the pair's own range as L (``data_range`` unused).
+
+        Raises:
+            UndefinedMetricError: both images constant (``image_data_range``).
+        """
+        return ssim_variant(pred, gt, data_range=image_data_range(pred, gt), border="reflect",
+                            clamp="zero", clip=self.clip, precision="float32")
+
+
+class SplatfactoProtocol(Float32PsnrProtocol):
+    """splatfacto: as ``NerfstudioProtocol`` but SSIM as ``pytorch_msssim.SSIM(data_range=1)``
+    (valid windows, pytorch_msssim's float32 taps ``msssim_window``, no clamp, float32)."""
+
+    name = "nerfstudio-splatfacto"
+    reference = ("nerfstudio models/splatfacto.py get_image_metrics_and_images (torchmetrics PSNR, "
+                 "pytorch_msssim.SSIM(data_range=1.0, size_average=True), LPIPS normalize=True)")
+    ssim = "pytorch_msssim"
+    family = "splatfacto"
+
+    def ssim_of(self, pred: Any, gt: Any, data_range: float) -> float:
+        return ssim_variant(pred, gt, data_range=data_range, border="valid", clamp="none",
+                            clip=self.clip, precision="float32", window=msssim_window())

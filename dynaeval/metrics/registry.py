@@ -566,8 +566,9 @@ def region_argument(region: str, key: str, protocol: Any, frame: Any) -> dict[st
 
     ``{"boxes": ...}`` (focused), ``{"mask": ...}`` (masked), ``{"weights": ...}`` (DyCheck's
     covisible variant; None when the frame has no weights), ``{}`` for the whole frame, or the
-    given mask's ``{"weights": ...}`` there when ``protocol`` multiplies by it (``Protocol.masks
-    == "multiply"``) and the metric is one of the protocol's (it has a ``covisible`` variant).
+    given mask's ``{"weights": ...}`` there when ``protocol`` scores the whole frame with it
+    (``Protocol.weighs_whole_frame``) and the metric is one of the protocol's (it has a
+    ``covisible`` variant).
     ``frame``: anything with ``boxes``, ``mask`` and ``weights`` (``FrameRegions``), each read
     only when the variant needs it (a packed mask is not unpacked for whole-frame metrics).
     """
@@ -578,6 +579,6 @@ def region_argument(region: str, key: str, protocol: Any, frame: Any) -> dict[st
     if region == "covisible":
         return None if frame.weights is None else {"weights": frame.weights}
     if (frame.weights is not None and protocol is not None
-            and protocol.masks == "multiply" and "covisible" in spec(key).regions):
+            and protocol.weighs_whole_frame() and "covisible" in spec(key).regions):
         return {"weights": frame.weights}
     return {}

@@ -341,6 +341,97 @@ def test_optional_packages_are_imported_only_by_deps():
     assert not found, f"optional packages imported outside dynaeval.deps: {found}"
 
 
+PROTOCOL_MODULES = ("dynaeval/metrics/protocols.py", "dynaeval/metrics/protocol_*.py")
+"""The protocol classes and their registry: the only modules that read a protocol's settings."""
+
+
+def _protocol_settings() -> set[str]:
+    """The setting attributes of a protocol (``protocol_base.SETTINGS``), read from the source."""
+    tree = ast.parse((PACKAGE / "metrics" / "protocol_base.py").read_text(encoding="utf-8"))
+    for node in tree.body:
+        if isinstance(node, ast.Assign) and any(getattr(t, "id", "") == "SETTINGS"
+                                                for t in node.targets):
+            return set(ast.literal_eval(node.value))
+    raise AssertionError("protocol_base.py has no SETTINGS")
+
+
+def _protocol_flag_reads(source: str, flags: set[str]) -> list[tuple[int, str]]:
+    """``(line, text)`` of every read of a protocol setting in ``source``: ``X.flag`` or
+    ``getattr(X, "flag", ...)`` where X is a protocol: a name or attribute called ``*protocol*``,
+    a call of ``get_protocol``/``whole`` (``FrameContext.whole``), a parameter annotated
+    ``Protocol``, or a name assigned from one of those."""
+    tree = ast.parse(source)
+    names: set[str] = set()
+
+    def is_protocol(node: ast.AST) -> bool:
+        if isinstance(node, ast.Name):
+            return "protocol" in node.id.lower() or node.id in names
+        if isinstance(node, ast.Attribute):
+            return "protocol" in node.attr.lower()
+        if isinstance(node, ast.Call):
+            func = node.func
+            called = func.attr if isinstance(func, ast.Attribute) else getattr(func, "id", "")
+            return called in ("get_protocol", "whole")
+        return False
+
+    for _ in range(3):  # names assigned from protocols, and from those
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Assign) and is_protocol(node.value):
+                names |= {t.id for t in node.targets if isinstance(t, ast.Name)}
+            elif isinstance(node, ast.arg) and node.annotation is not None \
+                    and "Protocol" in ast.unparse(node.annotation):
+                names.add(node.arg)
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Attribute) and node.attr in flags and is_protocol(node.value):
+            found.append((node.lineno, ast.unparse(node)))
+        elif (isinstance(node, ast.Call) and getattr(node.func, "id", "") == "getattr"
+              and len(node.args) >= 2 and isinstance(node.args[1], ast.Constant)
+              and node.args[1].value in flags and is_protocol(node.args[0])):
+            found.append((node.lineno, ast.unparse(node)))
+    return sorted(found)
+
+
+def test_protocol_flag_reads_are_found():
+    """The check below finds each form of a settings read, and only those."""
+    source = ("p = get_protocol(name)\nq = p\nq.decode\nplan.protocol.masks\n"
+              "getattr(ctx.whole(), 'clip', False)\nconfig.metrics\nprotocol.describe()\n"
+              "def f(x: Protocol):\n    return x.quantize\nctx.whole().whole_psnr\n")
+    assert [line for line, _ in _protocol_flag_reads(source, _protocol_settings())] == [3, 4, 5, 9]
+
+
+def test_no_protocol_setting_read_outside_the_protocol_classes():
+    """Issue 31: a protocol is one class whose methods say what it does; no other module reads
+    its settings (``quantize``, ``masks``, ``decode``, ...) to decide for it."""
+    flags = _protocol_settings()
+    inside = {p for pattern in PROTOCOL_MODULES for p in PACKAGE.parent.glob(pattern)}
+    reads = [f"{path.relative_to(PACKAGE.parent)}:{line}: {text}"
+             for path in _sources() if path not in inside
+             for line, text in _protocol_flag_reads(path.read_text(encoding="utf-8"), flags)]
+    assert reads == []
+
+
+PROTOCOL_LABELS = {"psnr", "ssim", "ssim_data_range", "lpips_input", "lpips_reduce", "masks",
+                   "msssim", "family", "reference", "choices"}
+"""The settings that only name a protocol's choices in the results: its methods implement them."""
+
+
+def test_protocol_labels_are_read_by_describe_only():
+    """Inside the protocol classes too, a label is never dispatched on (the old
+    ``if self.ssim == "dm_pix"`` chains): the behaviour is the overriding method, the label
+    what ``describe`` writes."""
+    reads = []
+    for path in sorted({p for pattern in PROTOCOL_MODULES for p in PACKAGE.parent.glob(pattern)}):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        for fn in ast.walk(tree):
+            if not isinstance(fn, ast.FunctionDef) or fn.name == "describe":
+                continue
+            reads += [f"{path.name}:{node.lineno} {fn.name}: {ast.unparse(node)}"
+                      for node in ast.walk(fn) if isinstance(node, ast.Attribute)
+                      and node.attr in PROTOCOL_LABELS and getattr(node.value, "id", "") == "self"]
+    assert reads == []
+
+
 TEXT_NAMES = {"reason", "message", "msg", "detail", "err", "exc", "error"}
 """Names (variables, attributes, dict keys) that hold the words of a warning or an error."""
 
