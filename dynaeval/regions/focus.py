@@ -187,8 +187,8 @@ class RegionSources:
     person and ball for a boxes file)."""
     settings: dict[str, Any] = field(default_factory=dict)
     warnings: list[dict] = field(default_factory=list)
-    """Run-level warnings about the sources (``{"status": "note", "reason"}``): the bundled detector on footage it
-    was not trained for, output names overruled by dtypes."""
+    """Run-level warnings about the sources (``dynaeval.outcome.note``): the bundled detector on
+    footage it was not trained for, output names overruled by dtypes."""
     detector_note: str | None = None
     """Why a detector's boxes file does not re-run its detector (its model is not here)."""
 
