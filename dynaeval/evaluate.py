@@ -46,6 +46,7 @@ from dynaeval.io.masks import check_masks, find_masks, unused_mask_folders
 from dynaeval.io.video import close_videos
 from dynaeval.metrics.protocols import get_protocol
 from dynaeval.metrics.registry import SPECS
+from dynaeval.outcome import Status, note, warning, warning_line
 from dynaeval.plan import RunPlan, Scope, build_plan
 from dynaeval.prepare import open_prepared
 from dynaeval.progress import Progress
@@ -159,17 +160,17 @@ def _input_warnings(config: ScoreConfig, layout: Any, pairing: Any, mask_warning
     """Run-level warnings about the inputs, in the order the results list them: damaged video
     files, given masks, the layout's notes, missing frames, a render folder scored under another
     protocol than its own, frames scored as separate views."""
-    warnings = [*pairing.warnings, *mask_warnings, *({"reason": note} for note in layout.notes)]
+    warnings = [*pairing.warnings, *mask_warnings, *(note(text) for text in layout.notes)]
     if gaps:
         warnings.append(missing_frames_warning(gaps, scope.temporal))
     own = family_protocol(layout.details["family"]) if layout.name == "3dgs" else config.protocol
     if config.protocol != own:
-        warnings.append({"reason": (
+        warnings.append(note(
             f"{layout.details['family']} render folder scored under --protocol "
             f"{config.protocol}: the numbers of its own metrics.py are --protocol {own} / "
-            f"protocol='{own}'")})
+            f"protocol='{own}'"))
     if scope.sequence is not None and scope.sequence["skipped"]:
-        warnings.append({"reason": scope.sequence["reason"]})
+        warnings.append(warning(Status.NOT_A_VIDEO, scope.sequence["reason"]))
     return warnings
 
 
@@ -245,23 +246,20 @@ def _given_masks(config: ScoreConfig, layout: Any, pairs: list[FramePair]) -> tu
     warnings = []
     roots = [layout.pred, layout.gt, *([layout.root] if layout.root is not None else [])]
     for folder in unused_mask_folders(masks, roots):
-        warnings.append({"reason": (
+        warnings.append(note(
             f"mask folder {folder} is not used (NeRFBaselines or DyCheck would apply it): pass "
-            "--masks with it to score masked_* over it, and the protocol's masked numbers")})
+            "--masks with it to score masked_* over it, and the protocol's masked numbers"))
     if masks is not None and not config.focus.masked and not protocol.uses_masks():
-        warnings.append({"reason": f"masks {masks.folder} are not used: --no-masked skips masked_*"})
+        warnings.append(note(f"masks {masks.folder} are not used: --no-masked skips masked_*"))
     if masks is None and protocol.mask_regions():
-        warnings.append({"reason": (
+        warnings.append(note(
             f"protocol {protocol.name}: no covisibility masks found, so mpsnr, mssim and mlpips "
-            "are not computed; pass --masks DATASET/covisible/<factor>x/<split>")})
+            "are not computed; pass --masks DATASET/covisible/<factor>x/<split>"))
     return masks, warnings
 
 
-def warning_text(warning: dict[str, Any]) -> str:
-    """One results warning as a line of text: ``"tlp: summary is null: ..."``."""
-    metric = warning.get("metric")
-    reason = warning["reason"]
-    return f"{metric}: {reason}" if metric and not reason.lower().startswith(metric) else reason
+warning_text = warning_line
+"""One results warning as a line of text (``dynaeval.outcome.warning_line``)."""
 
 
 def run_progress(pairs: list[FramePair], temporal: bool, enabled: bool) -> Any:

@@ -33,6 +33,7 @@ from dynaeval.metrics.registry import (
     build_frame_metrics,
 )
 from dynaeval.metrics.temporal import TemporalConfig
+from dynaeval.outcome import Status, unavailable_reason, warning
 from dynaeval.regions.boxes_file import frame_key
 from dynaeval.regions.focus import FocusConfig, FrameRegions, RegionSources, open_sources
 from dynaeval.runtime import resolve_device
@@ -179,7 +180,8 @@ def build_plan(config: ScoreConfig, *, scope: Scope | None = None, masks: MaskSe
                *(("masked",) if focus.masked else ()),
                *(protocol.mask_regions() if masks is not None else ()))
     built = build_frame_metrics(ctx, protocol.run_metrics(config.metrics), regions)
-    warnings = [{"metric": name, "reason": f"{SPECS[name].title} not computed: {why}"}
+    warnings = [warning(Status.UNAVAILABLE, metric=name,
+                        reason=unavailable_reason(SPECS[name].title, why))
                 for name, why in built.unavailable.items()]
     settings = _settings(config, quantize, built.settings, regions, protocol, masks)
     sources = open_sources(focus)

@@ -61,6 +61,7 @@ from dynaeval.metrics.flow import FlowCache, FlowConfig, _flow_from_gray, check_
 from dynaeval.metrics.pair_kernels import prepare as frame_prep
 from dynaeval.metrics.protocols import get_protocol
 from dynaeval.metrics.static_flicker import TemporalStd, check_static
+from dynaeval.outcome import Status, note
 from dynaeval.plan import RunPlan, ground_truth_plan
 from dynaeval.progress import Progress
 from dynaeval.regions.focus import FrameRegions, open_sources
@@ -221,6 +222,8 @@ def _save_regions(regions: list[FrameRegions], path: Path) -> dict[str, Any]:
             if value is not None:
                 arrays[f"{name}{k}"] = value
         frames.append({"boxes_reason": r.boxes_reason, "mask_reason": r.mask_reason,
+                       "boxes_status": r.boxes_status and r.boxes_status.value,
+                       "mask_status": r.mask_status and r.mask_status.value,
                        "records": r.records, "size": r.size,
                        "mask_shape": None if packed is None else list(packed.shape)})
     np.savez_compressed(path, **arrays)
@@ -333,7 +336,9 @@ class PreparedGT:
                 out.append(FrameRegions(
                     boxes=got["boxes"], boxes_reason=f["boxes_reason"], packed_mask=packed,
                     mask_reason=f["mask_reason"], raw_boxes=got["raw_boxes"], records=f["records"],
-                    size=None if f["size"] is None else tuple(f["size"]), camera_motion=motion))
+                    size=None if f["size"] is None else tuple(f["size"]), camera_motion=motion,
+                    boxes_status=_status(f.get("boxes_status")),
+                    mask_status=_status(f.get("mask_status"))))
         return out
 
     def gt_static_std(self, camera: str, static: np.ndarray) -> np.ndarray | None:
@@ -362,10 +367,16 @@ class PreparedGT:
 
     def warnings(self) -> list[dict[str, str]]:
         """One results warning per camera whose regions were computed again."""
-        return [{"camera": cam, "reason": (
-            "regions computed again, not read from the prepared ground truth: the camera's "
-            "frames differ from the prepared ones (or it is no video)")}
-            for cam, ok in self.reuse.items() if not ok]
+        return [note("regions computed again, not read from the prepared ground truth: the "
+                     "camera's frames differ from the prepared ones (or it is no video)",
+                     camera=cam)
+                for cam, ok in self.reuse.items() if not ok]
+
+
+def _status(value: str | None) -> Status | None:
+    """A ``FrameRegions`` status as stored in the manifest (None: none, or a folder prepared
+    before statuses were stored, whose nulls are then ``NO_REGION``)."""
+    return None if value is None else Status(value)
 
 
 def open_prepared(path: str | Path, gt_root: Path, pairs: list[FramePair],

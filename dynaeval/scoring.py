@@ -20,11 +20,11 @@ from dynaeval.executor import Executor
 from dynaeval.io import FramePair
 from dynaeval.io.cache import FrameCache
 from dynaeval.metrics.registry import METRICS
+from dynaeval.outcome import Status, note, warning
 from dynaeval.plan import RunPlan
 from dynaeval.regions.focus import FrameRegions, camera_regions, fit_to
 from dynaeval.regions.given import given_masks, with_weights
 from dynaeval.regions.summary import regions_summary
-from dynaeval.report.results import INFINITE_MARK
 from dynaeval.stages import CameraWork, FrameWork, Stage, active_stages
 from dynaeval.validation import values_known_in
 
@@ -80,10 +80,6 @@ def _summary_of(regions: list[FrameRegions], plan: RunPlan) -> dict[str, Any] | 
 # Frames
 
 
-def _warning(pair: FramePair, metric: str, reason: str) -> dict:
-    return {"camera": pair.camera, "frame": pair.frame, "metric": metric, "reason": reason}
-
-
 def score_frame(pair: FramePair, regions: FrameRegions, plan: RunPlan, cache: FrameCache,
                 executor: Executor, stages: Sequence[Stage] | None = None,
                 ) -> tuple[dict[str, Any], list[dict]]:
@@ -114,14 +110,13 @@ def _score_frame(pair: FramePair, regions: FrameRegions, plan: RunPlan, cache: F
     with values_known_in(1.0):  # read by dynaeval.io.images: in [0, 1], no range pass per metric
         values = [v for stage in stages for v in stage.frame(plan, work)]
     warnings: list[dict] = []
-    for name, value, reason in values:
-        if value is None:
-            warnings.append(_warning(pair, name, reason or "undefined"))
-        elif math.isnan(value):  # inputs are checked finite before this point
+    for name, got in values:
+        value = got.value
+        if value is not None and math.isnan(value):  # inputs are checked finite before this point
             raise RuntimeError(f"{name} is NaN for {pair.pred}")
-        elif math.isinf(value):
-            warnings.append(_warning(pair, name, "prediction equals ground truth in the scored "
-                                     f"region: {INFINITE_MARK}, written as null"))
+        if got.status is not Status.OK:
+            warnings.append(warning(got.status, got.detail, camera=pair.camera, frame=pair.frame,
+                                    metric=name))
         row[name] = value
     executor.add_time(elapsed)
     return row, warnings
@@ -133,9 +128,9 @@ def _score_frame(pair: FramePair, regions: FrameRegions, plan: RunPlan, cache: F
 
 def _not_video_warning(camera: str, pairs: list[FramePair], err: Any) -> dict:
     """The one warning of a camera whose frames differ in shape, naming the first odd file."""
-    return {"camera": camera, "reason": (
+    return warning(Status.NOT_A_VIDEO, camera=camera, detail=(
         f"{err.reason()}: {pairs[err.index].gt} differs from {pairs[0].gt}; its frames are "
-        "scored one by one, its temporal and motion-mask values are null")}
+        "scored one by one, its temporal and motion-mask values are null"))
 
 
 def score_camera(camera: str, pairs: list[FramePair], plan: RunPlan, executor: Executor, *,
@@ -176,7 +171,7 @@ def score_camera(camera: str, pairs: list[FramePair], plan: RunPlan, executor: E
         warnings.insert(0, _not_video_warning(camera, pairs, differ))
     motion = regions[0].camera_motion if regions else None
     if motion is not None and motion["reason"] is not None:
-        warnings.insert(0, {"camera": camera, "reason": motion["reason"]})
+        warnings.insert(0, note(motion["reason"], camera=camera))
     if temporal is not None and differ is None:
         warnings.extend(name_regionless_frames(camera, pairs, regions, temporal))
     return CameraScores(rows, warnings, temporal, _summary_of(regions, plan))
@@ -198,19 +193,15 @@ def name_regionless_frames(camera: str, pairs: list[FramePair], regions: list[Fr
     for key, entry in temporal.items():
         if METRICS[key].variant != "focused":
             continue
-        reason = entry.get("reason") or ""
         if entry.get("value") is None:
-            if reason.startswith(REGIONLESS_REASONS):  # not another cause (too few frames, ...)
+            if entry.get("status") == Status.NO_REGION:  # not another cause (too few frames, ...)
                 entry["reason"] = f"{frames}; no pair of consecutive frames has boxes in both"
         elif METRICS[key].kind == "camera":
-            out.append({"camera": camera, "metric": key, "reason": (
-                f"over the union of the boxes of the frames that have them; {frames}")})
+            out.append(note(f"over the union of the boxes of the frames that have them; {frames}",
+                            camera=camera, metric=key))
         else:
             entry["pair_reason"] = f"this frame or the previous one has no box ({why})"
-            out.append({"camera": camera, "metric": key, "reason": (
-                f"scored on the pairs of frames that both have boxes; {frames}")})
+            entry["pair_status"] = Status.NO_REGION.value
+            out.append(note(f"scored on the pairs of frames that both have boxes; {frames}",
+                            camera=camera, metric=key))
     return out
-
-
-REGIONLESS_REASONS = ("no pair of consecutive frames has a region", "no frame has a region")
-"""How ``temporal_metrics`` says a focused term is null because frames had no region."""

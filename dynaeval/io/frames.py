@@ -51,6 +51,7 @@ from dynaeval.io.images import (
     to_float,
 )
 from dynaeval.io.video import VIDEO_EXTENSIONS, read_video_frame, scan_video
+from dynaeval.outcome import Status, note, warning
 
 ROOT_CAMERA = "."
 
@@ -240,7 +241,7 @@ def find_frames(root: str | Path, *, role: str = "input") -> dict[str, Camera]:
         scan = scan_video(path)
         problem = scan.problem()
         cameras[name] = Camera(name, [(str(i), FrameRef(path, i)) for i in range(scan.n_frames)],
-                               True, [{"camera": name, "reason": f"{path}: {problem}"}] if problem
+                               True, [note(f"{path}: {problem}", camera=name)] if problem
                                else [])
     if not cameras:
         raise InputError(
@@ -358,13 +359,9 @@ def consecutive_pairs(pairing: Pairing) -> dict[str, dict]:
     return out
 
 
-MISSING_FRAMES = "--allow-missing"
-"""How ``missing_frames_warning``'s text starts (``dynaeval merge`` writes it again)."""
-
-
 def missing_frames_warning(gaps: dict[str, dict], temporal: bool, most: int = 8) -> dict:
-    """The one run-level warning (printed on the console) of ``--allow-missing`` runs that left
-    frames out: which, per camera (``gaps``: ``consecutive_pairs``' output), and how many pairs
+    """The one run-level warning (printed on the console; ``Status.MISSING_FRAMES``, which
+    ``dynaeval merge`` makes again) of ``--allow-missing`` runs that left frames out: which, per camera (``gaps``: ``consecutive_pairs``' output), and how many pairs
     of consecutive frames the temporal terms scored (``temporal``: they ran)."""
     parts = []
     for cam, g in list(gaps.items())[:most]:
@@ -374,10 +371,10 @@ def missing_frames_warning(gaps: dict[str, dict], temporal: bool, most: int = 8)
         parts.append(f"camera {cam}: {shown}{pairs}")
     more = f"; {len(gaps) - most} more camera(s) in inputs.skipped_frames" if len(gaps) > most else ""
     n = sum(len(g["missing_frames"]) for g in gaps.values())
-    return {"reason": (f"{MISSING_FRAMES}: {n} ground-truth frame(s) have no prediction and are "
-                       f"not scored ({'; '.join(parts)}{more})"
-                       + ("; temporal terms use the pairs of consecutive frames present"
-                          if temporal else ""))}
+    return warning(Status.MISSING_FRAMES, (
+        f"{n} ground-truth frame(s) have no prediction and are not scored "
+        f"({'; '.join(parts)}{more})"
+        + ("; temporal terms use the pairs of consecutive frames present" if temporal else "")))
 
 
 def parse_shard(spec: str) -> tuple[int, int]:

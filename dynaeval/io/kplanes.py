@@ -35,6 +35,7 @@ from dynaeval.errors import InputError
 from dynaeval.io.frames import FramePair, FrameRef, Pairing
 from dynaeval.io.images import IMAGE_EXTENSIONS, read_image, to_float
 from dynaeval.io.video import VIDEO_EXTENSIONS, read_video_frame, scan_video
+from dynaeval.outcome import note
 
 STACK_PARTS = ("prediction", "ground truth", "error map")
 """The parts of a K-Planes evaluation frame, top to bottom."""
@@ -203,11 +204,11 @@ def pair_stack(path: str | Path) -> Pairing:
     for n, file in enumerate(files):
         rows, notes = check_stack(file)
         if n == 0:  # the notes of a PNG set are the same for each file
-            warnings += [{"reason": w} for w in notes]
+            warnings += [note(w) for w in notes]
         if file.suffix.lower() in VIDEO_EXTENSIONS:
             camera, scan = file.stem, scan_video(file)
             if scan.problem():
-                warnings.append({"camera": camera, "reason": f"{file}: {scan.problem()}"})
+                warnings.append(note(f"{file}: {scan.problem()}", camera=camera))
             frames: list[tuple[str, int | None]] = [(str(i), i) for i in range(scan.n_frames)]
         elif len(files) > 1:  # a folder's PNG set: camera step<N>, frames by test image i
             m = STACK_NAME.match(file.stem)

@@ -57,6 +57,7 @@ from dynaeval.metrics.temporal_pairs import (
     tof,
     warping_error,
 )
+from dynaeval.outcome import Outcome, Status
 
 __all__ = [
     "TEMPORAL_METRICS",
@@ -156,16 +157,18 @@ def _time_steps(
 
 def _lpips_for_run(
     config: TemporalConfig, lpips_fn: LpipsFn | None
-) -> tuple[LpipsFn | None, str | None]:
-    """The LPIPS of the run and, when tLP cannot run, why (recorded as its reason)."""
+) -> tuple[LpipsFn | None, Outcome | None]:
+    """The LPIPS of the run and, when tLP cannot run, why (its null ``Outcome``)."""
     if not config.tlp:
-        return lpips_fn, "tLP disabled in the configuration (no LPIPS)"
+        return lpips_fn, Outcome(None, Status.DISABLED,
+                                 "tLP disabled in the configuration (no LPIPS)")
     if lpips_fn is not None:
         return lpips_fn, None
     try:
         return default_lpips(config.lpips_net, config.lpips_device, config.lpips_backend), None
     except (ImportError, AttributeError) as exc:  # no LPIPS in this install: recorded
-        return None, f"LPIPS unavailable: {type(exc).__name__}: {exc}"
+        return None, Outcome(None, Status.UNAVAILABLE,
+                             f"LPIPS unavailable: {type(exc).__name__}: {exc}")
 
 
 class _PairFold:
@@ -173,9 +176,9 @@ class _PairFold:
     folded in frame order into per-pair lists, so the numbers are the sequential run's."""
 
     def __init__(self, executor: Executor | None, window: int, memo: FeatureMemo | None,
-                 lpips_reason: str | None, on_pair: Callable[[], None] | None = None) -> None:
+                 lpips_off: Outcome | None, on_pair: Callable[[], None] | None = None) -> None:
         self.executor, self.window, self.memo, self.on_pair = executor, window, memo, on_pair
-        self.lpips_reason = lpips_reason
+        self.lpips_off = lpips_off  # why tLP is null (None: it runs)
         self.per_pair: dict[str, list] = {k: [] for k in keys_of("pair")}
         self.parts = {k: {"pred": [], "gt": [], "signed": []} for k in WARP_ERROR_KEYS}
         self._pending: deque = deque()  # pair terms in frame order: futures (executor) or dicts
@@ -204,8 +207,8 @@ class _PairFold:
         for key, got in terms["parts"].items():
             for part, value in got.items():
                 self.parts[key][part].append(value)
-        if terms["lpips_error"] is not None and self.lpips_reason is None:
-            self.lpips_reason = terms["lpips_error"]
+        if terms["lpips_error"] is not None and self.lpips_off is None:
+            self.lpips_off = Outcome(None, Status.UNAVAILABLE, terms["lpips_error"])
         if self.on_pair is not None:
             self.on_pair()
 
@@ -233,27 +236,21 @@ class _CameraTerms:
     def entry(self, focused: bool, n_frames: int, has_regions: bool) -> dict:
         """The entry of ``flicker`` or (``focused``) ``focused_flicker`` (over the union of the
         regions of the frames that have one)."""
-        entry: dict = {"value": None, "reason": None, "per_pair": []}
         if n_frames < 2:
-            entry["reason"] = f"needs at least 2 frames, got {n_frames}"
-        elif self.flicker is None:
-            entry["reason"] = "no static mask given (moving camera, or motion masks unavailable)"
-        elif focused and not has_regions:
-            entry["reason"] = _NO_REGIONS
-        elif focused and self.region_union is None:
-            entry["reason"] = "no frame has a region"
-        else:
-            region = self.region_union if focused else None
-            terms = self.flicker.terms(region)
-            if terms is None:
-                entry["reason"] = (
-                    "no static pixel: the static mask is empty"
-                    if region is None
-                    else "no static pixel inside the regions"
-                )
-            else:
-                entry.update(terms)
-        return entry
+            return _null(Status.UNDEFINED, f"needs at least 2 frames, got {n_frames}")
+        if self.flicker is None:
+            return _null(Status.UNDEFINED,  # no static region known (not a missing box)
+                         "no static mask given (moving camera, or motion masks unavailable)")
+        if focused and not has_regions:
+            return _null(Status.DISABLED, _NO_REGIONS)
+        if focused and self.region_union is None:
+            return _null(Status.NO_REGION, "no frame has a region")
+        region = self.region_union if focused else None
+        terms = self.flicker.terms(region)
+        if terms is None:
+            return _null(Status.EMPTY_REGION, "no static pixel: the static mask is empty"
+                         if region is None else "no static pixel inside the regions")
+        return {"value": None, "status": Status.OK.value, "reason": None, "per_pair": [], **terms}
 
 
 def temporal_metrics(
@@ -311,9 +308,9 @@ def temporal_metrics(
     """
     config = config or TemporalConfig()
     cache = flow_cache if flow_cache is not None else FlowCache(max_bytes=1 << 26)
-    lpips_fn, lpips_reason = _lpips_for_run(config, lpips_fn)
+    lpips_fn, lpips_off = _lpips_for_run(config, lpips_fn)
     memo = FeatureMemo(lpips_fn) if hasattr(lpips_fn, "features") else None
-    pairs = _PairFold(executor, window, memo, lpips_reason, on_pair)
+    pairs = _PairFold(executor, window, memo, lpips_off, on_pair)
     camera = _CameraTerms(static_mask, gt_static_std)
     prev: Frames | None = None
     n_frames = 0
@@ -326,7 +323,7 @@ def temporal_metrics(
         camera.update(cur)
         if prev is not None and positions.next_follows(i):
             pairs.submit(pair_terms, prev, cur, cache, config.flow,
-                         lpips_fn if pairs.lpips_reason is None else None,
+                         lpips_fn if pairs.lpips_off is None else None,
                          config.tlp_min_crop, memo, i)
         elif prev is not None:  # a gap: no pair, its slot stays None
             pairs.submit(_no_pair_terms)
@@ -385,27 +382,35 @@ def _pair_entry(key: str, pairs: _PairFold, n_frames: int, has_regions: bool,
     info = METRICS[key]
     focused = info.variant == "focused"
     if n_frames < 2:
-        return {"value": None, "reason": f"needs at least 2 frames, got {n_frames}", "per_pair": []}
+        return _null(Status.UNDEFINED, f"needs at least 2 frames, got {n_frames}")
     if gaps == n_frames - 1:
-        return {"value": None, "per_pair": [], "reason": (  # one camera-level null
+        return _null(Status.NOT_CONSECUTIVE, (  # one camera-level null
             f"no two of the {n_frames} frames are consecutive (frames are missing between every "
-            "pair of neighbours): no pair to score")}
+            "pair of neighbours): no pair to score"))
     if focused and not has_regions:
-        return {"value": None, "reason": _NO_REGIONS, "per_pair": pairs.per_pair[key]}
-    if info.metric == "tlp" and pairs.lpips_reason is not None:
-        return {"value": None, "reason": pairs.lpips_reason, "per_pair": []}
-    empty = (
-        "no pixel of any frame was visible in its previous frame (all occluded)" if not focused
-        else "every pair's region was empty" if not regionless
-        else f"no pair of consecutive frames has a region in both (frames without one: "
-             f"{', '.join(map(str, regionless))})"
+        return _null(Status.DISABLED, _NO_REGIONS, pairs.per_pair[key])
+    if info.metric == "tlp" and pairs.lpips_off is not None:
+        return _null(pairs.lpips_off.status, pairs.lpips_off.detail)
+    empty, status = (
+        ("no pixel of any frame was visible in its previous frame (all occluded)",
+         Status.EMPTY_REGION) if not focused
+        else ("every pair's region was empty", Status.EMPTY_REGION) if not regionless
+        else (f"no pair of consecutive frames has a region in both (frames without one: "
+              f"{', '.join(map(str, regionless))})", Status.NO_REGION)
     )
     value, reason = _mean_or_reason(pairs.per_pair[key], empty)
-    entry = {"value": value, "reason": reason, "per_pair": pairs.per_pair[key]}
+    entry = {"value": value, "status": (Status.OK if reason is None else status).value,
+             "reason": reason, "per_pair": pairs.per_pair[key]}
     if key in pairs.parts:
         for part in ("signed", "pred", "gt"):
             entry[part] = _mean_or_reason(pairs.parts[key][part], empty)[0]
     return entry
+
+
+def _null(status: Status, reason: str, per_pair: list | None = None) -> dict:
+    """The entry of a term null for the whole camera (``per_pair``: its per-pair values, all
+    None, when it has them)."""
+    return {"value": None, "status": status.value, "reason": reason, "per_pair": per_pair or []}
 
 
 def _results(

@@ -18,6 +18,7 @@ from __future__ import annotations
 import threading
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Future
+from itertools import zip_longest
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -70,24 +71,25 @@ def paired_frames(
 
     Raises InputError when the sequences differ in length or a pair in shape.
     """
-    try:
-        for i, (p, g) in enumerate(zip(pred_frames, gt_frames, strict=True)):
-            p, g = (
-                as_image(p, f"prediction frame {i}"),
-                as_image(g, f"ground-truth frame {i}"),
+    for i, (p, g) in enumerate(zip_longest(pred_frames, gt_frames, fillvalue=_ENDED)):
+        if p is _ENDED or g is _ENDED:  # one sequence ended first
+            raise InputError(
+                "prediction and ground truth have different numbers of frames; pair them first "
+                "(dynaeval.io) so that frame i of one is frame i of the other"
             )
-            if p.shape != g.shape:
-                raise InputError(
-                    f"frame {i}: prediction {p.shape} and ground truth {g.shape} differ in shape"
-                )
-            yield p, g
-    except ValueError as exc:
-        if isinstance(exc, InputError | EmptyRegionError) or "zip()" not in str(exc):
-            raise
-        raise InputError(
-            "prediction and ground truth have different numbers of frames; pair them first "
-            "(dynaeval.io) so that frame i of one is frame i of the other"
-        ) from exc
+        p, g = (
+            as_image(p, f"prediction frame {i}"),
+            as_image(g, f"ground-truth frame {i}"),
+        )
+        if p.shape != g.shape:
+            raise InputError(
+                f"frame {i}: prediction {p.shape} and ground truth {g.shape} differ in shape"
+            )
+        yield p, g
+
+
+_ENDED = object()
+"""``paired_frames``' stand-in for the frame of a sequence that has ended."""
 
 
 # --------------------------------------------------------------------------------------------

@@ -19,6 +19,7 @@ from dynaeval.boxes import clip_boxes
 from dynaeval.errors import InputError
 from dynaeval.io import find_frames
 from dynaeval.io.cache import FrameCache
+from dynaeval.outcome import Status, note
 from dynaeval.regions.boxes_file import frame_key, read_boxes_file, records_to_boxes
 from dynaeval.regions.detector import DEFAULT_DETECTOR, Detector, DetectorConfig
 from dynaeval.regions.expand import ExpandConfig, expand_boxes
@@ -135,13 +136,17 @@ class FrameRegions:
     boxes: np.ndarray | None = None
     """(N, 4) int64 expanded, clipped and merged boxes; None when there is no box."""
     boxes_reason: str | None = None
-    """Why ``boxes`` is None."""
+    """Why ``boxes`` is None (words for people)."""
+    boxes_status: Status | None = None
+    """Why ``boxes`` is None, as data (``NO_REGION``, ``DISABLED``, ...)."""
     packed_mask: PackedMask | None = None
     """The motion mask, or the given mask (``dynaeval.regions.given``), bit-packed (a camera's
     frames keep theirs until its temporal pass ends: 1/8 of the bool masks); None when there
     is none. ``mask`` unpacks it."""
     mask_reason: str | None = None
-    """Why ``mask`` is None."""
+    """Why ``mask`` is None (words for people)."""
+    mask_status: Status | None = None
+    """Why ``mask`` is None, as data (``EMPTY_REGION``, ``NOT_A_VIDEO``, ...)."""
     raw_boxes: np.ndarray | None = None
     """(N, 4) boxes as found, before expansion (for reports)."""
     records: list[dict] | None = None
@@ -182,8 +187,8 @@ class RegionSources:
     person and ball for a boxes file)."""
     settings: dict[str, Any] = field(default_factory=dict)
     warnings: list[dict] = field(default_factory=list)
-    """Run-level warnings about the sources (``{"reason"}``): the bundled detector on footage it
-    was not trained for, output names overruled by dtypes."""
+    """Run-level warnings about the sources (``dynaeval.outcome.note``): the bundled detector on
+    footage it was not trained for, output names overruled by dtypes."""
     detector_note: str | None = None
     """Why a detector's boxes file does not re-run its detector (its model is not here)."""
 
@@ -286,9 +291,9 @@ def camera_regions(
         out = _camera_regions(camera, frames, load_gt, sources, executor, paths, video=False)
         for r in out:
             r.not_video = err
-            if r.mask_reason == NOT_A_VIDEO:
+            if r.mask_status is Status.NOT_A_VIDEO:
                 r.mask_reason = err.reason()
-            if r.boxes_reason == NOT_A_VIDEO:
+            if r.boxes_status is Status.NOT_A_VIDEO:
                 r.boxes_reason = err.reason()
         return out
 
@@ -306,7 +311,7 @@ def _camera_regions(camera: str, frames: Sequence[str], load_gt: Callable[[int],
         _add_motion_masks(out, camera, load, cfg.motion_kind, executor, cfg.source)
     elif cfg.masked or cfg.source == "motion":
         for r in out:
-            r.mask_reason = NOT_A_VIDEO
+            r.mask_reason, r.mask_status = NOT_A_VIDEO, Status.NOT_A_VIDEO
     detections = None
     if cfg.source == "detector":
         def detect(i: int):  # noqa: ANN202
@@ -332,7 +337,7 @@ def _camera_regions(camera: str, frames: Sequence[str], load_gt: Callable[[int],
         raw = clip_boxes(raw, h, w)
         r.raw_boxes, r.size = raw, (h, w)
         if len(raw) == 0:
-            r.boxes_reason = _NO_BOX_REASON[cfg.source]
+            r.boxes_reason, r.boxes_status = _NO_BOX_REASON[cfg.source], Status.NO_REGION
             continue
         r.boxes = expand_boxes(raw, cfg.expand, h, w)
     return out
@@ -351,7 +356,8 @@ def fit_to(r: FrameRegions, size: tuple[int, int], config: FocusConfig) -> Frame
     raw = clip_boxes(records_to_boxes(r.records) if r.records is not None else r.raw_boxes, h, w)
     boxes = expand_boxes(raw, config.expand, h, w) if len(raw) else None
     reason = None if boxes is not None else _NO_BOX_REASON[config.source]
-    return replace(r, raw_boxes=raw, boxes=boxes, boxes_reason=reason, size=(h, w))
+    return replace(r, raw_boxes=raw, boxes=boxes, boxes_reason=reason, size=(h, w),
+                   boxes_status=None if boxes is not None else Status.NO_REGION)
 
 
 _NO_BOX_REASON = {
@@ -366,6 +372,7 @@ def _add_motion_masks(out: list[FrameRegions], camera: str, load_gt: Callable[[i
     """Set each frame's motion mask, or the reason it has none (too few frames, no motion)."""
     if len(out) < MIN_MOTION_FRAMES:
         for r in out:
+            r.mask_status = Status.UNDEFINED
             r.mask_reason = (
                 f"motion masks need >= {MIN_MOTION_FRAMES} frames of a static camera, "
                 f"camera {camera!r} has {len(out)}"
@@ -380,6 +387,7 @@ def _add_motion_masks(out: list[FrameRegions], camera: str, load_gt: Callable[[i
             r.packed_mask = PackedMask.pack(m)
         else:
             r.mask_reason = "no moving pixel in the ground truth"
+            r.mask_status = Status.EMPTY_REGION
     check = _static_check(load_gt, len(out), float(np.mean(fractions)), focus)
     for r in out:
         r.camera_motion = check
@@ -400,11 +408,13 @@ def _frame_boxes(r: FrameRegions, camera: str, name: str, sources: RegionSources
     source = sources.config.source
     if source == "none":
         r.boxes_reason = "no focus regions requested (--focus none)"
+        r.boxes_status = Status.DISABLED
         return None
     if source == "boxes":
         records = sources.boxes.get(frame_key(camera, name))
         if records is None:
             r.boxes_reason = f"frame {frame_key(camera, name)!r} is not in the boxes file"
+            r.boxes_status = Status.NO_REGION
             return None
         r.records = list(records)
         return records_to_boxes(records)
@@ -413,7 +423,7 @@ def _frame_boxes(r: FrameRegions, camera: str, name: str, sources: RegionSources
         r.records = found.records()
         return hw, found.boxes
     if r.packed_mask is None:  # motion
-        r.boxes_reason = r.mask_reason
+        r.boxes_reason, r.boxes_status = r.mask_reason, r.mask_status
         return None
 
     return mask_boxes(r.mask, min_area=16)
@@ -474,7 +484,7 @@ def detect_ground_truth(
                                      cache.read(refs[0]).shape[:2], sources)
             moving = regions[0].camera_motion if regions else None
             if warnings is not None and moving is not None and moving["reason"]:
-                warnings.append({"camera": cam.name, "reason": moving["reason"]})
+                warnings.append(note(moving["reason"], camera=cam.name))
             for name, reg in zip(names, regions, strict=True):
                 boxes = reg.raw_boxes if reg.raw_boxes is not None else np.zeros((0, 4), int)
                 mapping[frame_key(cam.name, name)] = [

@@ -12,6 +12,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from dynaeval.io.masks import THRESHOLD, MaskSet, read_mask
+from dynaeval.outcome import Status
 from dynaeval.regions.focus import FrameRegions
 from dynaeval.regions.packed import PackedMask
 
@@ -30,7 +31,8 @@ def given_masks(regions: Sequence[FrameRegions], gt_paths: Sequence[Path],
         m = read_mask(path, masks.decode) > THRESHOLD
         reason = None if m.any() else f"the given mask {path} holds no pixel above {THRESHOLD}"
         out.append(replace(r, packed_mask=PackedMask.pack(m) if m.any() else None,
-                           mask_reason=reason))
+                           mask_reason=reason,
+                           mask_status=None if m.any() else Status.EMPTY_REGION))
     return out
 
 

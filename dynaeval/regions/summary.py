@@ -14,6 +14,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from dynaeval.outcome import note
+
 if TYPE_CHECKING:
     from dynaeval.regions.focus import FrameRegions
 
@@ -30,9 +32,9 @@ def detector_warnings(detector: Any) -> list[dict]:
     names overruled by the dtypes (each once per run)."""
     out = []
     if detector.bundled:
-        out.append({"reason": SYNTHETIC_DETECTOR})
+        out.append(note(SYNTHETIC_DETECTOR))
     if detector.outputs_note:
-        out.append({"reason": f"detector {detector.path}: {detector.outputs_note}"})
+        out.append(note(f"detector {detector.path}: {detector.outputs_note}"))
     return out
 
 

@@ -1,8 +1,8 @@
 """Leaderboards: many results files (methods x scenes) -> one table with bootstrap intervals.
 
-``build_leaderboard(paths)`` reads results files (``dynaeval/results/v1``), refuses to mix files
-whose number-changing settings differ (unless ``force``), and returns a leaderboard document
-(``dynaeval/leaderboard/v1``, fields in docs/results-format.md):
+``build_leaderboard(paths)`` reads results files (``dynaeval/results/v2``; v1 ones read as v2),
+refuses to mix files whose number-changing settings differ (unless ``force``), and returns a
+leaderboard document (``dynaeval/leaderboard/v1``, fields in docs/results-format.md):
 
 * per (method, scene): the file's summary value of each metric (mean of per-frame values) and a
   95 % bootstrap interval over its frames;

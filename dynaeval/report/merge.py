@@ -4,8 +4,11 @@ Shards split a run by whole cameras (``dynaeval.io.frames.select_shard``), so ev
 per-camera number of a shard is the unsharded one; merging recomputes the summaries from them with
 the same function (``build_results``), which makes the merged numbers equal to an unsharded run's,
 bit for bit. A shard file stores an infinite per-frame value (PSNR of a frame equal to its ground
-truth) as ``null`` like an undefined one; its frame warning says which, and ``restore_infinite``
-puts ``inf`` back first, so the summaries, counts and warnings are the unsharded ones too.
+truth) as ``null`` like an undefined one; its frame warning's status (``infinite``) says which,
+and ``restore_infinite`` puts ``inf`` back first, so the summaries, counts and warnings are the
+unsharded ones too. The run-level warnings that ``build_results`` makes again (of a null
+summary, the no-box headline, the missing frames) are told apart by their status and place,
+never by their text; shards written as ``dynaeval/results/v1`` get their statuses at load.
 """
 
 from __future__ import annotations
@@ -14,12 +17,13 @@ from pathlib import Path
 from typing import Any
 
 from dynaeval.errors import InputError
-from dynaeval.io.frames import MISSING_FRAMES, missing_frames_warning, natural_key
+from dynaeval.io.frames import missing_frames_warning, natural_key
 from dynaeval.metrics.registry import METRICS
+from dynaeval.outcome import Status, status_of
 from dynaeval.report.results import (
     FRAME_FIELDS,
-    NO_REGIONS,
     build_results,
+    is_no_regions_warning,
     load_results,
     restore_infinite,
 )
@@ -90,8 +94,7 @@ def merge_results(paths: list[str | Path]) -> dict[str, Any]:
     warnings: list[dict] = []
     for _, doc in docs:
         for w in doc["warnings"]:
-            if "camera" in w or (not w["reason"].startswith(("summary is null", NO_REGIONS))
-                                 and w not in warnings):
+            if "camera" in w or (not _made_again(w, doc) and w not in warnings):
                 warnings.append(w)
     timing: dict[str, float] = {}
     for _, doc in docs:
@@ -119,14 +122,20 @@ def merge_results(paths: list[str | Path]) -> dict[str, Any]:
     )
 
 
+def _made_again(w: dict, doc: dict[str, Any]) -> bool:
+    """A run-level warning of a shard that ``build_results`` makes again from the merged rows:
+    of a null summary (its metric is in ``summary_status``) or the no-box headline."""
+    return w.get("metric") in doc["summary_status"] or is_no_regions_warning(w)
+
+
 def _merged_temporal_pairs(docs: list[dict[str, Any]], skipped: list[dict], settings: dict,
                            warnings: list[dict]) -> dict[str, dict]:
     """The shards' ``inputs.temporal_pairs``, cameras in natural order; the shards' warnings
     naming their missing frames replaced, in place, by the one the unsharded run gives."""
     pairs = {c: v for d in docs for c, v in d["inputs"].get("temporal_pairs", {}).items()}
     pairs = {c: pairs[c] for c in sorted(pairs, key=natural_key)}
-    warnings[:] = [w for w in warnings if "camera" in w or not w["reason"].startswith(
-        f"{MISSING_FRAMES}: ")]
+    warnings[:] = [w for w in warnings
+                   if "camera" in w or status_of(w) is not Status.MISSING_FRAMES]
     gaps: dict[str, dict] = {}
     for s in skipped:
         gaps.setdefault(s["camera"], {"missing_frames": [], **pairs.get(s["camera"], {})})

@@ -1,9 +1,9 @@
-"""The results document (leaderboard JSON, schema ``dynaeval/results/v1``) and writing it safely.
+"""The results document (leaderboard JSON, schema ``dynaeval/results/v2``) and writing it safely.
 
 Layout (docs/results-format.md documents every field; the JSON Schema ships as
-``dynaeval/schemas/results-v1.schema.json``)::
+``dynaeval/schemas/results-v2.schema.json``)::
 
-    {"schema": "dynaeval/results/v1", "dynaeval_version": ..., "created": ISO-8601 UTC,
+    {"schema": "dynaeval/results/v2", "dynaeval_version": ..., "created": ISO-8601 UTC,
      "method": ..., "scene": ...,
      "inputs": {"pred": ..., "gt": ..., "n_frames": ..., "cameras": [...],
                 "unscored_cameras": [...], "skipped_frames": [...]},
@@ -12,22 +12,28 @@ Layout (docs/results-format.md documents every field; the JSON Schema ships as
      "frames": [{"camera", "frame", "index", "pred", "gt", <metric>: value|null, ...}],
      "cameras": {camera: {"n_frames": int, <metric>: mean|null}},
      "summary": {"n_frames": int, <metric>: mean|null},
+     "summary_status": {<metric>: status of its null summary},
      "counts": {<metric>: frames with a defined value},
      "timing": {"total_s": ..., "read": ..., <metric>: seconds summed over frames},
-     "warnings": [{"metric", "reason", "camera"?, "frame"?}]}
+     "warnings": [{"metric"?, "camera"?, "frame"?, "status", "reason"}]}
 
 Summaries are the mean of per-frame values (every frame weighs the same, cameras with more frames
 weigh more), never a metric of the pooled error. A per-frame value that is undefined (empty region)
-or infinite (PSNR of identical images) is ``null`` with a warning (the warning of an infinite one
-says "value is +infinity": ``restore_infinite`` reads it back); a summary over frames that
-include an infinite value is ``null`` too (its mean is infinite), over undefined ones it is the mean
-of the defined values with ``counts`` saying how many (infinite ones are counted).
+or infinite (PSNR of identical images) is ``null`` with a warning whose ``status``
+(``dynaeval.outcome.Status``) says which (``restore_infinite`` reads an ``infinite`` one back); a
+summary over frames that include an infinite value is ``null`` too (its mean is infinite), over
+undefined ones it is the mean of the defined values with ``counts`` saying how many (infinite ones
+are counted). Every null summary value has its status in ``summary_status``.
+
+Files of schema ``dynaeval/results/v1`` (no statuses) are read too: ``load_results`` gives them
+their statuses once, from their text (``_upgrade_v1``, the one place that reads warning text).
 """
 
 from __future__ import annotations
 
 import json
 import math
+from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
@@ -37,9 +43,20 @@ from dynaeval.errors import InputError
 from dynaeval.io.atomic import write_text_atomic
 from dynaeval.io.jsonfile import read_json
 from dynaeval.metrics.registry import METRICS, SPECS
+from dynaeval.outcome import (
+    NO_REGIONS,
+    Status,
+    no_box_reason,
+    status_of,
+    summary_reason,
+    warning,
+)
 from dynaeval.report.results_check import FRAME_FIELDS, check_results
 
-SCHEMA = "dynaeval/results/v1"
+SCHEMA = "dynaeval/results/v2"
+SCHEMA_V1 = "dynaeval/results/v1"
+"""The previous layout: the same document without ``status`` and ``summary_status``."""
+READS = (SCHEMA, SCHEMA_V1)
 
 def _direction(name: str) -> dict[str, Any]:
     """``{"higher_is_better", "unit"}`` of a result key, from the metric registry.
@@ -65,20 +82,24 @@ def _mean(values: list[float | None]) -> tuple[float | None, int, str | None]:
     return math.fsum(defined) / len(defined), len(defined), None
 
 
-INFINITE_MARK = "value is +infinity"
-"""What the warning of an infinite per-frame value says (``scoring.score_frame``: "prediction
-equals ground truth in the scored region: value is +infinity, written as null"). A results
-file stores such a value as ``null``, like an undefined one; the warning tells them apart."""
+def _summary_status(values: list[float | None], members: list[dict]) -> Status:
+    """The status of a null summary of ``values``: ``INFINITE`` when one is infinite, else the
+    one status the warnings of its null ``members`` share (``UNDEFINED`` when they differ)."""
+    if any(v is not None and math.isinf(v) for v in values):
+        return Status.INFINITE
+    found = {status_of(w) for w in members} - {Status.NOTE}
+    return found.pop() if len(found) == 1 else Status.UNDEFINED
+
 
 
 def restore_infinite(rows: list[dict[str, Any]], warnings: list[dict]) -> int:
-    """Put ``inf`` back, in place, into the rows of a results file where a frame warning says
-    the ``null`` stands for +infinity, so re-summarising them (``merge``) gives what the
-    unsharded run gave: a null summary with its warning, and the frame counted. Returns how many
-    values were restored."""
+    """Put ``inf`` back, in place, into the rows of a results file where a frame warning's
+    status says the ``null`` stands for +infinity (``Status.INFINITE``), so re-summarising them
+    (``merge``) gives what the unsharded run gave: a null summary with its warning, and the frame
+    counted. Returns how many values were restored."""
     infinite = {(w["camera"], w["frame"], w["metric"]) for w in warnings
                 if "camera" in w and "frame" in w and "metric" in w
-                and INFINITE_MARK in w.get("reason", "")}
+                and status_of(w) is Status.INFINITE}
     n = 0
     for row in rows:
         for name in list(row):
@@ -95,8 +116,12 @@ def place_temporal(
 
     The value of pair (t-1, t) goes into the row of frame t (the first frame of a camera has
     none); a null value's warning takes the entry's ``pair_reasons[k]`` for pair k when given
-    (a gap of missing frames, ``dynaeval.scoring``). Terms without per-pair values (``flicker``, or a term undefined for the whole camera)
-    are camera-level: returned as ``{camera: {name: value}}``, with a warning when null.
+    (a gap of missing frames, ``dynaeval.stages.temporal``: ``Status.NOT_CONSECUTIVE``), else the
+    entry's ``status`` and ``reason`` (a term null for the whole camera), else its
+    ``pair_status`` and ``pair_reason`` (``dynaeval.scoring.name_regionless_frames``). Terms
+    without per-pair values (``flicker``, or a term undefined for the whole camera) are
+    camera-level: returned as ``{camera: {name: value}}``, with a warning (the entry's
+    ``status``) when null. An entry without a ``status`` is ``Status.UNDEFINED``.
 
     Args:
         rows: frame rows of every camera, each camera's in index order.
@@ -113,24 +138,54 @@ def place_temporal(
                 for k, (row, value) in enumerate(zip(cam_rows[1:], per_pair, strict=True)):
                     row[name] = value
                     if value is None:
-                        warnings.append({"camera": cam, "frame": row["frame"], "metric": name,
-                                         "reason": gaps.get(k) or entry.get("reason")
-                                         or entry.get("pair_reason")
-                                         or "undefined for the pair (previous frame, this frame)"})
+                        status, text = _pair_null(entry, gaps.get(k))
+                        warnings.append(warning(status, text, camera=cam, frame=row["frame"],
+                                                metric=name))
                 continue
             camera_values.setdefault(cam, {})[name] = entry.get("value")
             if entry.get("value") is None:
-                warnings.append({"camera": cam, "metric": name,
-                                 "reason": entry.get("reason") or "undefined"})
+                warnings.append(warning(entry.get("status", Status.UNDEFINED),
+                                        entry.get("reason"), camera=cam, metric=name))
     return camera_values, warnings
+
+
+def _pair_null(entry: dict, gap: str | None) -> tuple[Status, str | None]:
+    """``(status, detail)`` of a null per-pair value of a temporal ``entry`` (``place_temporal``);
+    ``gap``: the reason of a gap of missing frames at this pair, or None."""
+    if gap is not None:
+        return Status.NOT_CONSECUTIVE, gap
+    if entry.get("reason"):
+        return Status(entry.get("status", Status.UNDEFINED)), entry["reason"]
+    if entry.get("pair_reason"):
+        return Status(entry.get("pair_status", Status.UNDEFINED)), entry["pair_reason"]
+    return Status.UNDEFINED, "undefined for the pair (previous frame, this frame)"
+
+
+@dataclass
+class _Summaries:
+    """What ``_summaries`` finds: per-camera means, the overall summary, the counts of defined
+    values, the names of the camera-level terms, the status of each null summary value and
+    its warnings."""
+
+    cameras: dict[str, dict[str, Any]]
+    summary: dict[str, Any]
+    counts: dict[str, int]
+    camera_only: list[str]
+    status: dict[str, str] = field(default_factory=dict)
+    """``summary_status``: metric -> ``Status`` value of its null summary."""
+    warnings: list[dict] = field(default_factory=list)
+    """One per null summary value (of a run with frames)."""
 
 
 def _summaries(
     rows: list[dict[str, Any]], names: list[str],
     camera_values: dict[str, dict[str, float | None]], warnings: list[dict],
-) -> tuple[dict[str, dict[str, Any]], dict[str, Any], dict[str, int], list[str]]:
-    """Per-camera means, the overall summary, the counts of defined values, and the names of
-    the camera-level terms; a null summary adds a warning to ``warnings``."""
+    off: set[str] = frozenset(),
+) -> _Summaries:
+    """Per-camera means, the overall summary, the counts of defined values, the names of the
+    camera-level terms; the status of each null summary value (``DISABLED`` for the keys
+    ``off``, else from the statuses of the ``warnings`` of the values it averages) and its
+    warning."""
     in_rows = {k for r in rows for k in r}
     camera_only = [n for n in dict.fromkeys(n for vals in camera_values.values() for n in vals)
                    if n not in in_rows]
@@ -146,72 +201,70 @@ def _summaries(
             entry[name] = camera_values.get(cam, {}).get(name)
         cameras[cam] = entry
     summary: dict[str, Any] = {"n_frames": len(rows)}
-    counts: dict[str, int] = {}
-    for name in names:
-        summary[name], counts[name], reason = _mean([r.get(name) for r in rows])
-        if reason and rows:
-            warnings.append({"metric": name, "reason": f"summary is null: {reason}"})
-    for name in camera_only:
-        summary[name], counts[name], reason = _mean([c.get(name) for c in cameras.values()])
-        if reason and rows:
-            warnings.append({"metric": name, "reason": f"summary is null: {reason} (per camera)"})
-    return cameras, summary, counts, camera_only
+    out = _Summaries(cameras, summary, {}, camera_only)
+    members: dict[tuple[str, bool], list[dict]] = {}  # (metric, of a frame) -> its nulls' warnings
+    for w in warnings:
+        if "camera" in w and "metric" in w:
+            members.setdefault((w["metric"], "frame" in w), []).append(w)
+    for per_camera, keys in ((False, names), (True, camera_only)):
+        for name in keys:
+            values = ([c.get(name) for c in cameras.values()] if per_camera
+                      else [r.get(name) for r in rows])
+            summary[name], out.counts[name], reason = _mean(values)
+            if reason is None:
+                continue
+            status = (Status.DISABLED if name in off
+                      else _summary_status(values, members.get((name, not per_camera), [])))
+            out.status[name] = status.value
+            if rows:
+                out.warnings.append(warning(status, metric=name, reason=summary_reason(
+                    reason, per_camera=per_camera)))
+    return out
+
+
+def switched_off(settings: dict[str, Any]) -> set[str]:
+    """The result keys the run's ``settings`` switched off though they are reported: tLP's when
+    ``settings.temporal.tlp`` is false (LPIPS not among the metrics). Their null values are
+    what was asked for (``Status.DISABLED``), and their warnings are left out."""
+    if (settings.get("temporal") or {}).get("tlp") is not False:
+        return set()
+    return set(SPECS["tlp"].keys())
 
 
 def _without_disabled_tlp(warnings: list[dict], settings: dict[str, Any]) -> list[dict]:
-    """``warnings`` without those of tLP when the run switched it off (LPIPS not among the
-    metrics, ``settings.temporal.tlp`` false): its null values are what was asked for, and the
-    settings say so; a tLP that was on and came out null keeps its warnings."""
-    if (settings.get("temporal") or {}).get("tlp") is not False:
-        return warnings
-
-    keys = set(SPECS["tlp"].keys())
-    return [w for w in warnings if w.get("metric") not in keys]
-
-
-NO_REGIONS = "no focus box in any of the"
-"""How the headline warning of a run without any box begins (``merge`` recomputes it)."""
-
-_NO_REGIONS_FIX = {
-    "bundled": ("the bundled detector knows only dynaeval's synthetic scenes: for real footage "
-                "fetch a COCO detector (dynaeval detector fetch retinanet, then --detector "
-                "retinanet) or score with --focus motion"),
-    "detector": ("check --classes (the detector keeps: {classes}) and that the footage is what "
-                 "the detector was trained on, or score with --focus motion"),
-    "boxes": ("check that the file's keys are '<camera>/<frame>' of these frames (dynaeval "
-              "detect GT -o boxes.json writes them)"),
-    "motion": ("motion boxes need a static camera and moving objects: score with --focus "
-               "detector or --focus boxes:FILE"),
-}
+    """``warnings`` without those of the keys ``switched_off``; a tLP that was on and came out
+    null keeps its warnings."""
+    keys = switched_off(settings)
+    return [w for w in warnings if w.get("metric") not in keys] if keys else warnings
 
 
 def no_regions_warning(regions: dict[str, Any] | None) -> dict[str, str] | None:
     """The one headline warning of a run whose ``regions`` hold no box in any frame (None
-    otherwise): what found nothing, that every focused (and presence) value is null, the fix."""
+    otherwise; ``Status.NO_REGION``, its text ``dynaeval.outcome.no_box_reason``): what found
+    nothing, that every focused (and presence) value is null, the fix."""
     if not regions or regions.get("source") in (None, "none") or not regions.get("cameras"):
         return None
     cams = list(regions["cameras"].values())
     if any(c["frames_with_boxes"] for c in cams):
         return None
     source = regions["source"]
-    key = "bundled" if source == "detector" and regions.get("bundled_detector") else source
-    who = {"bundled": "the bundled synthetic-scene detector found none",
-           "detector": "the detector found none", "boxes": "the boxes file lists none",
-           "motion": "the motion masks hold no moving region"}[key]
+    finder = "bundled" if source == "detector" and regions.get("bundled_detector") else source
     classes = ", ".join(dict.fromkeys(c for cam in cams for c in cam["boxes"])) or "?"
-    nulls = "focused_* value" + (" and presence value" if source in ("detector", "boxes") else "")
-    return {"reason": f"{NO_REGIONS} {sum(c['n_frames'] for c in cams)} ground-truth frames: "
-                      f"{who}, so every {nulls} is null. Fix: "
-                      f"{_NO_REGIONS_FIX[key].format(classes=classes)}"}
+    return warning(Status.NO_REGION, reason=no_box_reason(
+        finder, sum(c["n_frames"] for c in cams), classes,
+        presence=source in ("detector", "boxes")))
 
 
-def _explained_by_no_regions(warning: dict, regions: dict[str, Any]) -> bool:
-    """A run-level null-summary warning of a metric that the no-box headline explains."""
-    info = METRICS.get(warning.get("metric", ""))
-    if "camera" in warning or info is None or not warning["reason"].startswith("summary is null"):
-        return False
+def is_no_regions_warning(w: dict) -> bool:
+    """The headline of ``no_regions_warning``: run-level, of no metric, ``Status.NO_REGION``."""
+    return "camera" not in w and "metric" not in w and status_of(w) is Status.NO_REGION
+
+
+def _explained_by_no_regions(metric: str, regions: dict[str, Any]) -> bool:
+    """A null summary of ``metric`` that the no-box headline explains."""
+    info = METRICS.get(metric)
     explained = {"focused", "person", "ball", *(("masked",) if regions["source"] == "motion" else ())}
-    return info.variant in explained
+    return info is not None and info.variant in explained
 
 
 def build_results(
@@ -247,6 +300,10 @@ def build_results(
     the null-summary warnings of the focused and presence metrics.
     """
     warnings = list(warnings)
+    unmarked = [w for w in warnings if "status" not in w]
+    if unmarked:
+        raise ValueError(f"warning without a status: {unmarked[0]} (a bug: make warnings with "
+                         "dynaeval.outcome.warning or note)")
     camera_values = {c: dict(v) for c, v in (camera_values or {}).items()}
     if temporal:
         placed, more = place_temporal(rows, temporal)
@@ -258,11 +315,15 @@ def build_results(
         for k, v in row.items():
             if k not in FRAME_FIELDS and k not in names and (v is None or isinstance(v, float)):
                 names.append(k)
-    cameras, summary, counts, camera_only = _summaries(rows, names, camera_values, warnings)
-    warnings = _without_disabled_tlp(warnings, settings)
+    found = _summaries(rows, names, camera_values, warnings, switched_off(settings))
+    cameras, summary, counts, camera_only = (found.cameras, found.summary, found.counts,
+                                             found.camera_only)
     headline = no_regions_warning(regions)
+    nulls = [w for w in found.warnings
+             if headline is None or not _explained_by_no_regions(w["metric"], regions)]
+    warnings = _without_disabled_tlp([*warnings, *nulls], settings)
     if headline is not None:
-        warnings = [headline, *(w for w in warnings if not _explained_by_no_regions(w, regions))]
+        warnings = [headline, *warnings]
     metric_names = [*names, *camera_only]
     frames = [
         {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in r.items()}
@@ -289,6 +350,7 @@ def build_results(
         "frames": frames,
         "cameras": cameras,
         "summary": summary,
+        "summary_status": found.status,
         "counts": counts,
         "timing": {k: round(v, 6) for k, v in timing.items()},
         "warnings": warnings,
@@ -324,9 +386,11 @@ def results_text(doc: Any) -> str:
     return json.dumps(doc, indent=1, allow_nan=False, ensure_ascii=False) + "\n"
 
 
-def schema_path() -> Path:
-    """Path of the JSON Schema of the results document shipped in the package."""
-    return Path(__file__).resolve().parent.parent / "schemas" / "results-v1.schema.json"
+def schema_path(schema: str = SCHEMA) -> Path:
+    """Path of the JSON Schema of the results document (of layout ``schema``, default this
+    version's) shipped in the package."""
+    version = schema.rsplit("/", 1)[-1]
+    return Path(__file__).resolve().parent.parent / "schemas" / f"results-{version}.schema.json"
 
 
 def _check_against_schema(doc: dict[str, Any], path: Path) -> None:
@@ -335,7 +399,7 @@ def _check_against_schema(doc: dict[str, Any], path: Path) -> None:
     if not available("jsonschema"):  # optional: check_results always runs
         return
     jsonschema = load("jsonschema")
-    schema = json.loads(schema_path().read_text(encoding="utf-8"))
+    schema = json.loads(schema_path(doc["schema"]).read_text(encoding="utf-8"))
     validator = jsonschema.Draft202012Validator(schema)
     error = jsonschema.exceptions.best_match(validator.iter_errors(doc))
     if error is not None:
@@ -360,12 +424,83 @@ def load_results(path: str | Path) -> dict[str, Any]:
     schema = doc.get("schema") if isinstance(doc, dict) else None
     if not isinstance(schema, str) or not schema.startswith("dynaeval/results/"):
         raise InputError("not a dynaeval results file (no 'schema' field)", path=path)
-    if schema != SCHEMA:
+    if schema not in READS:
         raise InputError(
-            f"results schema {schema!r} is not the one this dynaeval reads ({SCHEMA!r}); "
-            "score again with this version",
+            f"results schema {schema!r} is not one this dynaeval reads "
+            f"({' or '.join(map(repr, READS))}); score again with this version",
             path=path,
         )
     check_results(doc, path)
     _check_against_schema(doc, path)
-    return doc
+    return _upgrade_v1(doc) if schema == SCHEMA_V1 else doc
+
+
+def _v1_status(w: dict[str, Any]) -> Status:
+    """The status of a warning of a ``dynaeval/results/v1`` file, from its text: the words
+    dynaeval 1.x wrote for each cause. Exact for the statuses code acts on (an infinite value, a
+    null summary's, the no-box headline, missing frames); the best match for the others."""
+    text = w.get("reason", "")
+    low = text.lower()
+    rules = (
+        (Status.NOTE, ("over the union of the boxes of the frames",
+                       "scored on the pairs of frames that both have boxes")),
+        (Status.INFINITE, ("value is +infinity", "infinite value")),
+        (Status.MISSING_FRAMES, ("--allow-missing: ",)),
+        (Status.NOT_CONSECUTIVE, ("not a pair of consecutive", "are consecutive",
+                                  "not consecutive")),
+        (Status.NO_REGION, ("frames have no box", "has no box")),  # whatever the box's cause
+        (Status.UNAVAILABLE, ("not computed:", "lpips unavailable", "not installed")),
+        (Status.DISABLED, ("disabled in the configuration", "focus: none",
+                           "no focus regions requested")),
+        (Status.NOT_A_VIDEO, ("differ", "separate test views", "separate views")),
+        (Status.EMPTY_REGION, ("empty", "occluded", "no static pixel", "no moving pixel",
+                               "holds no pixel")),
+        (Status.NO_REGION, (NO_REGIONS, "no box", "not in the boxes file", "has a region",
+                            "has no region", "no covisibility mask", "in the ground truth of "
+                            "this frame")),
+    )
+    if low.startswith("summary is null") and "infinite value" not in low:
+        return Status.UNDEFINED
+    for status, marks in rules:
+        if any(m.lower() in low for m in marks):
+            if status is Status.MISSING_FRAMES and not text.startswith(marks[0]):
+                continue
+            return status
+    return Status.UNDEFINED if "metric" in w else Status.NOTE
+
+
+def _upgrade_v1(doc: dict[str, Any]) -> dict[str, Any]:
+    """A ``dynaeval/results/v1`` document as this version's: each warning given the ``status``
+    its text says (``_v1_status``), and ``summary_status`` for every null summary value (from
+    its warning: infinite, else the one status of the values it averages). The one place that
+    reads warning text; done once, at load."""
+    warnings = [{**{k: v for k, v in w.items() if k != "reason"}, "status": _v1_status(w).value,
+                 "reason": w.get("reason", "")} for w in doc["warnings"]]
+    by_metric: dict[tuple[str, bool], set[str]] = {}
+    for w in warnings:
+        if "camera" in w and "metric" in w:
+            by_metric.setdefault((w["metric"], "frame" in w), set()).add(w["status"])
+    frame_keys = {k for f in doc["frames"] for k in f}
+    off = switched_off(doc["settings"])  # their warnings were left out of the file
+    status: dict[str, str] = {}
+    for name, value in doc["summary"].items():
+        if value is not None or name == "n_frames":
+            continue
+        own = [w for w in warnings if "camera" not in w and w.get("metric") == name
+               and w["reason"].startswith("summary is null")]
+        if own and own[0]["status"] == Status.INFINITE.value:
+            status[name] = Status.INFINITE.value
+            continue
+        if name in off:
+            status[name] = Status.DISABLED.value
+            continue
+        found = by_metric.get((name, name in frame_keys), set())
+        status[name] = found.pop() if len(found) == 1 else Status.UNDEFINED.value
+        for w in own:
+            w["status"] = status[name]
+    summary_at = list(doc).index("summary") + 1
+    items = list(doc.items())
+    items.insert(summary_at, ("summary_status", status))
+    out = dict(items)
+    out.update(schema=SCHEMA, warnings=warnings)
+    return out

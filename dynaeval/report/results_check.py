@@ -24,7 +24,9 @@ What is checked is what merge, the leaderboard and the report read:
   ``objects`` an array of objects; ``cameras.<c>.n_frames`` and ``summary.n_frames`` whole numbers;
 * ``counts`` whole numbers, ``timing`` numbers >= 0 (``total_s`` required);
 * ``warnings``: objects with a string ``reason``, optional string ``metric``, ``camera``,
-  ``frame``;
+  ``frame``; in a v2 file also a ``status`` (a ``dynaeval.outcome.Status`` value, not ``ok``),
+  and ``summary_status`` an object of statuses (a v1 file has neither: ``load_results`` gives
+  them);
 * ``settings`` an object, ``settings.temporal`` (read by merge) an object;
 * ``regions`` (optional): ``source`` one of ``REGION_SOURCES``, ``bundled_detector`` a boolean,
   per camera ``source``, ``n_frames``, ``frames_with_boxes``, ``boxes`` (whole numbers per class),
@@ -43,14 +45,23 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 from dynaeval.errors import InputError
+from dynaeval.outcome import Status
 
 RESULTS_REQUIRED = {
     "": ("schema", "dynaeval_version", "created", "method", "scene", "inputs", "settings",
-         "metrics", "frames", "cameras", "summary", "counts", "timing", "warnings"),
+         "metrics", "frames", "cameras", "summary", "summary_status", "counts", "timing",
+         "warnings"),
     "inputs": ("pred", "gt", "n_frames", "cameras", "unscored_cameras", "skipped_frames"),
     "summary": ("n_frames",),
 }
-"""The keys the schema requires, checked without jsonschema (a test holds them to the schema)."""
+"""The keys the schema requires, checked without jsonschema (a test holds them to the schema);
+a ``dynaeval/results/v1`` file has all but ``V2_ONLY``."""
+
+V2_ONLY = ("summary_status",)
+"""Top-level keys results schema v2 added."""
+
+WARNING_STATUSES = tuple(s.value for s in Status if s is not Status.OK)
+"""The ``status`` of a warning (``$defs.status`` of the v2 schema; a test holds them together)."""
 
 FRAME_FIELDS = ("camera", "frame", "index", "pred", "gt")
 """Keys of a frame row that are not metric values."""
@@ -181,7 +192,8 @@ def check_results(doc: dict[str, Any], path: str | Path) -> None:
         InputError: the first missing or wrong field, named by its key path.
     """
     check = _Check(path)
-    check.required(doc, "", RESULTS_REQUIRED[""])
+    v1 = doc.get("schema") == "dynaeval/results/v1"
+    check.required(doc, "", [k for k in RESULTS_REQUIRED[""] if not (v1 and k in V2_ONLY)])
     for key in ("inputs", "settings", "metrics", "cameras", "summary", "counts", "timing"):
         check.kind(doc[key], key, dict)
     for key in ("frames", "warnings"):
@@ -214,10 +226,22 @@ def check_results(doc: dict[str, Any], path: str | Path) -> None:
     for name, seconds in doc["timing"].items():
         check.number(seconds, f"timing.{name}", null=False, minimum=0)
     for i, warning in enumerate(doc["warnings"]):
-        check.object(warning, f"warnings[{i}]", ("reason",))
+        check.object(warning, f"warnings[{i}]", ("reason",) if v1 else ("status", "reason"))
         check.string_fields(warning, f"warnings[{i}]", ("reason", "metric", "camera", "frame"))
+        if not v1:
+            _check_status(check, warning["status"], f"warnings[{i}].status")
+    if not v1:
+        check.kind(doc["summary_status"], "summary_status", dict)
+        for name, status in doc["summary_status"].items():
+            _check_status(check, status, f"summary_status.{name}")
     if "regions" in doc:
         _check_regions(check, doc["regions"])
+
+
+def _check_status(check: _Check, status: Any, where: str) -> None:
+    """``status`` is one of ``WARNING_STATUSES``."""
+    if status not in WARNING_STATUSES:
+        check.fail(where, f"one of {', '.join(WARNING_STATUSES)}", status)
 
 
 def _check_inputs(check: _Check, inputs: dict[str, Any]) -> None:

@@ -18,14 +18,16 @@ import numpy as np
 from dynaeval.io import FramePair
 from dynaeval.io.cache import FrameCache
 from dynaeval.io.frames import gap_positions
+from dynaeval.outcome import Outcome
 from dynaeval.regions.focus import FrameRegions
 
 if TYPE_CHECKING:
     from dynaeval.executor import Executor
     from dynaeval.plan import RunPlan
 
-Value = tuple[str, "float | None", "str | None"]
-"""``(result key, value or None, reason)`` of one per-frame value."""
+Value = tuple[str, Outcome]
+"""``(result key, outcome)`` of one per-frame value (``dynaeval.outcome.Outcome``: the value,
+``inf`` or None, and why)."""
 
 
 @dataclass
@@ -85,7 +87,8 @@ class Stage:
         return []
 
     def camera(self, plan: RunPlan, work: CameraWork) -> dict[str, dict] | None:
-        """Its camera-level terms (``{key: {"value", "reason", ...}}``), or None for a frame stage."""
+        """Its camera-level terms (``{key: {"value", "status", "reason", ...}}``, ``status`` a
+        ``dynaeval.outcome.Status`` value when ``value`` is None), or None for a frame stage."""
         return None
 
 

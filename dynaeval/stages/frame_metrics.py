@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING
 
 from dynaeval.errors import EmptyRegionError, InputError, UndefinedMetricError
 from dynaeval.metrics.registry import region_argument
+from dynaeval.outcome import Outcome, Status
 from dynaeval.stages.base import FrameWork, Stage, Value
 
 if TYPE_CHECKING:
@@ -26,27 +27,32 @@ class FrameMetrics(Stage):
         return list(plan.fns)
 
     def frame(self, plan: RunPlan, work: FrameWork) -> list[Value]:
-        """``(key, value or None, reason)`` of every per-frame metric of one frame."""
+        """``(key, Outcome)`` of every per-frame metric of one frame."""
         pair, pred, gt, regions, elapsed = work.pair, work.pred, work.gt, work.regions, work.elapsed
         values: list[Value] = []
         for name, (region, fn) in plan.fns.items():
             if pair.index % plan.every.get(name, 1):
                 continue  # not one of the frames it scores (``every``): no value, not null
             if region == "focused" and regions.boxes is None:
-                values.append((name, None, regions.boxes_reason))
+                values.append((name, Outcome(None, regions.boxes_status or Status.NO_REGION,
+                                             regions.boxes_reason)))
                 continue
             if region == "masked" and regions.packed_mask is None:
-                values.append((name, None, regions.mask_reason))
+                values.append((name, Outcome(None, regions.mask_status or Status.NO_REGION,
+                                             regions.mask_reason)))
                 continue
             kw = region_argument(region, name, plan.protocol, regions)
             if kw is None:
-                values.append((name, None, "no covisibility mask for this frame"))
+                values.append((name, Outcome(None, Status.NO_REGION,
+                                             "no covisibility mask for this frame")))
                 continue
             t0 = time.perf_counter()
             try:
-                values.append((name, float(fn(pred, gt, kw)), None))
-            except (EmptyRegionError, UndefinedMetricError) as err:  # e.g. smaller than SSIM's window
-                values.append((name, None, str(err)))
+                values.append((name, Outcome.of(float(fn(pred, gt, kw)))))
+            except EmptyRegionError as err:
+                values.append((name, Outcome(None, Status.EMPTY_REGION, str(err))))
+            except UndefinedMetricError as err:  # e.g. smaller than SSIM's window
+                values.append((name, Outcome(None, Status.UNDEFINED, str(err))))
             except InputError as err:
                 raise InputError(f"{name}: {err}", path=str(pair.pred)) from err
             elapsed[name] = time.perf_counter() - t0

@@ -6,6 +6,7 @@ import time
 from typing import TYPE_CHECKING
 
 from dynaeval.metrics.presence import PRESENCE_METRICS
+from dynaeval.outcome import Outcome, Status
 from dynaeval.stages.base import FrameWork, Stage, Value
 
 if TYPE_CHECKING:
@@ -29,4 +30,6 @@ class Presence(Stage):
         found, reasons, work.row["objects"] = plan.presence(work.pair, work.pred, work.gt,
                                                             work.regions)
         work.elapsed["presence"] = time.perf_counter() - t0
-        return [(name, v, reasons.get(name)) for name, v in found.items()]
+        # a null presence value: the frame has no ground-truth object of the class
+        return [(name, Outcome.of(v, Status.NO_REGION, reasons.get(name)))
+                for name, v in found.items()]

@@ -16,6 +16,7 @@ from dynaeval.metrics.flow import check_flow_size
 from dynaeval.metrics.perceptual import MIN_SIZE
 from dynaeval.metrics.registry import SPECS, temporal_keys
 from dynaeval.metrics.temporal import temporal_metrics
+from dynaeval.outcome import Status
 from dynaeval.regions.focus import FocusConfig, FrameRegions, FramesDiffer, same_shape
 from dynaeval.regions.packed import union
 from dynaeval.stages.base import CameraWork, Stage
@@ -48,20 +49,21 @@ def _temporal_or_reason(camera: str, pairs: list[FramePair], regions: list[Frame
     """The camera's temporal terms, or every term null with the reason: frames that differ in
     shape (``differ``: the ``FramesDiffer`` found by the regions, or found here), frames too
     small for optical flow. InputErrors that name no file are raised naming the camera."""
-    def nulls(reason: str) -> dict[str, dict]:
-        return {n: {"value": None, "reason": reason} for n in temporal_keys()}
+    def nulls(status: Status, reason: str) -> dict[str, dict]:
+        return {n: {"value": None, "status": status.value, "reason": reason}
+                for n in temporal_keys()}
 
     if differ is not None:
-        return nulls(differ.reason()), differ
+        return nulls(Status.NOT_A_VIDEO, differ.reason()), differ
     shape = plan.read_gt(pairs[0], work.cache).shape
     try:
         check_flow_size(shape)
     except UndefinedMetricError as err:
-        return nulls(f"temporal terms of camera {camera!r}: {err}"), None
+        return nulls(Status.UNDEFINED, f"temporal terms of camera {camera!r}: {err}"), None
     try:
         return temporal_of_camera(pairs, regions, plan, work, shape), None
     except FramesDiffer as err:
-        return nulls(err.reason()), err
+        return nulls(Status.NOT_A_VIDEO, err.reason()), err
     except InputError as err:
         if err.path is not None:
             raise
@@ -71,7 +73,8 @@ def _temporal_or_reason(camera: str, pairs: list[FramePair], regions: list[Frame
 
 def _name_gaps(pairs: list[FramePair], temporal: dict[str, dict]) -> None:
     """Give the per-pair entries the reason of each gap's null value (``pair_reasons``: pair
-    position -> reason, read by ``dynaeval.report.results.place_temporal``), in place."""
+    position -> reason, read by ``dynaeval.report.results.place_temporal`` as
+    ``Status.NOT_CONSECUTIVE``), in place."""
     gaps = gap_positions(pairs)
     if not gaps:
         return
@@ -130,5 +133,6 @@ def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], plan
     )
     _name_gaps(pairs, out)
     if small is not None:
-        out.update({k: {"value": None, "reason": small, "per_pair": []} for k in SPECS["tlp"].keys()})
+        out.update({k: {"value": None, "status": Status.UNDEFINED.value, "reason": small,
+                        "per_pair": []} for k in SPECS["tlp"].keys()})
     return out

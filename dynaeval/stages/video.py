@@ -11,6 +11,7 @@ import numpy as np
 from dynaeval.errors import EmptyRegionError, InputError, UndefinedMetricError
 from dynaeval.io import FramePair
 from dynaeval.io.video import video_fps
+from dynaeval.outcome import Status
 from dynaeval.stages.base import CameraWork, Stage, consecutive
 
 if TYPE_CHECKING:
@@ -60,12 +61,15 @@ def video_metrics_of(camera: str, pairs: list[FramePair], regions: list, plan: R
     """The video metrics (``jod``, ``focused_jod``) of one camera, ``{key: {"value", "reason",
     "fps"}}``: null with the reason for frames that differ in shape or are not consecutive, and
     for a focused window with no box in any frame."""
-    reason = (differ.reason() if differ is not None else
-              "frames are not consecutive (some were skipped): a video metric needs the sequence"
-              if not consecutive(pairs) else None)
+    status, reason = (
+        (Status.NOT_A_VIDEO, differ.reason()) if differ is not None else
+        (Status.NOT_CONSECUTIVE,
+         "frames are not consecutive (some were skipped): a video metric needs the sequence")
+        if not consecutive(pairs) else (Status.OK, None))
     fps = camera_fps(pairs, plan.config.fps)
     if reason is not None:
-        return {k: {"value": None, "reason": reason, "fps": fps} for k in plan.camera_fns}
+        return {k: {"value": None, "status": status.value, "reason": reason, "fps": fps}
+                for k in plan.camera_fns}
     cache = work.cache
     pred = _Clip(pairs, lambda p: plan.read_pair(p, cache)[0])
     gt = _Clip(pairs, lambda p: plan.read_gt(p, cache))
@@ -73,9 +77,11 @@ def video_metrics_of(camera: str, pairs: list[FramePair], regions: list, plan: R
     for key, (region, fn) in plan.camera_fns.items():
         kw = {"boxes": [r.boxes for r in regions]} if region == "focused" else {}
         try:
-            out[key] = {"value": float(fn(pred, gt, fps, kw)), "reason": None, "fps": fps}
+            out[key] = {"value": float(fn(pred, gt, fps, kw)), "status": Status.OK.value,
+                        "reason": None, "fps": fps}
         except (EmptyRegionError, UndefinedMetricError) as err:
-            out[key] = {"value": None, "reason": str(err), "fps": fps}
+            status = Status.EMPTY_REGION if isinstance(err, EmptyRegionError) else Status.UNDEFINED
+            out[key] = {"value": None, "status": status.value, "reason": str(err), "fps": fps}
         except InputError as err:
             if err.path is not None:
                 raise

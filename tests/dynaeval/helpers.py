@@ -37,3 +37,15 @@ def write_frames(root: Path, camera: str, frames: list[np.ndarray], ext: str = "
     (root / camera).mkdir(parents=True, exist_ok=True)
     for i, f in enumerate(frames):
         cv2.imwrite(str(root / camera / f"{i:04d}{ext}"), np.ascontiguousarray(f[..., ::-1]))
+
+
+def three_camera_scene(root: Path) -> tuple[Path, Path]:
+    """``moving_square_scene`` with cameras cam0..cam2 and a noisy prediction of it (seed 3):
+    (pred dir, gt dir). The scene of the merge tests and of ``data/v1``'s results files."""
+    gt, frames = moving_square_scene(root / "gt", cameras=("cam0", "cam1", "cam2"))
+    rng = np.random.default_rng(3)
+    for cam, seq in frames.items():
+        write_frames(root / "pred", cam, [
+            np.clip(f.astype(int) + rng.integers(-9, 10, f.shape), 0, 255).astype(np.uint8)
+            for f in seq])
+    return root / "pred", gt

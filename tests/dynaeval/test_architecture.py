@@ -16,7 +16,7 @@ import pytest
 PACKAGE = Path(__file__).resolve().parents[2] / "dynaeval"
 
 FLOOR = ("dynaeval.errors", "dynaeval.boxes", "dynaeval.runtime", "dynaeval.validation",
-         "dynaeval.progress", "dynaeval.deps")
+         "dynaeval.progress", "dynaeval.deps", "dynaeval.outcome")
 """The ground floor: every layer may import it; it imports nothing of dynaeval above it."""
 
 LAYERS = {
@@ -430,3 +430,78 @@ def test_protocol_labels_are_read_by_describe_only():
                       for node in ast.walk(fn) if isinstance(node, ast.Attribute)
                       and node.attr in PROTOCOL_LABELS and getattr(node.value, "id", "") == "self"]
     assert reads == []
+
+
+TEXT_NAMES = {"reason", "message", "msg", "detail", "err", "exc", "error"}
+"""Names (variables, attributes, dict keys) that hold the words of a warning or an error."""
+
+READS_OLD_TEXT = {("dynaeval.report.results", "_v1_status"),
+                  ("dynaeval.report.results", "_upgrade_v1")}
+"""The one place that may read warning text: the reader of ``dynaeval/results/v1`` files, which
+gives their warnings the statuses they lack, once, at load."""
+
+
+def _holds_text(node: ast.AST) -> bool:
+    """``node`` reads the words of a warning or an error: ``w["reason"]``, ``w.get("reason")``,
+    ``reason``, ``err.message``, ``str(err)``, ``note.reason.lower()`` ..."""
+    for sub in ast.walk(node):
+        if isinstance(sub, ast.Constant) and sub.value in TEXT_NAMES:
+            return True  # a key: w["reason"], w.get("reason", "")
+        if isinstance(sub, ast.Name) and sub.id in TEXT_NAMES:
+            return True
+        if isinstance(sub, ast.Attribute) and sub.attr in TEXT_NAMES:
+            return True
+    return False
+
+
+def _text_matches(path: Path) -> list[tuple[str, int, str]]:
+    """``(function, line, code)`` of every ``x in <text>``, ``<text>.startswith(...)``,
+    ``<text>.endswith(...)`` and ``re.match/search(..., <text>)`` in a module."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    found = []
+
+    def visit(node: ast.AST, function: str) -> None:
+        for child in ast.iter_child_nodes(node):
+            name = (child.name if isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef)
+                    else function)
+            hit = False
+            if isinstance(child, ast.Compare) and any(
+                    isinstance(op, ast.In | ast.NotIn) for op in child.ops):
+                hit = any(_holds_text(c) for c in child.comparators)
+            elif isinstance(child, ast.Call) and isinstance(child.func, ast.Attribute):
+                attr = child.func.attr
+                if attr in ("startswith", "endswith"):
+                    hit = _holds_text(child.func.value)
+                elif attr in ("match", "search", "fullmatch", "findall") and child.args[1:]:
+                    hit = _holds_text(child.args[1])
+            if hit:
+                found.append((name, child.lineno, ast.unparse(child)[:80]))
+            visit(child, name)
+
+    visit(tree, "<module>")
+    return found
+
+
+def test_no_code_decides_by_reading_a_warning_or_an_error_message():
+    """Issue 31: meaning travels as a status (``dynaeval.outcome.Status``) or an exception type,
+    never in words: no ``"pip install" not in str(err)``, no ``w["reason"].startswith(...)``
+    outside the v1 reader (``READS_OLD_TEXT``)."""
+    bad = [f"{_module_name(p)}:{line} ({fn}): {code}" for p in _sources()
+           for fn, line, code in _text_matches(p)
+           if (_module_name(p), fn) not in READS_OLD_TEXT]
+    assert bad == []
+
+
+def test_the_text_rule_catches_what_main_did(tmp_path):
+    """The rule fails on the text matching main had (scoring.py's ``REGIONLESS_REASONS``,
+    merge.py's "summary is null" prefix, registry.py's "pip install" check)."""
+    old = ('def a(w, err, entry):\n'
+           '    if w["reason"].startswith(("summary is null", "no focus box")):\n'
+           '        return 1\n'
+           '    if "pip install" not in str(err):\n'
+           '        return 2\n'
+           '    reason = entry.get("reason") or ""\n'
+           '    return reason.startswith(("no pair of consecutive frames has a region",))\n')
+    path = tmp_path / "old.py"
+    path.write_text(old, encoding="utf-8")
+    assert [line for _, line, _ in _text_matches(path)] == [2, 4, 7]

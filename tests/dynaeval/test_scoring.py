@@ -14,12 +14,13 @@ import dynaeval
 from dynaeval.errors import InputError
 from dynaeval.evaluate import ScoreConfig
 from dynaeval.executor import Executor
-from dynaeval.io import pair_frames
+from dynaeval.io import FramePair, pair_frames
 from dynaeval.io.cache import FrameCache
+from dynaeval.io.frames import FrameRef
 from dynaeval.metrics.flow import MIN_FLOW_SIZE as TEMPORAL_MIN_SIZE
 from dynaeval.plan import build_plan
-from dynaeval.regions.focus import NOT_A_VIDEO, FocusConfig
-from dynaeval.scoring import camera_regions_of, score_frame
+from dynaeval.regions.focus import NOT_A_VIDEO, FocusConfig, FrameRegions
+from dynaeval.scoring import camera_regions_of, name_regionless_frames, score_frame
 
 from .helpers import textured_frame
 
@@ -235,6 +236,27 @@ def test_a_camera_without_any_box_says_which_frames(tmp_path):
              and w.get("metric") == "focused_warp_error"]
     assert any("4 of 4 frames have no box" in n and "no pair of consecutive frames has boxes in both" in n
                for n in notes), notes
+
+
+def test_the_frames_without_boxes_are_named_by_status_not_by_words():
+    """Issue 31: ``name_regionless_frames`` rewrote a null focused term's reason when the reason
+    began with words of temporal.py (``REGIONLESS_REASONS``); now when its status is
+    ``no-region``, whatever the words, and never for another status."""
+    pairs = [FramePair("cam00", f"{t:04d}", t, FrameRef(Path("p")), FrameRef(Path("g")))
+             for t in range(3)]
+    regions = [FrameRegions(boxes=None, boxes_reason="no box here"),
+               FrameRegions(boxes=np.array([[0, 0, 4, 4]])),
+               FrameRegions(boxes=None, boxes_reason="no box here")]
+    temporal = {
+        "focused_tof": {"value": None, "status": "no-region", "reason": "any words"},
+        "focused_warp_error": {"value": None, "status": "undefined",
+                               "reason": "no frame has a region"},
+    }
+    name_regionless_frames("cam00", pairs, regions, temporal)
+    assert temporal["focused_tof"]["reason"] == (
+        "2 of 3 frames have no box (no box here): '0000', '0002'; no pair of consecutive "
+        "frames has boxes in both")
+    assert temporal["focused_warp_error"]["reason"] == "no frame has a region"
 
 
 def test_frames_read_from_files_get_no_second_range_pass(tmp_path, monkeypatch):

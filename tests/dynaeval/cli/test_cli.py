@@ -26,7 +26,7 @@ def test_score_prints_table_and_writes_json(tmp_path, scene, capsys):
     assert code == 0, err
     assert "psnr ↑ (dB)" in out and "focused" in out and "masked" in out
     doc = json.loads(out_file.read_text())
-    assert doc["schema"] == "dynaeval/results/v1" and doc["summary"]["n_frames"] == 8
+    assert doc["schema"] == "dynaeval/results/v2" and doc["summary"]["n_frames"] == 8
     assert doc["settings"]["focus"]["source"] == "motion"
 
 

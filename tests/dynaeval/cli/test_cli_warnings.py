@@ -21,8 +21,9 @@ def test_many_kinds_are_summarised_with_a_count_pointing_where_they_are(capsys):
     from dynaeval.cli import _print_frame_warnings
 
     warnings = [{"camera": f"c{i % 2}", "frame": f"{i:04d}", "metric": "ssim",
-                 "reason": f"reason {i % 7}"} for i in range(21)]
-    warnings.append({"camera": "c0", "metric": "tlp", "reason": "no pair has boxes"})
+                 "status": "undefined", "reason": f"reason {i % 7}"} for i in range(21)]
+    warnings.append({"camera": "c0", "metric": "tlp", "status": "no-region",
+                     "reason": "no pair has boxes"})
     _print_frame_warnings(warnings, None)
     err = capsys.readouterr().err.splitlines()
     assert len(err) == 6, err  # the 5 commonest reasons, then one line for the rest

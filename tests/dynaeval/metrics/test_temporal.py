@@ -334,6 +334,7 @@ def test_single_frame_gives_null_with_a_reason_for_every_metric(rng):
         assert entry["value"] is None and "at least 2 frames, got 1" in entry["reason"], name
     res = temporal_metrics([], [], lpips_fn=mean_abs)
     assert res["tof"]["reason"] == "needs at least 2 frames, got 0"
+    assert res["tof"]["status"] == "undefined"
 
 
 def test_all_dynamic_mask_gives_null_flicker_with_a_reason(rng):
@@ -341,6 +342,7 @@ def test_all_dynamic_mask_gives_null_flicker_with_a_reason(rng):
     res = temporal_metrics(gt, gt, static_mask=np.zeros((H, W), bool), lpips_fn=mean_abs)
     assert res["flicker"]["value"] is None
     assert res["flicker"]["reason"] == "no static pixel: the static mask is empty"
+    assert res["flicker"]["status"] == "empty-region"
     res = temporal_metrics(gt, gt, lpips_fn=mean_abs)
     assert res["flicker"]["reason"].startswith("no static mask given")
     assert res["focused_tof"]["reason"].startswith("no region masks given")
@@ -355,6 +357,7 @@ def test_empty_regions_give_null_per_pair_and_a_reason(rng):
     for name in ("focused_warp_error", "focused_tof", "focused_tlp"):
         assert res[name]["value"] is None and res[name]["per_pair"] == [None, None], name
         assert res[name]["reason"] == "every pair's region was empty"
+        assert res[name]["status"] == "empty-region"
     assert res["focused_flicker"]["reason"] == "no static pixel inside the regions"
     # one pair with a region is enough for a value
     some = [np.zeros((0, 4)), np.zeros((0, 4)), np.array([[0, 0, 20, 20]])]
@@ -375,6 +378,7 @@ def test_tlp_is_null_with_the_reason_when_lpips_is_off_or_missing(rng, monkeypat
     monkeypatch.setattr(temporal, "default_lpips", missing)
     res = temporal_metrics(gt, gt)
     assert res["tlp"]["reason"] == "LPIPS unavailable: ImportError: no module named lpips"
+    assert res["tlp"]["status"] == "unavailable"
     assert res["tof"]["value"] == 0.0
 
     def no_weights(a, b):

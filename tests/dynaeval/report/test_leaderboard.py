@@ -160,7 +160,7 @@ def test_other_errors(tmp_path, files):
         build_leaderboard(list(files.values()), metrics=["lpips"])
     old = tmp_path / "old.json"
     old.write_text(json.dumps({"schema": "dynaeval/results/v0"}))
-    with pytest.raises(InputError, match="results schema 'dynaeval/results/v0' is not the one"):
+    with pytest.raises(InputError, match="results schema 'dynaeval/results/v0' is not one this dynaeval reads"):
         build_leaderboard([str(old)])
     with pytest.raises(InputError, match="format must be one of"):
         render(build_leaderboard([files[("A", "s1")]]), "xls")

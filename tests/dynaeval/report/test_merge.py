@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 
-import numpy as np
 import pytest
 
 from dynaeval.cli import main
@@ -12,20 +11,14 @@ from dynaeval.errors import InputError
 from dynaeval.io.frames import pair_frames, parse_shard, select_shard
 from dynaeval.report.merge import merge_results
 
-from ..helpers import moving_square_scene, write_frames
+from ..helpers import three_camera_scene
 
-NUMBERS = ("frames", "cameras", "summary", "counts", "metrics")
+NUMBERS = ("frames", "cameras", "summary", "summary_status", "counts", "metrics")
 
 
 @pytest.fixture
 def scene(tmp_path):
-    gt, frames = moving_square_scene(tmp_path / "gt", cameras=("cam0", "cam1", "cam2"))
-    rng = np.random.default_rng(3)
-    for cam, seq in frames.items():
-        write_frames(tmp_path / "pred", cam, [
-            np.clip(f.astype(int) + rng.integers(-9, 10, f.shape), 0, 255).astype(np.uint8)
-            for f in seq])
-    return tmp_path / "pred", gt
+    return three_camera_scene(tmp_path)
 
 
 def test_shards_are_whole_cameras_round_robin(scene):

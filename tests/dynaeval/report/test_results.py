@@ -118,4 +118,5 @@ def test_temporal_pairs_go_to_the_later_frame_and_flicker_stays_per_camera():
     assert doc["summary"]["warp_error"] == pytest.approx(0.2) and doc["counts"]["warp_error"] == 2
     assert doc["cameras"]["a"]["flicker"] == 0.05 and doc["cameras"]["b"]["flicker"] is None
     assert doc["summary"]["flicker"] == 0.05 and doc["counts"]["flicker"] == 1
-    assert {"camera": "b", "metric": "flicker", "reason": "fewer than 2 frames"} in doc["warnings"]
+    assert {"camera": "b", "metric": "flicker", "status": "undefined",
+            "reason": "fewer than 2 frames"} in doc["warnings"]

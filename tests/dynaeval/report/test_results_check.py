@@ -36,7 +36,7 @@ def _shard(index: int, camera: str) -> dict:
         "source": "motion", "n_frames": 3, "frames_with_boxes": 2, "boxes": {"motion": 2},
         "mask_fraction": {"mean": 0.1, "max": 0.2}, "global_motion_px": 0.01}}}
     warnings = [{"camera": camera, "frame": "0001", "metric": "focused_psnr",
-                 "reason": "no box in this frame"}]
+                 "status": "no-region", "reason": "no box in this frame"}]
     return build_results(
         rows=rows, metric_names=["psnr", "focused_psnr"], method="m", scene="s", pred_dir="p",
         gt_dir="g", settings={"temporal": {"tlp": True}, "ssim": {"win_size": 11}},

@@ -1,0 +1,173 @@
+"""What became of a value, as data: ``Outcome(value, status, detail)`` and the one place that
+turns a status into the text of a warning.
+
+Every ``null`` of a results file has a ``Status`` beside it (the ``status`` of its warning, and
+``summary_status`` for a null summary value; docs/results-format.md): code that needs to know
+why a value is missing reads the status, never the text. The text (``reason``) is for people
+and is made here, from the status and a ``detail`` the finding site gives (what, where, how to
+fix), so a message can change without changing what any code decides.
+
+Ground floor: every layer may import this module; it imports nothing of dynaeval.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import Enum
+from typing import Any
+
+
+class Status(str, Enum):
+    """Why a value is what it is. The string is what results files hold (``"no-region"``)."""
+
+    OK = "ok"
+    """A finite value."""
+    INFINITE = "infinite"
+    """+infinity (PSNR of a prediction equal to its ground truth), written as null."""
+    EMPTY_REGION = "empty-region"
+    """The region to score holds no pixel (an empty box or mask, every pixel occluded, an
+    empty static mask)."""
+    NO_REGION = "no-region"
+    """The frame, pair or camera has no region at all (no box, no mask, no object of a class,
+    no region asked for); as a run-level warning without a metric: no box in any frame."""
+    NOT_A_VIDEO = "not-a-video"
+    """The frames are not one video (their sizes differ, separate test views)."""
+    NOT_CONSECUTIVE = "not-consecutive"
+    """The two frames of a pair, or a video's frames, are not consecutive (frames are missing)."""
+    UNAVAILABLE = "unavailable"
+    """The metric could not run here (its weights or package are missing)."""
+    DISABLED = "disabled"
+    """The run switched the metric off."""
+    UNDEFINED = "undefined"
+    """The metric is not defined for this input for another reason (fewer than 2 frames, a
+    frame smaller than a window, a summary over values that are all null for several reasons)."""
+    MISSING_FRAMES = "missing-frames"
+    """Run-level: ground-truth frames with no prediction were left out (``--allow-missing``)."""
+    NOTE = "note"
+    """A warning that explains no null: about the inputs, the regions, the protocol."""
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """One value and what became of it: ``value`` a float (``inf`` with ``INFINITE``) or None,
+    ``status`` why, ``detail`` the finding site's words (rendered by ``reason_text``)."""
+
+    value: float | None
+    """The number, ``math.inf`` for an infinite one, None for a null."""
+    status: Status = Status.OK
+    """``OK`` for a finite value; otherwise why it is null or infinite."""
+    detail: str | None = None
+    """What the finding site says about it (None: the status says all)."""
+
+    @classmethod
+    def of(cls, value: float | None, status: Status | None = None,
+           detail: str | None = None) -> Outcome:
+        """The outcome of ``value``: a given ``status`` for a null, else ``INFINITE`` for an
+        infinite value, ``UNDEFINED`` for a null, ``OK`` otherwise."""
+        if value is not None and math.isinf(value):
+            return cls(value, Status.INFINITE, detail)
+        if value is None:
+            return cls(None, status or Status.UNDEFINED, detail)
+        return cls(value, Status.OK, None)
+
+    def reason(self) -> str | None:
+        """The warning text of a null or infinite value (None for an ``OK`` one)."""
+        return None if self.status is Status.OK else reason_text(self.status, self.detail)
+
+
+_DEFAULT = {
+    Status.INFINITE: ("prediction equals ground truth in the scored region: value is +infinity, "
+                      "written as null"),
+    Status.UNDEFINED: "undefined",
+}
+_PREFIX = {
+    Status.MISSING_FRAMES: "--allow-missing: ",
+}
+
+
+def reason_text(status: Status | str, detail: str | None = None) -> str:
+    """The text of a warning of ``status``: the status's own words, or ``detail`` (with the
+    status's prefix where it has one)."""
+    status = Status(status)
+    if detail is None:
+        return _DEFAULT.get(status, "undefined")
+    return _PREFIX.get(status, "") + detail
+
+
+def summary_reason(detail: str, *, per_camera: bool = False) -> str:
+    """The text of the warning of a null summary value (its status: ``summary_status``)."""
+    return f"summary is null: {detail}" + (" (per camera)" if per_camera else "")
+
+
+def unavailable_reason(title: str, why: str) -> str:
+    """The text of a metric that could not run (it names the metric: ``warning_line`` adds no
+    prefix)."""
+    return f"{title} not computed: {why}"
+
+
+NO_REGIONS = "no focus box in any of the"
+"""How the headline of a run without any box begins (``no_box_reason``)."""
+
+_NO_BOX_WHO = {"bundled": "the bundled synthetic-scene detector found none",
+               "detector": "the detector found none", "boxes": "the boxes file lists none",
+               "motion": "the motion masks hold no moving region"}
+_NO_BOX_FIX = {
+    "bundled": ("the bundled detector knows only dynaeval's synthetic scenes: for real footage "
+                "fetch a COCO detector (dynaeval detector fetch retinanet, then --detector "
+                "retinanet) or score with --focus motion"),
+    "detector": ("check --classes (the detector keeps: {classes}) and that the footage is what "
+                 "the detector was trained on, or score with --focus motion"),
+    "boxes": ("check that the file's keys are '<camera>/<frame>' of these frames (dynaeval "
+              "detect GT -o boxes.json writes them)"),
+    "motion": ("motion boxes need a static camera and moving objects: score with --focus "
+               "detector or --focus boxes:FILE"),
+}
+
+
+def no_box_reason(finder: str, n_frames: int, classes: str, *, presence: bool) -> str:
+    """The text of the run-level ``NO_REGION`` headline: no box in any of ``n_frames`` frames,
+    what found none (``finder``: ``bundled``, ``detector``, ``boxes``, ``motion``), that every
+    focused (and, with ``presence``, presence) value is null, and the fix (``classes``: those the
+    detector keeps)."""
+    nulls = "focused_* value" + (" and presence value" if presence else "")
+    return (f"{NO_REGIONS} {n_frames} ground-truth frames: {_NO_BOX_WHO[finder]}, so every "
+            f"{nulls} is null. Fix: {_NO_BOX_FIX[finder].format(classes=classes)}")
+
+
+def warning(status: Status | str, detail: str | None = None, *, camera: str | None = None,
+            frame: str | None = None, metric: str | None = None,
+            reason: str | None = None) -> dict[str, Any]:
+    """One results warning: ``{camera?, frame?, metric?, status, reason}``. ``reason`` (the
+    text) is ``reason_text(status, detail)`` unless made by one of this module's functions."""
+    status = Status(status)
+    out: dict[str, Any] = {}
+    if camera is not None:
+        out["camera"] = camera
+    if frame is not None:
+        out["frame"] = frame
+    if metric is not None:
+        out["metric"] = metric
+    out["status"] = status.value
+    out["reason"] = reason if reason is not None else reason_text(status, detail)
+    return out
+
+
+def note(text: str, *, camera: str | None = None, metric: str | None = None) -> dict[str, Any]:
+    """A warning that explains no null (``Status.NOTE``)."""
+    return warning(Status.NOTE, text, camera=camera, metric=metric)
+
+
+def status_of(warning_: dict[str, Any]) -> Status:
+    """The status of a results warning (every warning of a loaded or built document has one)."""
+    return Status(warning_["status"])
+
+
+def warning_line(warning_: dict[str, Any]) -> str:
+    """One results warning as a line of text: ``"tlp: summary is null: ..."`` (the metric first,
+    but for a metric that could not run: ``unavailable_reason`` names it)."""
+    metric = warning_.get("metric")
+    reason = warning_["reason"]
+    if metric and status_of(warning_) is not Status.UNAVAILABLE:
+        return f"{metric}: {reason}"
+    return reason
