@@ -374,8 +374,7 @@ class PreparedGT:
 
 
 def _status(value: str | None) -> Status | None:
-    """A ``FrameRegions`` status as stored in the manifest (None: none, or a folder prepared
-    before statuses were stored, whose nulls are then ``NO_REGION``)."""
+    """A ``FrameRegions`` status as stored in the manifest (None: the frame has its region)."""
     return None if value is None else Status(value)
 
 

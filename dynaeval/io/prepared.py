@@ -24,9 +24,11 @@ from dynaeval.errors import InputError
 from dynaeval.io.atomic import _UMASK, parent_folders, write_failure
 from dynaeval.io.jsonfile import read_json
 
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3
 """Version of the prepared folder's layout; a folder of another version is refused. 2: the
-manifest holds the digest of every prepared file (``hashes``), checked when the file is read."""
+manifest holds the digest of every prepared file (``hashes``), checked when the file is read.
+3: each frame's regions carry their statuses (``boxes_status``, ``mask_status``: why a region
+is missing), which a version-2 folder lacks and would have reported as ``no-region``."""
 MANIFEST = "manifest.json"
 
 
