@@ -366,7 +366,7 @@ def test_prepared_folder_of_the_format_without_hashes_is_refused(tmp_path, prepa
 
     manifest["id"] = manifest_id(manifest)
     (prep / "manifest.json").write_text(json.dumps(manifest))
-    with pytest.raises(InputError, match="format version 1; this dynaeval reads version 2: "
+    with pytest.raises(InputError, match="format version 1; this dynaeval reads version 3: "
                                          "prepare it again"):
         score(SAMPLE / "pred", SAMPLE / "gt", focus=FocusConfig(source="motion"),
               prepared=str(prep), **FAST)
