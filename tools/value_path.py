@@ -10,7 +10,9 @@ Scores the bundled sample through the CLI (``dynaeval score pred gt --focus boxe
    to three levels into dicts, lists and tuples): the row, the rows, the summary, the document.
 
 Prints the number of files and of distinct named functions (``file:function``; comprehensions and
-lambdas not counted), then the list. Used for
+lambdas not counted), then the list: first the path from the input to the JSON key (everything
+until the library's ``score`` returns, then what leads to writing the results text), then the
+console output that reads the finished document (the table, the warnings printed). Used for
 the before/after of issue 31 (``python tools/value_path.py`` here and in an older checkout).
 """
 
@@ -23,6 +25,8 @@ import threading
 from pathlib import Path
 
 KEY, CAMERA, FRAME = "focused_ssim", "cam07", "0003"
+WRITERS = ("results_text", "write_json_atomic")
+"""The functions that make the results file's text (now; before issue 31's refactor)."""
 
 
 def _holds(obj: object, value: float, depth: int = 3) -> bool:
@@ -69,13 +73,18 @@ def main(root: Path) -> None:
         value = next(f[KEY] for f in doc["frames"]
                      if f["camera"] == CAMERA and f["frame"] == FRAME)
         seen: set[tuple[str, str]] = set()
+        console: set[tuple[str, str]] = set()
+        scored = [False]  # the library's score has returned: the document is complete
 
         def stack(frame: object) -> None:
+            found, writes = [], False
             while frame is not None:
                 if frame.f_code.co_filename.startswith(pkg) and not frame.f_code.co_name.startswith("<"):
-                    seen.add((frame.f_code.co_filename[len(str(root)) + 1:],
-                              frame.f_code.co_name))
+                    found.append((frame.f_code.co_filename[len(str(root)) + 1:],
+                                  frame.f_code.co_name))
+                    writes |= frame.f_code.co_name in WRITERS
                 frame = frame.f_back
+            (seen if writes or not scored[0] else console).update(found)
 
         def on_target_frame(frame: object) -> bool:
             while frame is not None:
@@ -101,12 +110,17 @@ def main(root: Path) -> None:
                     stack(frame)
             elif event == "return" and _holds(arg, value):
                 stack(frame)
+            if (event == "return" and code.co_name == "score"
+                    and code.co_filename.endswith("evaluate.py")):
+                scored[0] = True
 
         _run(root, sample, out, hook)
-    files = sorted({f for f, _ in seen})
-    print(f"{KEY} of {CAMERA}/{FRAME}: {len(files)} files, {len(seen)} functions")
-    for f in files:
-        print(f"  {f}: {', '.join(sorted(n for g, n in seen if g == f))}")
+    console -= seen
+    for title, group in (("input -> JSON key", seen), ("then printed by", console)):
+        files = sorted({f for f, _ in group})
+        print(f"{KEY} of {CAMERA}/{FRAME}, {title}: {len(files)} files, {len(group)} functions")
+        for f in files:
+            print(f"  {f}: {', '.join(sorted(n for g, n in group if g == f))}")
 
 
 if __name__ == "__main__":
