@@ -34,6 +34,7 @@ from dynaeval.report.leaderboard import build_leaderboard, forced_fields, render
 from dynaeval.report.merge import merge_results
 from dynaeval.report.results import results_text
 from dynaeval.runtime import check_opencv, keep_freed_memory
+from dynaeval.suite_cli import add_suite_command, run_suite_command
 
 EXIT_OK, EXIT_BUG, EXIT_INPUT = 0, 1, 2
 
@@ -345,6 +346,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_detector_command(sub)
 
     _add_prepare_command(sub)
+    add_suite_command(sub)
     lb = sub.add_parser("leaderboard", help="combine results files into one table",
                         description="Combine results files (methods x scenes) into one table: "
                                     "means per scene and overall (mean of scene means) with "
@@ -630,6 +632,8 @@ def main(argv: list[str] | None = None) -> int:
             return _run_prepare(args)
         if args.command == "detector":
             return _run_detector(args)
+        if args.command == "suite":
+            return run_suite_command(args)
         if args.command == "demo":
             root = sample_dir()
             if not (root / "pred").is_dir():
