@@ -215,3 +215,27 @@ def test_bad_folder_forms_are_refused(tree, capsys):
                  "--settings", str(tree / "bad.toml"), "-q"]) == 2
     assert "bad.toml: [settings]:" in capsys.readouterr().err
     assert not (tree / "out").exists()
+
+
+def test_a_scene_whose_ground_truth_fails_fails_its_pairs_only(tree, capsys):
+    shutil.copytree(tree / "gt" / "sample", tree / "gt" / "broken")
+    shutil.copytree(tree / "root" / "m1" / "sample", tree / "root" / "m1" / "broken")
+    (tree / "gt" / "broken" / "eval00" / "0002.png").write_bytes(b"\x89PNG broken")
+    suite = folder_suite(tree / "root", tree / "gt", tree / "out", _config())
+    outcome = run_suite(suite, progress=False)
+    assert outcome.scored == ["sample__m1", "sample__m2", "sample__m3"]
+    assert list(outcome.failed) == ["broken", "broken__m1"]
+    assert "0002.png" in outcome.failed["broken"]
+    assert outcome.failed["broken__m1"].startswith("ground truth not prepared: InputError:")
+    assert json.loads((tree / "out" / "leaderboard.json").read_text())["scenes"] == ["sample"]
+
+
+def test_without_a_toml_parser_the_suite_file_is_refused(tree, monkeypatch):
+    """Python 3.10 without tomli: exit 2 saying what to install (not an ImportError)."""
+    import sys
+
+    (tree / "suite.toml").write_text("output = 'o'\n" + GOOD)
+    monkeypatch.setitem(sys.modules, "tomllib", None)
+    monkeypatch.setitem(sys.modules, "tomli", None)
+    with pytest.raises(InputError, match="needs Python >= 3.11 or the tomli package: pip install"):
+        load_suite(tree / "suite.toml")
