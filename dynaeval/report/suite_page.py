@@ -19,22 +19,26 @@ import numpy as np
 
 from dynaeval.report.html import REPORT_CSS, _read_frame, crop_window, tiles_uri
 from dynaeval.report.leaderboard import TABLE_CSS, render
+from dynaeval.report.table import fmt
 
 TILE_HEIGHT = 200
 """Height in pixels of each tile on the page."""
 
 
 def shared_frame(docs: list[dict[str, Any]]) -> tuple[str, tuple[str, str] | None]:
-    """(metric, (camera, frame)) of the frame a scene's methods are shown on (module docstring);
-    the key is None when no frame has the metric for every method."""
+    """(metric, (camera, frame)) of the frame a scene's methods are shown on (module docstring):
+    among the frames every method scored, the lowest mean of the metric over the methods where
+    it is defined (a null value, e.g. the infinite PSNR of a perfect frame, is left out of the
+    mean; frames without any value come last). The key is None when no frame is in every
+    method's results."""
     metric = ("focused_psnr" if all("focused_psnr" in d["metrics"] for d in docs) else "psnr")
-    values: dict[tuple[str, str], list[float]] = {}
+    values: dict[tuple[str, str], list[float | None]] = {}
     for d in docs:
         for row in d["frames"]:
-            if row.get(metric) is not None:
-                values.setdefault((row["camera"], row["frame"]), []).append(row[metric])
-    common = {k: float(np.mean(v)) for k, v in values.items() if len(v) == len(docs)}
-    return metric, (min(common, key=lambda k: (common[k], k)) if common else None)
+            values.setdefault((row["camera"], row["frame"]), []).append(row.get(metric))
+    common = {k: [x for x in v if x is not None] for k, v in values.items() if len(v) == len(docs)}
+    rank = {k: (0, float(np.mean(v))) if v else (1, 0.0) for k, v in common.items()}
+    return metric, (min(rank, key=lambda k: (rank[k], k)) if rank else None)
 
 
 def _window(row: dict[str, Any], shape: tuple[int, ...]) -> tuple[int, int, int, int]:
@@ -51,13 +55,13 @@ def scene_html(scene: str, docs: list[dict[str, Any]]) -> list[str]:
     metric, key = shared_frame(docs)
     parts = [f"<h2>Scene {escape(scene)}</h2>"]
     if key is None:
-        return [*parts, f"<p>No frame has a defined {escape(metric)} for every method.</p>"]
+        return [*parts, "<p>No frame is in the results of every method.</p>"]
     rows = [next(r for r in d["frames"] if (r["camera"], r["frame"]) == key) for d in docs]
     background = docs[0]["settings"].get("background", "white")
     gt = _read_frame(rows[0]["gt"], background)
     images = [gt, *(_read_frame(r["pred"], background) for r in rows)]
     window = _window(rows[0], gt.shape)
-    names = ["ground truth", *(f"{d['method']} ({metric} {r[metric]:.2f})"
+    names = ["ground truth", *(f"{d['method']} ({metric} {fmt(metric, r.get(metric))})"
                                for d, r in zip(docs, rows, strict=True))]
     return [*parts, f"<p>Camera {escape(str(key[0]))}, frame {escape(str(key[1]))} (lowest mean {metric} "
             f"over the methods), pixels x {window[0]}-{window[1]}, y {window[2]}-{window[3]}; "

@@ -239,3 +239,14 @@ def test_without_a_toml_parser_the_suite_file_is_refused(tree, monkeypatch):
     monkeypatch.setitem(sys.modules, "tomli", None)
     with pytest.raises(InputError, match="needs Python >= 3.11 or the tomli package: pip install"):
         load_suite(tree / "suite.toml")
+
+
+def test_the_page_shows_a_perfect_method_too(tree):
+    """A method equal to the ground truth (infinite PSNR, null in the results) is shown on the
+    same frame as the others, not left without a frame."""
+    shutil.rmtree(tree / "root" / "m3")
+    shutil.copytree(tree / "gt" / "sample", tree / "root" / "m3" / "sample")
+    run_suite(folder_suite(tree / "root", tree / "gt", tree / "out", _config()), progress=False)
+    page = (tree / "out" / "index.html").read_text()
+    assert page.count("<img src='data:image/png;base64,") == 1
+    assert "m3 (focused_psnr n/a)" in page and "m1 (focused_psnr 2" in page
