@@ -48,7 +48,7 @@ import hashlib
 import json
 import re
 import warnings
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
@@ -411,14 +411,22 @@ class InlineExecutor:
         return future
 
 
-def _as_completed(executor: Any, futures: Iterable[Any]) -> Iterable[Any]:
-    """The futures as they finish (Dask's own ``as_completed`` for a Dask client)."""
-    futures = list(futures)
+def _each_done(executor: Any, calls: list[tuple[Any, ...]], handle: Callable[[int, Any], None]) -> None:
+    """Run ``calls`` (``(fn, *args)`` each) on ``executor``; ``handle(i, future)`` as each one is
+    done: in order, one after the other, on the ``InlineExecutor`` (so that a result is written
+    before the next call starts); all submitted at once, handled as they finish, elsewhere (Dask's
+    own ``as_completed`` for a Dask client)."""
+    if isinstance(executor, InlineExecutor):
+        for i, call in enumerate(calls):
+            handle(i, executor.submit(*call))
+        return
+    futures = {executor.submit(*call): i for i, call in enumerate(calls)}
     if type(executor).__module__.split(".")[0] == "distributed":
         from distributed import as_completed
-
-        return as_completed(futures)
-    return concurrent.futures.as_completed(futures)
+    else:
+        as_completed = concurrent.futures.as_completed
+    for future in as_completed(list(futures)):
+        handle(futures[future], future)
 
 
 def _error_line(err: BaseException) -> str:
@@ -493,10 +501,10 @@ def _prepare_scenes(suite: Suite, executor: Any, scenes: dict[str, str], keys: d
                     gt_digests: dict[str, dict[str, str]], bar: Progress,
                     outcome: SuiteOutcome) -> None:
     """Prepare ``scenes`` (name -> GT folder) on ``executor``; their key files written here."""
-    futures = {executor.submit(prepare_task, gt, str(suite.out / "prepared" / s), suite.config): s
-               for s, gt in scenes.items()}
-    for future in _as_completed(executor, futures):
-        scene = futures[future]
+    names = list(scenes)
+
+    def handle(i: int, future: Any) -> None:
+        scene = names[i]
         try:
             future.result()
         except Exception as err:  # noqa: BLE001 - reported, the other scenes go on
@@ -507,16 +515,17 @@ def _prepare_scenes(suite: Suite, executor: Any, scenes: dict[str, str], keys: d
             outcome.prepared.append(scene)
         bar.advance("regions", len(gt_digests[scene]), note=f"prepared {scene}")
 
+    _each_done(executor, [(prepare_task, scenes[s], str(suite.out / "prepared" / s), suite.config)
+                          for s in names], handle)
+
 
 def _score_pairs(suite: Suite, executor: Any, pairs: list[SuitePair], keys: dict[str, str],
                  gt_digests: dict[str, dict[str, str]], bar: Progress, outcome: SuiteOutcome,
                  on_result: Callable[[str], None] | None) -> None:
     """Score ``pairs`` on ``executor``; each results file, then its key file, written here as
     its task finishes."""
-    futures = {executor.submit(score_task, p, str(suite.out / "prepared" / p.scene),
-                               suite.config): p for p in pairs}
-    for future in _as_completed(executor, futures):
-        pair = futures[future]
+    def handle(i: int, future: Any) -> None:
+        pair = pairs[i]
         try:
             doc = future.result()
         except Exception as err:  # noqa: BLE001 - reported, the other pairs go on
@@ -531,6 +540,9 @@ def _score_pairs(suite: Suite, executor: Any, pairs: list[SuitePair], keys: dict
             if on_result is not None:
                 on_result(pair.name)
         bar.advance("frames", len(gt_digests[pair.scene]), note=pair.name)
+
+    _each_done(executor, [(score_task, p, str(suite.out / "prepared" / p.scene), suite.config)
+                          for p in pairs], handle)
 
 
 def _write_summaries(suite: Suite, outcome: SuiteOutcome) -> None:

@@ -3,7 +3,8 @@ one runs it; ``dynaeval.cli`` registers them).
 
 Exit codes: 0 every pair scored (now or before); 1 a pair (or a scene's prepare) failed, the
 others finished (the summary lists each failure; run again to finish what is missing); 2 bad
-input, found before any work starts.
+input, found before any work starts; 130 interrupted (Ctrl-C: the pairs scored so far are kept,
+a rerun finishes the others).
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from dynaeval.suite import (
     summary_lines,
 )
 
-EXIT_OK, EXIT_FAILED = 0, 1
+EXIT_OK, EXIT_FAILED, EXIT_INTERRUPTED = 0, 1, 130
 
 
 def add_suite_command(sub: Any) -> None:
@@ -82,6 +83,10 @@ def run_suite_command(args: argparse.Namespace) -> int:
             raise InputError(f"cannot reach the Dask scheduler {args.scheduler}: {err}") from None
     try:
         outcome = run_suite(suite, client, progress=not args.quiet)
+    except KeyboardInterrupt:
+        print(f"dynaeval: interrupted; the pairs scored so far are kept in {suite.out / 'results'}: "
+              "run the same command again to finish the others", file=sys.stderr)
+        return EXIT_INTERRUPTED
     finally:
         if client is not None:
             client.close()

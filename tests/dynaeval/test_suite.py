@@ -250,3 +250,28 @@ def test_the_page_shows_a_perfect_method_too(tree):
     page = (tree / "out" / "index.html").read_text()
     assert page.count("<img src='data:image/png;base64,") == 1
     assert "m3 (focused_psnr n/a)" in page and "m1 (focused_psnr 2" in page
+
+
+def test_an_interrupted_suite_keeps_what_it_scored_and_a_rerun_finishes(tree, monkeypatch, capsys):
+    import dynaeval.suite as suite_module
+
+    real, calls = suite_module.score_task, []
+
+    def interrupted_at_the_second(*args):
+        calls.append(args[0].name)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return real(*args)
+
+    monkeypatch.setattr(suite_module, "score_task", interrupted_at_the_second)
+    args = ["suite", str(tree / "root"), "--gt", str(tree / "gt"), "-o", str(tree / "out"),
+            "--settings", str(tree / "settings.toml"), "-q"]
+    assert main(args) == 130
+    assert "interrupted; the pairs scored so far are kept" in capsys.readouterr().err
+    assert sorted(p.name for p in (tree / "out" / "results").iterdir()) == [
+        "sample__m1.json", "sample__m1.key"]
+    monkeypatch.setattr(suite_module, "score_task", real)
+    outcome = run_suite(folder_suite(tree / "root", tree / "gt", tree / "out", _config()),
+                        progress=False)
+    assert outcome.skipped == ["sample__m1"] and outcome.scored == ["sample__m2", "sample__m3"]
+    assert outcome.prepared == []
