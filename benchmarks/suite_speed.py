@@ -17,7 +17,9 @@ upscaled to 1920x1080); three methods are its predictions and two noisier copies
   ``dask scheduler`` and 2 ``dask worker`` processes (``--nthreads 1``, OpenCV on one thread),
   against the two-core floor: the same suite run locally on one core (1 worker,
   ``OPENCV_FOR_THREADS_NUM=1``), its CPU seconds over 2. Target: within 25 % of the floor.
-  The results of the two runs must be equal.
+  The control: the same two scenes as 2 local ``dynaeval suite`` processes at once (one scene
+  and one core each, no Dask): what two processes get of this machine. The results of every
+  run must be equal.
 
 Sections ``suite`` and ``suite-dask`` of docs/benchmarks.md (``--out``) are replaced in place.
 """
@@ -222,6 +224,8 @@ class LoopbackCluster:
 
 
 def _numbers(out: Path) -> dict:
+    """The results of a suite's output folder, by file name, without timing, date and the
+    prepared folder's path (``_comparable``)."""
     return {p.name: _comparable(p) for p in sorted((out / "results").glob("*.json"))}
 
 
@@ -230,7 +234,7 @@ def bench_dask(job: Path, rounds: int) -> str:
     from benchmarks.temporal_speed import interleaved
 
     root, gt = _root(job, ("a", "b"))
-    cpu: dict[str, list[float]] = {"one_core": [], "dask": [], "client": []}
+    cpu: dict[str, list[float]] = {"one_core": [], "dask": [], "client": [], "two_processes": []}
     with tempfile.TemporaryDirectory(dir=job) as tmp, LoopbackCluster(2) as cluster:
         tmp = Path(tmp)
 
@@ -245,8 +249,27 @@ def bench_dask(job: Path, rounds: int) -> str:
             cpu["dask"].append(cluster.worker_cpu() - w0)
             cpu["client"].append(c)
 
-        runs = interleaved({"one_core": one_core, "dask": dask}, rounds)
-        same = _numbers(tmp / "local") == _numbers(tmp / "dask") and len(_numbers(tmp / "dask")) == 6
+        def two_processes() -> None:  # the control: the machine's own parallelism, no Dask
+            import resource
+
+            halves = [(*_root(job, (scene,)), tmp / f"half-{scene}") for scene in ("a", "b")]
+            for *_, out in halves:
+                shutil.rmtree(out, ignore_errors=True)
+            before = resource.getrusage(resource.RUSAGE_CHILDREN)
+            procs = [subprocess.Popen([sys.executable, "-m", "dynaeval", *_suite_args(r, g, o)],
+                                      cwd=REPO, stdout=subprocess.DEVNULL,
+                                      env={**os.environ, **ONE_CORE}) for r, g, o in halves]
+            if any(p.wait() for p in procs):
+                raise RuntimeError("a suite process failed")
+            after = resource.getrusage(resource.RUSAGE_CHILDREN)
+            cpu["two_processes"].append(after.ru_utime - before.ru_utime + after.ru_stime
+                                        - before.ru_stime)
+
+        runs = interleaved({"one_core": one_core, "dask": dask, "two_processes": two_processes},
+                           rounds)
+        halves = {**_numbers(tmp / "half-a"), **_numbers(tmp / "half-b")}
+        same = (_numbers(tmp / "local") == _numbers(tmp / "dask") == halves
+                and len(halves) == 6)
     timed = {k: v[1:] for k, v in cpu.items()}  # the warm-up round's left out
     floor = min(timed["one_core"]) / 2
     wall = runs["dask"]["wall"]
@@ -263,12 +286,19 @@ def bench_dask(job: Path, rounds: int) -> str:
         f"| local, one core | {runs['one_core']['wall']:.1f} | {min(timed['one_core']):.1f} |",
         f"| 2 Dask workers | {wall:.1f} | {min(timed['dask']):.1f} (workers) + "
         f"{min(timed['client']):.1f} "
-        "(the `dynaeval suite` client) |", "",
+        "(the `dynaeval suite` client) |",
+        f"| control: 2 local `dynaeval suite` processes at once, one scene each, one core each, "
+        f"no Dask | {runs['two_processes']['wall']:.1f} | {min(timed['two_processes']):.1f} |",
+        "",
         f"The two-core floor, the one-core run's CPU over 2: **{floor:.1f} s**; 2 Dask workers are "
         f"**{100 * (wall / floor - 1):+.0f} %** above it (target: within 25 %); round by round "
         f"(that round's dask wall over its one-core CPU / 2): median "
         f"{100 * (float(np.median(per)) - 1):+.0f} %, {100 * (per.min() - 1):+.0f} % to "
-        f"{100 * (per.max() - 1):+.0f} %.",
+        f"{100 * (per.max() - 1):+.0f} %. The control, the same work as 2 plain processes "
+        f"without Dask, is {100 * (runs['two_processes']['wall'] / floor - 1):+.0f} % above the "
+        f"floor, and Dask {100 * (wall / runs['two_processes']['wall'] - 1):+.0f} % above the "
+        "control: what the floor misses and the control does not is the cores the machine "
+        "really gives two processes at once.",
     ])
 
 
