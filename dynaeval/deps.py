@@ -50,6 +50,7 @@ DEPENDENCIES: dict[str, Dependency] = {d.module: d for d in (
                "scoring on a Dask cluster (dynaeval.distributed)"),
     Dependency("jsonschema", "jsonschema", "pip install jsonschema",
                "the JSON-schema check of results files, on top of dynaeval's own"),
+    Dependency("tomli", "tomli", "pip install tomli", "reading SUITE.toml on Python 3.10"),
     Dependency("onnx", "onnx", "pip install onnx", "exporting detectors (dynaeval detector fetch)"),
     Dependency("ultralytics", "ultralytics",
                "pip install --no-deps ultralytics && pip install torch torchvision pyyaml "

@@ -20,7 +20,7 @@ from dynaeval import __version__
 from dynaeval.errors import InputError
 from dynaeval.runtime import check_opencv, keep_freed_memory
 
-from . import demo, detect, detector, leaderboard, merge, prepare, score
+from . import demo, detect, detector, leaderboard, merge, prepare, score, suite
 from .common import EXIT_BUG, EXIT_INPUT, EXIT_OK, FOLDERS_RULE, sample_dir
 from .console import print_frame_warnings as _print_frame_warnings
 from .options import config_from_args, parse_classes
@@ -28,7 +28,7 @@ from .options import config_from_args, parse_classes
 __all__ = ["COMMANDS", "EXIT_BUG", "EXIT_INPUT", "EXIT_OK", "FOLDERS_RULE", "build_parser",
            "config_from_args", "main", "parse_classes", "sample_dir", "_print_frame_warnings"]
 
-COMMANDS = (score, merge, detect, detector, prepare, leaderboard, demo)
+COMMANDS = (score, merge, detect, detector, prepare, suite, leaderboard, demo)
 """The commands, in the order ``dynaeval --help`` lists them. A new command is a module with
 ``NAME``, ``add`` and ``run``, and its entry here."""
 

@@ -245,20 +245,35 @@ def missing_objects(results: dict[str, Any], n: int = 8) -> list[tuple[dict, dic
 def _object_crops(row: dict[str, Any], obj: dict[str, Any], background: str) -> str:
     """Ground-truth and predicted crop of one object side by side (its tight box, 50 % margin,
     at least 48 px), magnified to 160 px high with nearest-neighbour sampling; a PNG URI."""
+    gt, pred = _read_frame(row["gt"], background), _read_frame(row["pred"], background)
+    return tiles_uri([gt, pred], crop_window(gt.shape, obj["box"]))
+
+
+def crop_window(shape: tuple[int, ...], box: Any, *, min_half: float = 24.0,
+                margin: float = 0.75) -> tuple[int, int, int, int]:
+    """The square window ``(x0, x1, y0, y1)`` (pixels, end exclusive) centred on ``box``
+    (``(x0, y0, x1, y1)``), ``margin`` x its longer side on each side of the centre (0.75: a
+    50 % margin) and at least ``min_half`` px, clipped to an image of ``shape`` (H, W, ...)."""
+    h, w = shape[:2]
+    x0, y0, x1, y1 = box
+    half = max(min_half, margin * max(x1 - x0, y1 - y0))
+    cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
+    return (int(max(0, cx - half)), int(min(w, cx + half)),
+            int(max(0, cy - half)), int(min(h, cy + half)))
+
+
+def tiles_uri(images: list[np.ndarray], window: tuple[int, int, int, int],
+              height: int = 160) -> str:
+    """The same ``window`` (``crop_window``) of each image ((H, W, C) float in [0, 1]), magnified
+    to ``height`` px with nearest-neighbour sampling, side by side 6 px apart; a PNG URI."""
     import cv2
 
-    gt, pred = _read_frame(row["gt"], background), _read_frame(row["pred"], background)
-    h, w = gt.shape[:2]
-    x0, y0, x1, y1 = obj["box"]
-    half = max(24.0, 0.75 * max(x1 - x0, y1 - y0))
-    cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
-    a, b = int(max(0, cx - half)), int(min(w, cx + half))
-    c, d = int(max(0, cy - half)), int(min(h, cy + half))
-    scale = 160 / max(1, d - c)
+    a, b, c, d = window
+    scale = height / max(1, d - c)
     tiles = [cv2.resize(np.ascontiguousarray(img[c:d, a:b]), None, fx=scale, fy=scale,
-                        interpolation=cv2.INTER_NEAREST) for img in (gt, pred)]
+                        interpolation=cv2.INTER_NEAREST) for img in images]
     gap = np.ones((tiles[0].shape[0], 6, tiles[0].shape[2]), np.float32)
-    both = np.concatenate([tiles[0], gap, tiles[1]], axis=1)
+    both = np.concatenate([t for tile in tiles for t in (gap, tile)][1:], axis=1)
     if both.shape[2] == 1:
         both = np.repeat(both, 3, axis=2)
     ok, png = cv2.imencode(".png", np.round(np.clip(both, 0, 1) * 255).astype(np.uint8)[..., ::-1])

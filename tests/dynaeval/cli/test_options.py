@@ -56,10 +56,14 @@ def describe_commands() -> dict[str, dict[str, dict]]:
     return out
 
 
+ADDED_SINCE = ("suite",)
+"""Commands added after the snapshot was taken (issue 33), whose options it does not hold."""
+
+
 def test_every_command_has_the_options_it_had():
     before = json.loads(BEFORE.read_text())["commands"]
     now = describe_commands()
-    assert sorted(now) == sorted(before)
+    assert sorted(now) == sorted([*before, *ADDED_SINCE])
     for command, options in before.items():
         assert sorted(now[command]) == sorted(options), command
         for flag, was in options.items():

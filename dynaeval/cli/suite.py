@@ -1,0 +1,95 @@
+"""``dynaeval suite SUITE.toml|ROOT``: many methods on many scenes, over ``dynaeval.suite``.
+
+Exit codes: 0 every pair scored (now or before); 1 a pair (or a scene's prepare) failed, the
+others finished (the summary lists each failure; run again to finish what is missing); 2 bad
+input, found before any work starts; 130 interrupted (Ctrl-C: the pairs scored so far are kept,
+a rerun finishes the others).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+from dynaeval.deps import MissingDependency, load
+from dynaeval.errors import InputError
+from dynaeval.suite import (
+    folder_suite,
+    load_suite,
+    read_toml,
+    run_suite,
+    settings_config,
+    summary_lines,
+)
+
+NAME = "suite"
+EXIT_OK, EXIT_FAILED, EXIT_INTERRUPTED = 0, 1, 130
+
+
+def add(sub: Any) -> None:
+    """Add ``suite`` to the ``dynaeval`` sub-commands ``sub``."""
+    s = sub.add_parser(
+        NAME, help="score many methods on many scenes, resumable, locally or on Dask",
+        description="Prepare each scene's ground truth once, score every (method, scene) "
+                    "against it, skip what is already scored with the same settings and inputs, "
+                    "write OUT/leaderboard.{md,csv,json} and OUT/index.html. SUITE is a "
+                    "SUITE.toml (docs/integration.md), or a folder ROOT/<method>/<scene> "
+                    "with --gt GT (GT/<scene>) and -o OUT.")
+    s.add_argument("suite", metavar="SUITE.toml|ROOT")
+    s.add_argument("--gt", metavar="GT", help="folder form: the ground truth, GT/<scene>")
+    s.add_argument("-o", "--output", metavar="OUT",
+                   help="output folder (folder form: required; SUITE.toml: replaces its output)")
+    s.add_argument("--settings", metavar="SETTINGS.toml",
+                   help="folder form: a TOML file whose [settings] table holds ScoreConfig "
+                        "fields, as in SUITE.toml")
+    s.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                   help="run the tasks on this Dask scheduler (pip install 'dynaeval[dist]'; "
+                        "every worker must see the folders at the same paths)")
+    s.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+
+
+def _suite_of(args: argparse.Namespace) -> Any:
+    path = Path(args.suite)
+    if path.is_file():
+        for flag, given in (("gt", args.gt), ("settings", args.settings)):
+            if given:
+                raise InputError(f"--{flag} is for the folder form (ROOT --gt GT -o OUT); "
+                                 f"{path} is a suite file: put it there", path=path)
+        return load_suite(path, out=args.output)
+    if not (args.gt and args.output):
+        raise InputError("not a suite file; the folder form needs --gt GT and -o OUT", path=path)
+    config = None
+    if args.settings:
+        spath = Path(args.settings)
+        doc = read_toml(spath)
+        config = settings_config(doc.get("settings", doc), str(spath), spath.resolve().parent)
+    return folder_suite(path, args.gt, args.output, config)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``dynaeval suite`` with parsed ``args``; the exit code (module docstring)."""
+    suite = _suite_of(args)
+    client = None
+    if args.scheduler:
+        try:
+            Client = load("distributed").Client  # noqa: N806 - the class
+        except MissingDependency as err:
+            raise InputError(f"--scheduler needs dask.distributed: {err.install}") from None
+        try:
+            client = Client(args.scheduler, timeout=30)
+        except OSError as err:
+            raise InputError(f"cannot reach the Dask scheduler {args.scheduler}: {err}") from None
+    try:
+        outcome = run_suite(suite, client, progress=not args.quiet)
+    except KeyboardInterrupt:
+        print(f"dynaeval: interrupted; the pairs scored so far are kept in {suite.out / 'results'}: "
+              "run the same command again to finish the others", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    finally:
+        if client is not None:
+            client.close()
+    for line in summary_lines(outcome):
+        print(line, file=sys.stderr if line.startswith("failed") else sys.stdout)
+    return EXIT_FAILED if outcome.failed else EXIT_OK

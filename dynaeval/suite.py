@@ -1,0 +1,572 @@
+"""Many methods x many scenes in one run: ``dynaeval suite SUITE.toml`` (or ``ROOT --gt GT``).
+
+A suite is a set of (method, scene) pairs, each a ``dynaeval score PRED GT``, with one set of
+settings (``ScoreConfig`` fields) and one output folder ``OUT``. :func:`run_suite`:
+
+1. prepares each scene's ground truth once (``dynaeval.prepare.prepare``) into
+   ``OUT/prepared/<scene>`` (kept for the next run while the scene's files and the settings are
+   the same: ``OUT/prepared/<scene>.key``);
+2. scores every pair with ``prepared=`` (same numbers as a plain ``score``, faster) into
+   ``OUT/results/<scene>__<method>.json``, and writes ``<scene>__<method>.key`` beside it last:
+   the blake2b of the dynaeval version, the settings that change a number, the names and the
+   digest of every PRED and GT file (and of a boxes file or detector model). A pair whose
+   results and key are there with the same key is skipped: rerunning finishes only what is
+   missing or changed;
+3. writes the leaderboard of every scored pair (``OUT/leaderboard.md``, ``.csv``, ``.json``) and
+   one HTML page, ``OUT/index.html``, with the methods side by side per scene
+   (``dynaeval.report.suite_page``).
+
+A pair that fails (an unreadable frame, missing predictions) is recorded in the
+:class:`SuiteOutcome` and the others still finish. Everything that can be checked before the work
+starts is (the TOML, the folders, the settings, the output folder): ``InputError`` naming the
+file, key or folder.
+
+The work runs on an executor: by default in this process, one task after another (each with
+``workers`` threads); or on anything with ``submit(fn, *args)`` (a Dask ``distributed.Client``:
+``dynaeval suite ... --scheduler tcp://HOST:PORT``, or a ``concurrent.futures`` executor). Tasks
+get paths, not pixels (every worker must see the folders at the same paths) and return the
+results as a dict; the results and key files are written here, by the client, so a worker that
+dies loses no result: Dask runs its tasks again elsewhere.
+
+SUITE.toml (paths relative to the file)::
+
+    output = "suite-out"
+    [settings]                      # ScoreConfig fields
+    metrics = ["psnr", "ssim"]
+    focus = "motion"
+    [scenes]
+    stadium = "gt/stadium"          # scene = its ground-truth folder
+    [methods]
+    kplanes = "runs/kplanes/{scene}"            # one folder per scene ({scene}: its name)
+    nerfplayer = {stadium = "runs/np-stadium"}  # or the scenes it has, by name
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import hashlib
+import json
+import re
+import sys
+import warnings
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field, fields, replace
+from pathlib import Path
+from typing import Any
+
+from dynaeval.config import ScoreConfig
+from dynaeval.deps import DEPENDENCIES, MissingDependency, load
+from dynaeval.distributed import ScoreJob, score_shard
+from dynaeval.errors import InputError
+from dynaeval.evaluate import DynaevalWarning
+from dynaeval.io.atomic import check_writable, write_text_atomic
+from dynaeval.io.prepared import file_digest, folder_digests
+from dynaeval.prepare import prepare
+from dynaeval.progress import Progress
+from dynaeval.report.leaderboard import build_leaderboard, render
+from dynaeval.report.results import load_results, results_text
+from dynaeval.report.suite_page import render_suite_page
+
+__all__ = ["Suite", "SuiteOutcome", "SuitePair", "folder_suite", "load_suite", "read_toml",
+           "run_suite", "settings_config"]
+
+FIXED_FIELDS = ("method", "scene", "prepared", "shard", "progress")
+"""``ScoreConfig`` fields a suite sets itself (names from the suite, its own prepared folders,
+its own bar): refused in ``[settings]``."""
+
+NEVER_CHANGE = ("workers", "cache_mb", "progress")
+"""``ScoreConfig`` fields that never change a number: left out of a pair's key."""
+
+TOP_KEYS = ("output", "settings", "scenes", "methods")
+NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
+
+
+@dataclass(frozen=True)
+class SuitePair:
+    """One ``dynaeval score PRED GT`` of the suite."""
+
+    method: str
+    """Method name (leaderboard row; letters, digits, ``._-``)."""
+    scene: str
+    """Scene name (leaderboard column)."""
+    pred: str
+    """Folder of the method's predictions of the scene (absolute)."""
+    gt: str
+    """Folder of the scene's ground truth (absolute)."""
+
+    @property
+    def name(self) -> str:
+        """``<scene>__<method>``: the stem of its results and key files."""
+        return f"{self.scene}__{self.method}"
+
+
+@dataclass(frozen=True)
+class Suite:
+    """Every pair of a suite, its settings and its output folder (checked when made)."""
+
+    pairs: tuple[SuitePair, ...]
+    """The (method, scene) runs, in the order they are scored."""
+    config: ScoreConfig
+    """Settings of every run (``method``, ``scene``, ``prepared``, ``progress`` set per run)."""
+    out: Path
+    """Output folder: ``prepared/``, ``results/``, ``leaderboard.*``, ``index.html``."""
+    source: str = ""
+    """Where the suite was read from (the TOML file, or ROOT and GT), for messages."""
+
+    @property
+    def scenes(self) -> dict[str, str]:
+        """Scene name -> its ground-truth folder, in the order of the pairs."""
+        return {p.scene: p.gt for p in self.pairs}
+
+    @property
+    def methods(self) -> list[str]:
+        """Method names, in the order of the pairs."""
+        return list(dict.fromkeys(p.method for p in self.pairs))
+
+
+@dataclass
+class SuiteOutcome:
+    """What a run of the suite did."""
+
+    scored: list[str] = field(default_factory=list)
+    """Pairs (``<scene>__<method>``) scored by this run."""
+    skipped: list[str] = field(default_factory=list)
+    """Pairs already scored with the same key (settings and inputs), not scored again."""
+    prepared: list[str] = field(default_factory=list)
+    """Scenes whose ground truth this run prepared (the others were reused or not needed)."""
+    failed: dict[str, str] = field(default_factory=dict)
+    """Pair (or ``<scene>`` for a failed prepare) -> the error, one line."""
+    results: list[Path] = field(default_factory=list)
+    """Results files of every scored pair (this run's and earlier ones), in pair order."""
+    leaderboard: list[Path] = field(default_factory=list)
+    """The leaderboard files written (md, csv, json)."""
+    page: Path | None = None
+    """The HTML page written (None when no pair has results)."""
+
+
+# --------------------------------------------------------------------------------------------
+# Reading a suite
+
+
+def read_toml(path: str | Path) -> dict[str, Any]:
+    """The TOML file ``path`` parsed (``tomllib``, Python >= 3.11; else the ``tomli`` package).
+
+    Raises:
+        InputError: unreadable file, invalid TOML, or neither parser there (naming the file).
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as err:
+        raise InputError(f"cannot read the file: {err.strerror}", path=path) from None
+    except UnicodeDecodeError:
+        raise InputError("not a TOML file (not UTF-8 text)", path=path) from None
+    try:
+        toml = load("tomllib") if sys.version_info >= (3, 11) else load("tomli")
+    except MissingDependency:  # Python 3.10 without tomli
+        raise InputError("reading SUITE.toml needs Python >= 3.11 or the tomli package: "
+                         f"{DEPENDENCIES['tomli'].install} (or use the folder form, dynaeval suite ROOT "
+                         "--gt GT -o OUT)", path=path) from None
+    try:
+        return toml.loads(text)
+    except toml.TOMLDecodeError as err:
+        raise InputError(f"not valid TOML: {err}", path=path) from None
+
+
+def settings_config(settings: Any, where: str, base: Path | None = None) -> ScoreConfig:
+    """The ``ScoreConfig`` of a suite's ``[settings]`` table (``where``: the file, for
+    messages; ``base``: folder that relative ``focus = "boxes:FILE"`` and ``masks`` paths are
+    relative to).
+
+    Raises:
+        InputError: not a table, a key that is no ``ScoreConfig`` field or one the suite sets
+            itself, or a value ``ScoreConfig`` refuses (named ``[settings] KEY``).
+    """
+    if not isinstance(settings, dict):
+        raise InputError("[settings] must be a table of ScoreConfig fields", path=where)
+    known = {f.name for f in fields(ScoreConfig)}
+    for key in settings:
+        if key in FIXED_FIELDS:
+            raise InputError(f"[settings] {key}: set by the suite itself (names from [methods] "
+                             "and [scenes], its own prepared folders and progress bar); drop it",
+                             path=where)
+        if key not in known:
+            raise InputError(f"[settings] {key}: not a setting; settings are the fields of "
+                             f"ScoreConfig: {', '.join(sorted(known - set(FIXED_FIELDS)))}",
+                             path=where)
+    kw = dict(settings)
+    if isinstance(kw.get("metrics"), list):
+        kw["metrics"] = tuple(kw["metrics"])
+    if base is not None:
+        focus = kw.get("focus")
+        if isinstance(focus, str) and focus.startswith("boxes:"):
+            kw["focus"] = "boxes:" + str(base / focus[len("boxes:"):])
+        if isinstance(kw.get("masks"), str):
+            kw["masks"] = str(base / kw["masks"])
+    try:
+        return ScoreConfig(progress=False, **kw)
+    except InputError as err:
+        raise InputError(f"[settings]: {err}", path=where) from None
+    except TypeError as err:  # a value of the wrong type where ScoreConfig does not check it
+        raise InputError(f"[settings]: {err}", path=where) from None
+
+
+def _name(value: Any, what: str, where: str) -> str:
+    if not isinstance(value, str) or not NAME.match(value):
+        raise InputError(f"{what} {value!r}: names are letters, digits and . _ - (they name "
+                         "the results files)", path=where)
+    return value
+
+
+def _folder(path: Path, what: str, where: str) -> str:
+    if not path.is_dir():
+        raise InputError(f"{what}: no such folder {path}", path=where)
+    return str(path.resolve())
+
+
+def load_suite(path: str | Path, *, out: str | Path | None = None) -> Suite:
+    """Read and check a SUITE.toml (layout: module docstring). ``out`` overrides its
+    ``output``.
+
+    Raises:
+        InputError: unreadable file or TOML, an unknown top-level key, no scenes or methods, a
+            name that cannot name a file, a folder that is not there, ``{scene}`` missing from a
+            method's path, bad settings, or an output folder that cannot be written.
+    """
+    path = Path(path)
+    where = str(path)
+    doc = read_toml(path)
+    base = path.resolve().parent
+    for key in doc:
+        if key not in TOP_KEYS:
+            raise InputError(f"unknown key {key!r}; a suite file has {', '.join(TOP_KEYS)}",
+                             path=where)
+    config = settings_config(doc.get("settings", {}), where, base)
+    scenes = doc.get("scenes")
+    if not isinstance(scenes, dict) or not scenes:
+        raise InputError("[scenes] is missing or empty: name each scene's ground-truth folder, "
+                         "e.g. stadium = \"gt/stadium\"", path=where)
+    gts = {_name(s, "[scenes]", where): _folder(base / str(g), f"[scenes] {s}", where)
+           for s, g in scenes.items()}
+    methods = doc.get("methods")
+    if not isinstance(methods, dict) or not methods:
+        raise InputError("[methods] is missing or empty: name each method's prediction "
+                         "folders, e.g. kplanes = \"runs/kplanes/{scene}\"", path=where)
+    pairs = []
+    for method, spec in methods.items():
+        _name(method, "[methods]", where)
+        for scene, pred in _method_folders(method, spec, gts, where).items():
+            pairs.append(SuitePair(method, scene, _folder(base / pred, f"[methods] {method} "
+                                                          f"(scene {scene})", where), gts[scene]))
+    output = out if out is not None else doc.get("output")
+    if not isinstance(output, str | Path) or not str(output):
+        raise InputError("no output folder: set output = \"FOLDER\" or pass -o OUT", path=where)
+    out_dir = Path(output) if out is not None else base / output
+    return _checked(Suite(tuple(pairs), config, out_dir, where))
+
+
+def _method_folders(method: str, spec: Any, gts: dict[str, str], where: str) -> dict[str, str]:
+    """Scene -> prediction folder of one ``[methods]`` entry (a ``{scene}`` template, or a table
+    of scene names)."""
+    if isinstance(spec, str):
+        if "{scene}" not in spec and len(gts) > 1:
+            raise InputError(f"[methods] {method} = {spec!r} has no {{scene}}: with several "
+                             "scenes, write its folders as \"runs/NAME/{scene}\" or as a table "
+                             "{scene = \"folder\"}", path=where)
+        return {s: spec.replace("{scene}", s) for s in gts}
+    if isinstance(spec, dict) and spec:
+        for scene, pred in spec.items():
+            if scene not in gts:
+                raise InputError(f"[methods] {method}: scene {scene!r} is not in [scenes] "
+                                 f"({', '.join(gts)})", path=where)
+            if not isinstance(pred, str):
+                raise InputError(f"[methods] {method}.{scene} must be a folder path", path=where)
+        return dict(spec)
+    raise InputError(f"[methods] {method} must be a folder path with {{scene}} or a table "
+                     "of scene = folder", path=where)
+
+
+def folder_suite(root: str | Path, gt: str | Path, out: str | Path,
+                 config: ScoreConfig | None = None) -> Suite:
+    """The suite of the folder convention: ``ROOT/<method>/<scene>`` scored against
+    ``GT/<scene>`` (hidden folders and the output folder are no method).
+
+    Raises:
+        InputError: ROOT or GT not a folder, a ``ROOT/<method>/<scene>`` without
+            ``GT/<scene>``, a name that cannot name a file, no pair, bad output folder.
+    """
+    root, gt, out = Path(root), Path(gt), Path(out)
+    where = f"{root} --gt {gt}"
+    for folder, what in ((root, "ROOT"), (gt, "GT")):
+        if not folder.is_dir():
+            raise InputError(f"{what} is not a folder", path=folder)
+    skip = {out.resolve(), gt.resolve()}
+    pairs = []
+    for mdir in sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith(".")
+                       and p.resolve() not in skip):
+        method = _name(mdir.name, "method folder", str(mdir))
+        for sdir in sorted(p for p in mdir.iterdir() if p.is_dir() and not p.name.startswith(".")):
+            scene = _name(sdir.name, "scene folder", str(sdir))
+            if not (gt / scene).is_dir():
+                raise InputError(f"no ground truth for scene {scene!r}: {gt / scene} is not a "
+                                 "folder (ROOT/<method>/<scene> is scored against GT/<scene>)",
+                                 path=sdir)
+            pairs.append(SuitePair(method, scene, str(sdir.resolve()), str((gt / scene).resolve())))
+    if not pairs:
+        raise InputError("no ROOT/<method>/<scene> folder: the folder form expects one "
+                         "folder per method holding one folder per scene", path=root)
+    config = replace(config or ScoreConfig(), progress=False)
+    return _checked(Suite(tuple(pairs), config, out, where))
+
+
+def _checked(suite: Suite) -> Suite:
+    """``suite`` once its output folder can be written and no scene has two GT folders."""
+    seen: dict[str, str] = {}
+    for p in suite.pairs:
+        if seen.setdefault(p.scene, p.gt) != p.gt:
+            raise InputError(f"scene {p.scene!r} has two ground-truth folders", path=suite.source)
+    if not suite.pairs:
+        raise InputError("the suite has no (method, scene) pair", path=suite.source)
+    check_writable(suite.out, overwrite=True, what="suite output folder",
+                   inputs=[*{p.pred for p in suite.pairs}, *seen.values()], folder=True)
+    return suite
+
+
+# --------------------------------------------------------------------------------------------
+# Keys: what a result depends on
+
+
+def _jsonable(value: Any) -> Any:
+    return json.loads(json.dumps(value, default=str, sort_keys=True))
+
+
+def _digest(obj: Any) -> str:
+    text = json.dumps(obj, sort_keys=True, separators=(",", ":"))
+    return hashlib.blake2b(text.encode(), digest_size=16).hexdigest()
+
+
+def config_key(config: ScoreConfig) -> dict[str, Any]:
+    """The settings of ``config`` that can change a number, with the digest of a boxes file or
+    detector model it names (a JSON-compatible dict)."""
+    settings = {k: v for k, v in asdict(config).items() if k not in NEVER_CHANGE + FIXED_FIELDS}
+    files = [f for f in (config.focus.boxes_file, config.focus.detector_model, config.masks) if f]
+    settings["files"] = {str(f): (file_digest(f) if Path(f).is_file() else
+                                  folder_digests(f) if Path(f).is_dir() else None) for f in files}
+    return _jsonable(settings)
+
+
+def pair_key(pair: SuitePair, settings: dict[str, Any], gt_digests: dict[str, str]) -> str:
+    """The key of one pair's results: version, settings (``config_key``), names and the digest
+    of every prediction and ground-truth file."""
+    from dynaeval import __version__
+
+    return _digest({"dynaeval": __version__, "settings": settings, "method": pair.method,
+                    "scene": pair.scene, "pred": folder_digests(pair.pred), "gt": gt_digests})
+
+
+def prepare_key(settings: dict[str, Any], gt_digests: dict[str, str]) -> str:
+    """The key of a scene's prepared folder (version, settings, ground-truth files)."""
+    from dynaeval import __version__
+
+    return _digest({"dynaeval": __version__, "settings": settings, "gt": gt_digests})
+
+
+def _read_key(path: Path) -> str | None:
+    try:
+        return path.read_text(encoding="utf-8").strip()
+    except OSError:
+        return None
+
+
+# --------------------------------------------------------------------------------------------
+# Tasks (run on a worker: paths in, small dicts out)
+
+
+def prepare_task(gt: str, out: str, config: ScoreConfig) -> str:
+    """Prepare ``gt`` into ``out`` (replacing it); returns the prepared folder's id."""
+    return prepare(gt, out, config, overwrite=True, progress=False)["id"]
+
+
+def score_task(pair: SuitePair, prepared: str, config: ScoreConfig) -> dict[str, Any]:
+    """Score one pair against its prepared ground truth; the results as a dict (its warnings
+    are in it, not issued)."""
+    job = ScoreJob(pair.pred, pair.gt, method=pair.method, scene=pair.scene,
+                   overrides={"prepared": prepared})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DynaevalWarning)
+        return score_shard(job, 1, 1, {f.name: getattr(config, f.name)
+                                       for f in fields(ScoreConfig)})
+
+
+class InlineExecutor:
+    """``submit`` runs the call at once, in this thread (the local suite): a done future."""
+
+    def submit(self, fn: Callable[..., Any], *args: Any) -> concurrent.futures.Future:
+        future: concurrent.futures.Future = concurrent.futures.Future()
+        try:
+            future.set_result(fn(*args))
+        except Exception as err:  # noqa: BLE001 - handed to the caller through the future
+            future.set_exception(err)
+        return future
+
+
+def _each_done(executor: Any, calls: list[tuple[Any, ...]], handle: Callable[[int, Any], None]) -> None:
+    """Run ``calls`` (``(fn, *args)`` each) on ``executor``; ``handle(i, future)`` as each one is
+    done: in order, one after the other, on the ``InlineExecutor`` (so that a result is written
+    before the next call starts); all submitted at once, handled as they finish, elsewhere (Dask's
+    own ``as_completed`` for a Dask client)."""
+    if isinstance(executor, InlineExecutor):
+        for i, call in enumerate(calls):
+            handle(i, executor.submit(*call))
+        return
+    futures = {executor.submit(*call): i for i, call in enumerate(calls)}
+    if type(executor).__module__.split(".")[0] == "distributed":
+        as_completed = load("distributed").as_completed
+    else:
+        as_completed = concurrent.futures.as_completed
+    for future in as_completed(list(futures)):
+        handle(futures[future], future)
+
+
+def _error_line(err: BaseException) -> str:
+    text = str(err).strip().splitlines()
+    return f"{type(err).__name__}: {text[0] if text else ''}".rstrip(": ")
+
+
+# --------------------------------------------------------------------------------------------
+# Running
+
+
+def run_suite(suite: Suite, executor: Any = None, *, progress: bool = True,
+              on_result: Callable[[str], None] | None = None) -> SuiteOutcome:
+    """Prepare, score what is missing, write the leaderboard and the page (module docstring).
+
+    Args:
+        suite: from ``load_suite`` or ``folder_suite``.
+        executor: None (this process, one task at a time), a Dask ``distributed.Client`` or a
+            ``concurrent.futures`` executor.
+        progress: one bar over the whole suite on stderr (ground-truth frames prepared, frames
+            scored).
+        on_result: called with the pair's name after each results file is written.
+
+    Returns:
+        What was scored, skipped, prepared and what failed (with the error).
+    """
+    executor = executor or InlineExecutor()
+    out = suite.out
+    (out / "results").mkdir(parents=True, exist_ok=True)
+    (out / "prepared").mkdir(exist_ok=True)
+    outcome = SuiteOutcome()
+    settings = config_key(suite.config)
+    gt_digests = {s: folder_digests(g) for s, g in suite.scenes.items()}
+    keys = {p.name: pair_key(p, settings, gt_digests[p.scene]) for p in suite.pairs}
+    todo = [p for p in suite.pairs if not _done(out, p, keys[p.name])]
+    outcome.skipped = [p.name for p in suite.pairs if p not in todo]
+    scenes = {p.scene: p.gt for p in todo}
+    prep_keys = {s: prepare_key(settings, gt_digests[s]) for s in scenes}
+    to_prepare = {s: g for s, g in scenes.items()
+                  if _read_key(out / "prepared" / f"{s}.key") != prep_keys[s]
+                  or not (out / "prepared" / s / "manifest.json").is_file()}
+    bar = Progress({"regions": sum(len(gt_digests[s]) for s in to_prepare),
+                    "frames": sum(len(gt_digests[p.scene]) for p in todo)},
+                   enabled=progress and bool(todo), desc="suite")
+    completed = False
+    try:
+        _prepare_scenes(suite, executor, to_prepare, prep_keys, gt_digests, bar, outcome)
+        ready = [p for p in todo if p.scene not in outcome.failed]
+        for p in todo:
+            if p.scene in outcome.failed:
+                outcome.failed[p.name] = f"ground truth not prepared: {outcome.failed[p.scene]}"
+        _score_pairs(suite, executor, ready, keys, gt_digests, bar, outcome, on_result)
+        completed = True
+    finally:
+        bar.close(completed)
+    order = {name: i for i, name in enumerate([*suite.scenes, *(p.name for p in suite.pairs)])}
+    outcome.scored.sort(key=order.__getitem__)  # in the suite's order, not as they finished
+    outcome.prepared.sort(key=order.__getitem__)
+    outcome.failed = dict(sorted(outcome.failed.items(), key=lambda kv: order[kv[0]]))
+    outcome.results = [out / "results" / f"{p.name}.json" for p in suite.pairs
+                       if _done(out, p, keys[p.name])]
+    _write_summaries(suite, outcome)
+    return outcome
+
+
+def _done(out: Path, pair: SuitePair, key: str) -> bool:
+    return ((out / "results" / f"{pair.name}.json").is_file()
+            and _read_key(out / "results" / f"{pair.name}.key") == key)
+
+
+def _prepare_scenes(suite: Suite, executor: Any, scenes: dict[str, str], keys: dict[str, str],
+                    gt_digests: dict[str, dict[str, str]], bar: Progress,
+                    outcome: SuiteOutcome) -> None:
+    """Prepare ``scenes`` (name -> GT folder) on ``executor``; their key files written here."""
+    names = list(scenes)
+
+    def handle(i: int, future: Any) -> None:
+        scene = names[i]
+        try:
+            future.result()
+        except Exception as err:  # noqa: BLE001 - reported, the other scenes go on
+            outcome.failed[scene] = _error_line(err)
+        else:
+            write_text_atomic(suite.out / "prepared" / f"{scene}.key", keys[scene] + "\n",
+                              overwrite=True, what="suite key file")
+            outcome.prepared.append(scene)
+        bar.advance("regions", len(gt_digests[scene]), note=f"prepared {scene}")
+
+    _each_done(executor, [(prepare_task, scenes[s], str(suite.out / "prepared" / s), suite.config)
+                          for s in names], handle)
+
+
+def _score_pairs(suite: Suite, executor: Any, pairs: list[SuitePair], keys: dict[str, str],
+                 gt_digests: dict[str, dict[str, str]], bar: Progress, outcome: SuiteOutcome,
+                 on_result: Callable[[str], None] | None) -> None:
+    """Score ``pairs`` on ``executor``; each results file, then its key file, written here as
+    its task finishes."""
+    def handle(i: int, future: Any) -> None:
+        pair = pairs[i]
+        try:
+            doc = future.result()
+        except Exception as err:  # noqa: BLE001 - reported, the other pairs go on
+            outcome.failed[pair.name] = _error_line(err)
+        else:
+            base = suite.out / "results" / pair.name
+            write_text_atomic(base.with_suffix(".json"), results_text(doc), overwrite=True,
+                              what="results file")
+            write_text_atomic(base.with_suffix(".key"), keys[pair.name] + "\n", overwrite=True,
+                              what="suite key file")
+            outcome.scored.append(pair.name)
+            if on_result is not None:
+                on_result(pair.name)
+        bar.advance("frames", len(gt_digests[pair.scene]), note=pair.name)
+
+    _each_done(executor, [(score_task, p, str(suite.out / "prepared" / p.scene), suite.config)
+                          for p in pairs], handle)
+
+
+def _write_summaries(suite: Suite, outcome: SuiteOutcome) -> None:
+    """The leaderboard (md, csv, json) and the page of every pair with results."""
+    if not outcome.results:
+        return
+    board = build_leaderboard(outcome.results)
+    for fmt in ("md", "csv", "json"):
+        path = suite.out / f"leaderboard.{fmt}"
+        write_text_atomic(path, render(board, fmt), overwrite=True, what="leaderboard file")
+        outcome.leaderboard.append(path)
+    docs = [load_results(p) for p in outcome.results]
+    page = suite.out / "index.html"
+    write_text_atomic(page, render_suite_page(docs, board), overwrite=True, what="suite page")
+    outcome.page = page
+
+
+def summary_lines(outcome: SuiteOutcome) -> list[str]:
+    """The end-of-run summary: counts, then one line per failure."""
+    lines = [f"{len(outcome.scored)} pair(s) scored, {len(outcome.skipped)} already scored "
+             f"(skipped), {len(outcome.failed)} failed; {len(outcome.prepared)} scene(s) prepared"]
+    lines += [f"failed: {name}: {err}" for name, err in outcome.failed.items()]
+    if outcome.leaderboard:
+        lines.append(f"leaderboard: {', '.join(map(str, outcome.leaderboard))}")
+    if outcome.page is not None:
+        lines.append(f"page: {outcome.page}")
+    return lines
+

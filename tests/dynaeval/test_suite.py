@@ -1,0 +1,277 @@
+"""``dynaeval suite``: a SUITE.toml or the ROOT/<method>/<scene> convention, every pair scored
+against its scene's prepared ground truth with the numbers of a plain ``score``, skipped when
+scored before with the same settings and inputs, a failing pair reported while the rest
+finish, bad input refused before any work (exit 2)."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from dynaeval.cli import main, sample_dir
+from dynaeval.errors import InputError
+from dynaeval.evaluate import score
+from dynaeval.suite import folder_suite, load_suite, run_suite, settings_config
+
+METRICS = ["psnr", "ssim"]
+NUMBERS = ("frames", "cameras", "summary", "counts", "metrics", "method", "scene")
+
+
+def _boxes() -> str:
+    return str(sample_dir() / "boxes.json")
+
+
+def _settings_toml() -> str:
+    return f'[settings]\nmetrics = {json.dumps(METRICS)}\nfocus = "boxes:{_boxes()}"\n'
+
+
+def _noisy(src: Path, dst: Path, seed: int) -> None:
+    """``src``'s frames with uniform noise of +-(4 + 4 seed) grey levels, as ``dst``."""
+    import cv2
+
+    rng = np.random.default_rng(seed)
+    for f in sorted(src.rglob("*.png")):
+        im = cv2.imread(str(f)).astype(int)
+        out = np.clip(im + rng.integers(-4 - 4 * seed, 5 + 4 * seed, im.shape), 0, 255)
+        target = dst / f.relative_to(src)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        cv2.imwrite(str(target), out.astype(np.uint8))
+
+
+@pytest.fixture
+def tree(tmp_path):
+    """ROOT/<m1,m2,m3>/sample and GT/sample: the bundled sample's ground truth, its degraded
+    predictions (m1) and two noisy copies of the ground truth."""
+    root, gt = tmp_path / "root", tmp_path / "gt"
+    shutil.copytree(sample_dir() / "gt", gt / "sample")
+    shutil.copytree(sample_dir() / "pred", root / "m1" / "sample")
+    _noisy(gt / "sample", root / "m2" / "sample", 1)
+    _noisy(gt / "sample", root / "m3" / "sample", 2)
+    (tmp_path / "settings.toml").write_text(_settings_toml())
+    return tmp_path
+
+
+def _config():
+    return settings_config({"metrics": METRICS, "focus": f"boxes:{_boxes()}"}, "test")
+
+
+def _numbers(path: Path) -> dict:
+    doc = json.loads(path.read_text())
+    out = {k: doc[k] for k in NUMBERS}
+    out["settings"] = {k: v for k, v in doc["settings"].items() if k != "prepared"}
+    return out
+
+
+def test_folder_suite_equals_plain_score_and_writes_board_and_page(tree):
+    suite = folder_suite(tree / "root", tree / "gt", tree / "out", _config())
+    assert [(p.method, p.scene) for p in suite.pairs] == [("m1", "sample"), ("m2", "sample"),
+                                                          ("m3", "sample")]
+    outcome = run_suite(suite, progress=False)
+    assert outcome.scored == ["sample__m1", "sample__m2", "sample__m3"] and not outcome.failed
+    assert outcome.prepared == ["sample"]
+    for method in ("m1", "m2", "m3"):
+        got = _numbers(tree / "out" / "results" / f"sample__{method}.json")
+        plain = json.loads(json.dumps(dict(score(
+            tree / "root" / method / "sample", tree / "gt" / "sample", progress=False,
+            metrics=tuple(METRICS), focus=f"boxes:{_boxes()}", method=method, scene="sample"))))
+        assert got == {**{k: plain[k] for k in NUMBERS},
+                       "settings": {k: v for k, v in plain["settings"].items() if k != "prepared"}}
+        assert json.loads((tree / "out" / "results" / f"sample__{method}.json").read_text())[
+            "settings"]["prepared"]["path"] == str(tree / "out" / "prepared" / "sample")
+    board = json.loads((tree / "out" / "leaderboard.json").read_text())
+    assert board["methods"] == ["m1", "m2", "m3"] and board["scenes"] == ["sample"]
+    assert "| m2 | sample |" in (tree / "out" / "leaderboard.md").read_text()
+    assert (tree / "out" / "leaderboard.csv").read_text().startswith("method,scene,")
+    page = (tree / "out" / "index.html").read_text()
+    assert page.count("<img src='data:image/png;base64,") == 1  # one scene: one row of tiles
+    assert "left to right: ground truth, m1 (focused_psnr" in page and "m3 (focused_psnr" in page
+
+
+def test_toml_suite_is_the_folder_suite(tree):
+    (tree / "suite.toml").write_text(
+        'output = "out"\n' + _settings_toml()
+        + '[scenes]\nsample = "gt/sample"\n'
+          '[methods]\nm1 = "root/m1/{scene}"\nm2 = {sample = "root/m2/sample"}\n')
+    suite = load_suite(tree / "suite.toml")
+    assert [(p.method, p.scene, p.pred) for p in suite.pairs] == [
+        ("m1", "sample", str((tree / "root/m1/sample").resolve())),
+        ("m2", "sample", str((tree / "root/m2/sample").resolve()))]
+    assert suite.out == tree / "out" and suite.config == _config()
+    assert main(["suite", str(tree / "suite.toml"), "-q"]) == 0
+    assert sorted(p.name for p in (tree / "out" / "results").glob("*.json")) == [
+        "sample__m1.json", "sample__m2.json"]
+
+
+def test_rerun_scores_only_what_is_missing_or_changed(tree, capsys):
+    args = ["suite", str(tree / "root"), "--gt", str(tree / "gt"), "-o", str(tree / "out"),
+            "--settings", str(tree / "settings.toml"), "-q"]
+    assert main(args) == 0
+    results = tree / "out" / "results"
+    before = {p.name: p.stat().st_mtime_ns for p in results.glob("*.json")}
+    capsys.readouterr()
+    assert main(args) == 0
+    assert "0 pair(s) scored, 3 already scored (skipped), 0 failed; 0 scene(s) prepared" in \
+        capsys.readouterr().out
+    assert {p.name: p.stat().st_mtime_ns for p in results.glob("*.json")} == before
+    (results / "sample__m1.json").unlink()  # a lost result
+    _noisy(tree / "gt" / "sample", tree / "root" / "m3" / "sample", 5)  # changed predictions
+    suite = folder_suite(tree / "root", tree / "gt", tree / "out", _config())
+    outcome = run_suite(suite, progress=False)
+    assert outcome.scored == ["sample__m1", "sample__m3"] and outcome.skipped == ["sample__m2"]
+    assert outcome.prepared == []  # the ground truth did not change: its folder is reused
+    assert (results / "sample__m2.json").stat().st_mtime_ns == before["sample__m2.json"]
+    # another number-changing setting: every pair and the ground truth again
+    other = settings_config({"metrics": METRICS, "focus": "motion"}, "test")
+    outcome = run_suite(folder_suite(tree / "root", tree / "gt", tree / "out", other),
+                        progress=False)
+    assert len(outcome.scored) == 3 and outcome.prepared == ["sample"]
+    # a setting that never changes a number (workers) scores nothing again
+    same = settings_config({"metrics": METRICS, "focus": "motion", "workers": 2}, "test")
+    assert run_suite(folder_suite(tree / "root", tree / "gt", tree / "out", same),
+                     progress=False).scored == []
+
+
+def test_a_failing_pair_is_reported_and_the_rest_finish(tree, capsys):
+    bad = tree / "root" / "m2" / "sample" / "cam07" / "0003.png"
+    bad.write_bytes(b"not a png")
+    args = ["suite", str(tree / "root"), "--gt", str(tree / "gt"), "-o", str(tree / "out"),
+            "--settings", str(tree / "settings.toml"), "-q"]
+    assert main(args) == 1
+    out, err = capsys.readouterr()
+    assert "2 pair(s) scored, 0 already scored (skipped), 1 failed" in out
+    assert "failed: sample__m2: InputError:" in err and "0003.png" in err
+    board = json.loads((tree / "out" / "leaderboard.json").read_text())
+    assert board["methods"] == ["m1", "m3"]
+    _noisy(tree / "gt" / "sample", tree / "root" / "m2" / "sample", 1)  # repaired
+    suite = folder_suite(tree / "root", tree / "gt", tree / "out", _config())
+    outcome = run_suite(suite, progress=False)
+    assert outcome.scored == ["sample__m2"] and not outcome.failed
+    assert json.loads((tree / "out" / "leaderboard.json").read_text())["methods"] == [
+        "m1", "m2", "m3"]
+
+
+def _toml(tree: Path, text: str) -> Path:
+    path = tree / "suite.toml"
+    path.write_text(text)
+    return path
+
+
+GOOD = '[scenes]\nsample = "gt/sample"\n[methods]\nm1 = "root/m1/{scene}"\n'
+
+
+@pytest.mark.parametrize(("text", "match"), [
+    ("colour = 1\noutput = 'o'\n" + GOOD, "unknown key 'colour'"),
+    ("output = 'o'\n" + GOOD + "m2 = 1\n", r"\[methods\] m2 must be a folder path"),
+    ("output = 'o'\n[settings]\nmetric = ['psnr']\n" + GOOD, r"\[settings\] metric: not a setting"),
+    ("output = 'o'\n[settings]\nmethod = 'x'\n" + GOOD, r"\[settings\] method: set by the suite"),
+    ("output = 'o'\n[settings]\nworkers = 0\n" + GOOD, r"\[settings\]: workers must be"),
+    ("output = 'o'\n[scenes]\n", r"\[scenes\] is missing or empty"),
+    ("output = 'o'\n[scenes]\nsample = 'gt/nope'\n[methods]\nm1 = 'x'\n",
+     r"\[scenes\] sample: no such folder .*gt/nope"),
+    ("output = 'o'\n[scenes]\nsample = 'gt/sample'\n", r"\[methods\] is missing or empty"),
+    ("output = 'o'\n[scenes]\nsample = 'gt/sample'\n[methods]\nm9 = 'root/m9/{scene}'\n",
+     r"\[methods\] m9 \(scene sample\): no such folder"),
+    ("output = 'o'\n[scenes]\nsample = 'gt/sample'\nb = 'gt/sample'\n[methods]\nm1 = 'root/m1'\n",
+     r"m1 = 'root/m1' has no \{scene\}"),
+    ("output = 'o'\n[scenes]\nsample = 'gt/sample'\n[methods]\nm1 = {other = 'root/m1/sample'}\n",
+     r"scene 'other' is not in \[scenes\]"),
+    ("output = 'o'\n[scenes]\n'a b' = 'gt/sample'\n[methods]\nm1 = 'x'\n", r"\[scenes\] 'a b': names"),
+    (GOOD, "no output folder"),
+    ("output = 'o'\n[scenes\n", "not valid TOML"),
+])
+def test_bad_suite_files_are_refused_naming_the_key(tree, capsys, text, match):
+    path = _toml(tree, text)
+    with pytest.raises(InputError, match=match):
+        load_suite(path)
+    assert main(["suite", str(path), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert str(path) in err and not (tree / "o").exists()
+
+
+def test_bad_folder_forms_are_refused(tree, capsys):
+    (tree / "root" / "m1" / "lost").mkdir()
+    with pytest.raises(InputError, match="no ground truth for scene 'lost'"):
+        folder_suite(tree / "root", tree / "gt", tree / "out")
+    shutil.rmtree(tree / "root" / "m1" / "lost")
+    with pytest.raises(InputError, match="GT is not a folder"):
+        folder_suite(tree / "root", tree / "nope", tree / "out")
+    (tree / "empty").mkdir()
+    with pytest.raises(InputError, match="no ROOT/<method>/<scene> folder"):
+        folder_suite(tree / "empty", tree / "gt", tree / "out")
+    (tree / "file").write_text("x")
+    with pytest.raises(InputError, match="suite output folder"):
+        folder_suite(tree / "root", tree / "gt", tree / "file" / "out")
+    assert main(["suite", str(tree / "root"), "-q"]) == 2
+    assert "the folder form needs --gt GT and -o OUT" in capsys.readouterr().err
+    _toml(tree, "output = 'o'\n" + GOOD)
+    assert main(["suite", str(tree / "suite.toml"), "--gt", str(tree / "gt"), "-q"]) == 2
+    assert "--gt is for the folder form" in capsys.readouterr().err
+    (tree / "bad.toml").write_text("[settings]\nfocus = 'nowhere'\n")
+    assert main(["suite", str(tree / "root"), "--gt", str(tree / "gt"), "-o", str(tree / "out"),
+                 "--settings", str(tree / "bad.toml"), "-q"]) == 2
+    assert "bad.toml: [settings]:" in capsys.readouterr().err
+    assert not (tree / "out").exists()
+
+
+def test_a_scene_whose_ground_truth_fails_fails_its_pairs_only(tree, capsys):
+    shutil.copytree(tree / "gt" / "sample", tree / "gt" / "broken")
+    shutil.copytree(tree / "root" / "m1" / "sample", tree / "root" / "m1" / "broken")
+    (tree / "gt" / "broken" / "eval00" / "0002.png").write_bytes(b"\x89PNG broken")
+    suite = folder_suite(tree / "root", tree / "gt", tree / "out", _config())
+    outcome = run_suite(suite, progress=False)
+    assert outcome.scored == ["sample__m1", "sample__m2", "sample__m3"]
+    assert list(outcome.failed) == ["broken", "broken__m1"]
+    assert "0002.png" in outcome.failed["broken"]
+    assert outcome.failed["broken__m1"].startswith("ground truth not prepared: InputError:")
+    assert json.loads((tree / "out" / "leaderboard.json").read_text())["scenes"] == ["sample"]
+
+
+def test_without_a_toml_parser_the_suite_file_is_refused(tree, monkeypatch):
+    """Python 3.10 without tomli: exit 2 saying what to install (not an ImportError)."""
+    import sys
+
+    (tree / "suite.toml").write_text("output = 'o'\n" + GOOD)
+    monkeypatch.setitem(sys.modules, "tomllib", None)
+    monkeypatch.setitem(sys.modules, "tomli", None)
+    with pytest.raises(InputError, match="needs Python >= 3.11 or the tomli package: pip install"):
+        load_suite(tree / "suite.toml")
+
+
+def test_the_page_shows_a_perfect_method_too(tree):
+    """A method equal to the ground truth (infinite PSNR, null in the results) is shown on the
+    same frame as the others, not left without a frame."""
+    shutil.rmtree(tree / "root" / "m3")
+    shutil.copytree(tree / "gt" / "sample", tree / "root" / "m3" / "sample")
+    run_suite(folder_suite(tree / "root", tree / "gt", tree / "out", _config()), progress=False)
+    page = (tree / "out" / "index.html").read_text()
+    assert page.count("<img src='data:image/png;base64,") == 1
+    assert "m3 (focused_psnr n/a)" in page and "m1 (focused_psnr 2" in page
+
+
+def test_an_interrupted_suite_keeps_what_it_scored_and_a_rerun_finishes(tree, monkeypatch, capsys):
+    import dynaeval.suite as suite_module
+
+    real, calls = suite_module.score_task, []
+
+    def interrupted_at_the_second(*args):
+        calls.append(args[0].name)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return real(*args)
+
+    monkeypatch.setattr(suite_module, "score_task", interrupted_at_the_second)
+    args = ["suite", str(tree / "root"), "--gt", str(tree / "gt"), "-o", str(tree / "out"),
+            "--settings", str(tree / "settings.toml"), "-q"]
+    assert main(args) == 130
+    assert "interrupted; the pairs scored so far are kept" in capsys.readouterr().err
+    assert sorted(p.name for p in (tree / "out" / "results").iterdir()) == [
+        "sample__m1.json", "sample__m1.key"]
+    monkeypatch.setattr(suite_module, "score_task", real)
+    outcome = run_suite(folder_suite(tree / "root", tree / "gt", tree / "out", _config()),
+                        progress=False)
+    assert outcome.skipped == ["sample__m1"] and outcome.scored == ["sample__m2", "sample__m3"]
+    assert outcome.prepared == []
