@@ -65,7 +65,7 @@ class RegionRecorder:
                 self.outlines[key] = [c.reshape(-1, 2) for c in contours]
 
 
-def _read_frame(ref: str, background: str) -> np.ndarray:
+def read_frame(ref: str, background: str) -> np.ndarray:
     """A frame given as the results' ``pred``/``gt`` string (``path`` or ``path#N`` for video)."""
     path = Path(ref)
     if not path.exists() and "#" in ref:
@@ -201,8 +201,8 @@ def _frame_figure(row: dict[str, Any], metric: str, results: dict[str, Any],
     import matplotlib.pyplot as plt
 
     background = results["settings"].get("background", "white")
-    pred = _read_frame(row["pred"], background)
-    gt = _read_frame(row["gt"], background)
+    pred = read_frame(row["pred"], background)
+    gt = read_frame(row["gt"], background)
     if pred.shape != gt.shape:
         raise InputError(f"prediction {pred.shape} and ground truth {gt.shape} differ in shape",
                          path=row["pred"])
@@ -245,7 +245,7 @@ def missing_objects(results: dict[str, Any], n: int = 8) -> list[tuple[dict, dic
 def _object_crops(row: dict[str, Any], obj: dict[str, Any], background: str) -> str:
     """Ground-truth and predicted crop of one object side by side (its tight box, 50 % margin,
     at least 48 px), magnified to 160 px high with nearest-neighbour sampling; a PNG URI."""
-    gt, pred = _read_frame(row["gt"], background), _read_frame(row["pred"], background)
+    gt, pred = read_frame(row["gt"], background), read_frame(row["pred"], background)
     return tiles_uri([gt, pred], crop_window(gt.shape, obj["box"]))
 
 

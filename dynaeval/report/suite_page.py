@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.report.html import REPORT_CSS, _read_frame, crop_window, tiles_uri
+from dynaeval.report.html import REPORT_CSS, crop_window, read_frame, tiles_uri
 from dynaeval.report.leaderboard import TABLE_CSS, render
 from dynaeval.report.table import fmt
 
@@ -58,8 +58,8 @@ def scene_html(scene: str, docs: list[dict[str, Any]]) -> list[str]:
         return [*parts, "<p>No frame is in the results of every method.</p>"]
     rows = [next(r for r in d["frames"] if (r["camera"], r["frame"]) == key) for d in docs]
     background = docs[0]["settings"].get("background", "white")
-    gt = _read_frame(rows[0]["gt"], background)
-    images = [gt, *(_read_frame(r["pred"], background) for r in rows)]
+    gt = read_frame(rows[0]["gt"], background)
+    images = [gt, *(read_frame(r["pred"], background) for r in rows)]
     window = _window(rows[0], gt.shape)
     names = ["ground truth", *(f"{d['method']} ({metric} {fmt(metric, r.get(metric))})"
                                for d, r in zip(docs, rows, strict=True))]

@@ -121,7 +121,7 @@ def _raw_ns_render(out, rng, n=3, h=32, w=40):
     """OUT/test/raw-rgb/ + raw-gt-rgb/ of float32 (H, W, 3) frames in [0, 1]; (pred, gt)."""
     gt = [rng.random((h, w, 3), dtype=np.float32) for _ in range(n)]
     pred = [np.clip(g + rng.normal(0, 0.05, g.shape), 0, 1).astype(np.float32) for g in gt]
-    for i, (p, g) in enumerate(zip(pred, gt)):
+    for i, (p, g) in enumerate(zip(pred, gt, strict=True)):
         _save_npy_gz(out / "test" / "raw-rgb" / f"frame_{i:05d}.npy.gz", p)
         _save_npy_gz(out / "test" / "raw-gt-rgb" / f"frame_{i:05d}.npy.gz", g)
     return pred, gt
@@ -144,7 +144,7 @@ def test_nerfstudio_raw_float_renders_are_scored_end_to_end(tmp_path, rng, capsy
     assert main(["score", str(out), "--no-lpips", "--focus", "none", "-q", "-o", str(res)]) == 0
     assert "nerfstudio-raw render folder" in capsys.readouterr().err
     doc = json.loads(res.read_text())
-    want = [psnr(p, g) for p, g in zip(pred, gt)]
+    want = [psnr(p, g) for p, g in zip(pred, gt, strict=True)]
     assert [r["psnr"] for r in doc["frames"]] == pytest.approx(want, rel=1e-12)
     assert [r["frame"] for r in doc["frames"]] == ["frame_00000", "frame_00001", "frame_00002"]
     lib = dynaeval.score(out, metrics=("psnr", "ssim"), progress=False,
