@@ -117,7 +117,8 @@ def missing(*modules: str) -> list[str]:
     def absent(m: str) -> bool:
         if m in sys.modules:
             return sys.modules[m] is None
-        return not AVAILABLE.get(m.split(".")[0], _found(m.split(".")[0]))
+        top = m.split(".")[0]
+        return not (AVAILABLE[top] if top in AVAILABLE else _found(top))
     return [m for m in modules if absent(m)]
 
 
