@@ -44,7 +44,6 @@ SUITE.toml (paths relative to the file)::
 from __future__ import annotations
 
 import concurrent.futures
-import hashlib
 import json
 import re
 import sys
@@ -60,7 +59,7 @@ from dynaeval.distributed import ScoreJob, score_shard
 from dynaeval.errors import InputError
 from dynaeval.evaluate import DynaevalWarning
 from dynaeval.io.atomic import check_writable, write_text_atomic
-from dynaeval.io.prepared import file_digest, folder_digests
+from dynaeval.io.prepared import file_digest, folder_digests, json_digest
 from dynaeval.prepare import prepare
 from dynaeval.progress import Progress
 from dynaeval.report.leaderboard import build_leaderboard, render
@@ -340,11 +339,6 @@ def _jsonable(value: Any) -> Any:
     return json.loads(json.dumps(value, default=str, sort_keys=True))
 
 
-def _digest(obj: Any) -> str:
-    text = json.dumps(obj, sort_keys=True, separators=(",", ":"))
-    return hashlib.blake2b(text.encode(), digest_size=16).hexdigest()
-
-
 def config_key(config: ScoreConfig) -> dict[str, Any]:
     """The settings of ``config`` that can change a number, with the digest of a boxes file or
     detector model it names (a JSON-compatible dict)."""
@@ -360,15 +354,16 @@ def pair_key(pair: SuitePair, settings: dict[str, Any], gt_digests: dict[str, st
     of every prediction and ground-truth file."""
     from dynaeval import __version__
 
-    return _digest({"dynaeval": __version__, "settings": settings, "method": pair.method,
-                    "scene": pair.scene, "pred": folder_digests(pair.pred), "gt": gt_digests})
+    return json_digest({"dynaeval": __version__, "settings": settings, "method": pair.method,
+                        "scene": pair.scene, "pred": folder_digests(pair.pred), "gt": gt_digests},
+                       16)
 
 
 def prepare_key(settings: dict[str, Any], gt_digests: dict[str, str]) -> str:
     """The key of a scene's prepared folder (version, settings, ground-truth files)."""
     from dynaeval import __version__
 
-    return _digest({"dynaeval": __version__, "settings": settings, "gt": gt_digests})
+    return json_digest({"dynaeval": __version__, "settings": settings, "gt": gt_digests}, 16)
 
 
 def _read_key(path: Path) -> str | None:

@@ -41,11 +41,16 @@ def file_digest(path: str | Path) -> str:
     return h.hexdigest()
 
 
+def json_digest(obj: Any, size: int) -> str:
+    """blake2b (``size`` bytes, hex) of ``obj``'s canonical JSON (keys sorted, no spaces), so
+    equal documents have equal digests whatever their key order."""
+    text = json.dumps(obj, sort_keys=True, separators=(",", ":"))
+    return hashlib.blake2b(text.encode(), digest_size=size).hexdigest()
+
+
 def manifest_id(manifest: dict[str, Any]) -> str:
-    """The id of a manifest: blake2b (10 bytes, hex) of its JSON without the ``id`` field."""
-    body = {k: v for k, v in manifest.items() if k != "id"}
-    text = json.dumps(body, sort_keys=True, separators=(",", ":"))
-    return hashlib.blake2b(text.encode(), digest_size=10).hexdigest()
+    """The id of a manifest: ``json_digest`` (10 bytes) of it without the ``id`` field."""
+    return json_digest({k: v for k, v in manifest.items() if k != "id"}, 10)
 
 
 def read_manifest(folder: str | Path) -> dict[str, Any]:
