@@ -40,7 +40,9 @@ def _run(args: list[str]) -> float:
     return time.perf_counter() - t0
 
 
-def _comparable(path: Path) -> dict:
+def comparable(path: Path) -> dict:
+    """A results file without what differs between equal runs (timing, date, the prepared
+    folder's path)."""
     doc = json.loads(path.read_text())
     for key in ("timing", "created"):
         doc.pop(key, None)
@@ -71,7 +73,7 @@ def bench_prepared(job: Path, rounds: int) -> str:
         runs = interleaved({name: (lambda n=name: score(n)) for name in outs}, rounds)
         best = {name: runs[name]["wall"] for name in outs}
         per = round_ratios(runs, "first", "prepared", "wall")
-        same = _comparable(outs["first"]) == _comparable(outs["prepared"])
+        same = comparable(outs["first"]) == comparable(outs["prepared"])
         timing = json.loads(outs["first"].read_text())["timing"]
         timing_p = json.loads(outs["prepared"].read_text())["timing"]
         n_frames = len(json.loads(outs["first"].read_text())["frames"])

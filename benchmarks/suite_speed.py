@@ -27,7 +27,6 @@ Sections ``suite`` and ``suite-dask`` of docs/benchmarks.md (``--out``) are repl
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import shutil
 import socket
@@ -105,14 +104,6 @@ def _child(args: list[str], env: dict[str, str] | None = None) -> tuple[float, f
     return wall, after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime
 
 
-def _comparable(path: Path) -> dict:
-    doc = json.loads(path.read_text())
-    for key in ("timing", "created"):
-        doc.pop(key, None)
-    doc["settings"].pop("prepared", None)
-    return doc
-
-
 def _suite_args(root: Path, gt: Path, out: Path, *extra: str) -> list[str]:
     return ["suite", str(root), "--gt", str(gt), "-o", str(out), "--settings",
             str(root.parent / "settings.toml"), "-q", *extra]
@@ -120,6 +111,7 @@ def _suite_args(root: Path, gt: Path, out: Path, *extra: str) -> list[str]:
 
 def bench_prepare(job: Path, rounds: int) -> str:
     """Markdown: the suite of 3 methods x 1 scene against 3 plain scoring runs."""
+    from benchmarks.prepared_speed import comparable
     from benchmarks.temporal_speed import interleaved, round_ratios
 
     root, gt = _root(job, ("scene",))
@@ -139,8 +131,8 @@ def bench_prepare(job: Path, rounds: int) -> str:
                 for m in METHODS))
 
         runs = interleaved({"plain": plain, "suite": suite}, rounds)
-        same = all(_comparable(tmp / f"{m}.json")
-                   == _comparable(tmp / "suite" / "results" / f"scene__{m}.json") for m in METHODS)
+        same = all(comparable(tmp / f"{m}.json")
+                   == comparable(tmp / "suite" / "results" / f"scene__{m}.json") for m in METHODS)
     timed = {k: np.asarray(v[1:]) for k, v in cpu.items()}  # the warm-up round left out
     per = round_ratios(runs, "plain", "suite", "wall")
     per_cpu = timed["plain"] / timed["suite"]
@@ -225,8 +217,10 @@ class LoopbackCluster:
 
 def _numbers(out: Path) -> dict:
     """The results of a suite's output folder, by file name, without timing, date and the
-    prepared folder's path (``_comparable``)."""
-    return {p.name: _comparable(p) for p in sorted((out / "results").glob("*.json"))}
+    prepared folder's path (``comparable``)."""
+    from benchmarks.prepared_speed import comparable
+
+    return {p.name: comparable(p) for p in sorted((out / "results").glob("*.json"))}
 
 
 def bench_dask(job: Path, rounds: int) -> str:
