@@ -141,7 +141,7 @@ def score(
             c: {"scored": g["scored"], "expected": g["expected"]} for c, g in gaps.items()}
     for w in results["warnings"]:
         if "camera" not in w:
-            pywarnings.warn(warning_text(w), DynaevalWarning, stacklevel=2)
+            pywarnings.warn(warning_line(w), DynaevalWarning, stacklevel=2)
     return results
 
 
@@ -256,10 +256,6 @@ def _given_masks(config: ScoreConfig, layout: Any, pairs: list[FramePair]) -> tu
             f"protocol {protocol.name}: no covisibility masks found, so mpsnr, mssim and mlpips "
             "are not computed; pass --masks DATASET/covisible/<factor>x/<split>"))
     return masks, warnings
-
-
-warning_text = warning_line
-"""One results warning as a line of text (``dynaeval.outcome.warning_line``)."""
 
 
 def run_progress(pairs: list[FramePair], temporal: bool, enabled: bool) -> Any:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 from collections import Counter
 
-from dynaeval.evaluate import warning_text
+from dynaeval.outcome import warning_line
 from dynaeval.regions.summary import describe_regions
 
 
@@ -15,7 +15,7 @@ def print_warnings(results: dict, output: str | None = None) -> None:
     results file written (None: the console is the only place the user sees them)."""
     for w in results["warnings"]:
         if "camera" not in w:  # run-level warnings
-            print(f"dynaeval: warning: {warning_text(w)}", file=sys.stderr)
+            print(f"dynaeval: warning: {warning_line(w)}", file=sys.stderr)
     print_regions(results)
     for w in results["warnings"]:  # about a whole camera (its motion masks, its frames' sizes)
         if "camera" in w and "frame" not in w and "metric" not in w:
@@ -32,7 +32,7 @@ def print_frame_warnings(warnings: list[dict], output: str | None, most: int = 5
     """Warnings about single frames (or one metric of a camera), one line per distinct reason
     with how many frames and cameras it concerns, the ``most`` commonest first; the others
     summarised with a count, pointing at ``output`` if it was written, else at ``-o``."""
-    texts = [warning_text(w) for w in warnings]
+    texts = [warning_line(w) for w in warnings]
     groups = Counter(texts)
     cameras: dict[str, set[str]] = {}
     frames: Counter[str] = Counter()

@@ -361,8 +361,9 @@ def consecutive_pairs(pairing: Pairing) -> dict[str, dict]:
 
 def missing_frames_warning(gaps: dict[str, dict], temporal: bool, most: int = 8) -> dict:
     """The one run-level warning (printed on the console; ``Status.MISSING_FRAMES``, which
-    ``dynaeval merge`` makes again) of ``--allow-missing`` runs that left frames out: which, per camera (``gaps``: ``consecutive_pairs``' output), and how many pairs
-    of consecutive frames the temporal terms scored (``temporal``: they ran)."""
+    ``dynaeval merge`` makes again) of ``--allow-missing`` runs that left frames out: which, per
+    camera (``gaps``: ``consecutive_pairs``' output), and how many pairs of consecutive frames
+    the temporal terms scored (``temporal``: they ran)."""
     parts = []
     for cam, g in list(gaps.items())[:most]:
         names = g["missing_frames"]
