@@ -106,7 +106,7 @@ def sample_table() -> None:
             out.parent.mkdir(parents=True, exist_ok=True)
             cv2.imwrite(str(out), cv2.resize(im, (im.shape[1] * 2, im.shape[0] * 2), interpolation=cv2.INTER_CUBIC))
         for label, root in (("as shipped (144x256)", sample_dir()), ("2x (288x512)", big)):
-            run = lambda **o: dynaeval.score(root / "pred", root / "gt", metrics=metrics, **kw, **o)  # noqa: E731
+            run = lambda root=root, **o: dynaeval.score(root / "pred", root / "gt", metrics=metrics, **kw, **o)  # noqa: E731
             g4, g3 = run(protocol="4dgaussians"), run(protocol="3dgs")
             a4, ours_alex = run(protocol="4dgaussians", lpips_net="alex"), run(protocol="dynaeval", lpips_net="alex")
             for metric, a, b, other in (("msssim", g4, g3, "`3dgs --msssim`"), ("dssim", g4, g3, "`3dgs --dssim`"),
