@@ -30,8 +30,7 @@ def add(sub: Any) -> None:
     t.add_argument("--detector", metavar="MODEL.onnx|NAME",
                    help="ONNX detector, or a name fetched with 'dynaeval detector fetch' "
                         "(default: the one shipped with dynaeval)")
-    add_options(t, ("focus.classes",))
-    t.add_argument("--device", choices=["cpu", "cuda"], default="cpu")
+    add_options(t, ("focus.classes", "device"))
     add_overwrite(t)
     add_options(t, ("progress",))
 

@@ -446,7 +446,7 @@ def detect_ground_truth(
         source: ``detector`` (the ONNX detector) or ``motion`` (connected components of the
             motion masks of each camera).
         detector_model: ONNX file; None for the detector shipped with dynaeval.
-        device: onnxruntime device (``cpu`` or ``cuda``).
+        device: onnxruntime device: ``cpu``, ``cuda[:i]`` or ``auto`` (``dynaeval.runtime``).
         progress: show a progress bar on stderr.
         classes: the detector's classes to keep (names or ids; None: person and sports ball).
         warnings: if given, the warnings about the detector (``detector_warnings``) and, with

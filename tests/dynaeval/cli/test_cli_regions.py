@@ -54,6 +54,19 @@ def test_detect_with_classes_and_the_bundled_detector_warning(tmp_path, scene, c
     assert all(r["class"] == "person" for recs in doc["boxes"].values() for r in recs)
 
 
+def test_detect_device_auto_is_the_cpu_without_a_gpu_and_gives_the_cpu_boxes(tmp_path, scene, capsys):
+    """``detect --device`` is the table's option (as ``score --device``): ``auto`` runs where no
+    GPU is and finds the same boxes as ``cpu`` (it was a cpu/cuda choice of its own)."""
+    _, gt = scene
+    docs = []
+    for device in ("cpu", "auto"):
+        code, _, err = run(capsys, "detect", gt, "-o", tmp_path / f"{device}.json", "-q",
+                           "--device", device)
+        assert code == 0, err
+        docs.append(json.loads((tmp_path / f"{device}.json").read_text())["boxes"])
+    assert docs[0] == docs[1] and docs[0]
+
+
 def test_no_box_headline_replaces_the_null_summary_lines(tmp_path, scene, capsys):
     pred, gt = scene
     boxes = tmp_path / "empty.json"

@@ -59,6 +59,10 @@ def describe_commands() -> dict[str, dict[str, dict]]:
 ADDED_SINCE = ("suite",)
 """Commands added after the snapshot was taken (issue 33), whose options it does not hold."""
 
+CHANGED_SINCE = {("detect", "--device"): {"choices": ["cpu", "cuda", "auto"]}}
+"""Options changed on purpose after the snapshot, and how: ``detect --device`` is the table's
+``device`` option now, so it takes ``auto`` as ``score --device`` does."""
+
 
 def test_every_command_has_the_options_it_had():
     before = json.loads(BEFORE.read_text())["commands"]
@@ -67,7 +71,8 @@ def test_every_command_has_the_options_it_had():
     for command, options in before.items():
         assert sorted(now[command]) == sorted(options), command
         for flag, was in options.items():
-            assert now[command][flag] == was, (command, flag)
+            assert now[command][flag] == {**was, **CHANGED_SINCE.get((command, flag), {})}, (
+                command, flag)
 
 
 @pytest.mark.parametrize("command", ["score", "demo"])
