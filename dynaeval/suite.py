@@ -59,6 +59,7 @@ from dynaeval.distributed import ScoreJob, score_shard
 from dynaeval.errors import InputError
 from dynaeval.evaluate import DynaevalWarning
 from dynaeval.io.atomic import check_writable, write_text_atomic
+from dynaeval.io.lock import hold_folder
 from dynaeval.io.prepared import file_digest, folder_digests, json_digest
 from dynaeval.prepare import prepare
 from dynaeval.progress import Progress
@@ -446,11 +447,20 @@ def run_suite(suite: Suite, executor: Any = None, *, progress: bool = True,
 
     Returns:
         What was scored, skipped, prepared and what failed (with the error).
+
+    Raises:
+        InputError: another run is writing into ``suite.out`` (``dynaeval.io.lock``).
     """
-    executor = executor or InlineExecutor()
+    (suite.out / "results").mkdir(parents=True, exist_ok=True)
+    (suite.out / "prepared").mkdir(exist_ok=True)
+    with hold_folder(suite.out, "suite output folder"):
+        return _run_held(suite, executor or InlineExecutor(), progress, on_result)
+
+
+def _run_held(suite: Suite, executor: Any, progress: bool,
+              on_result: Callable[[str], None] | None) -> SuiteOutcome:
+    """``run_suite``'s work, while this process holds ``suite.out``."""
     out = suite.out
-    (out / "results").mkdir(parents=True, exist_ok=True)
-    (out / "prepared").mkdir(exist_ok=True)
     outcome = SuiteOutcome()
     settings = config_key(suite.config)
     gt_digests = {s: folder_digests(g) for s, g in suite.scenes.items()}

@@ -275,3 +275,21 @@ def test_an_interrupted_suite_keeps_what_it_scored_and_a_rerun_finishes(tree, mo
                         progress=False)
     assert outcome.skipped == ["sample__m1"] and outcome.scored == ["sample__m2", "sample__m3"]
     assert outcome.prepared == []
+
+
+def test_a_second_suite_into_the_same_out_is_exit_2_and_writes_nothing(tree, capsys):
+    """Two suites into one OUT would score the same pairs twice and write over each other's
+    files: while one holds OUT (its lock file), another is refused before any work."""
+    from dynaeval.io.lock import hold_folder
+
+    args = ["suite", str(tree / "root"), "--gt", str(tree / "gt"), "-o", str(tree / "out"),
+            "--settings", str(tree / "settings.toml"), "-q"]
+    (tree / "out").mkdir()
+    with hold_folder(tree / "out"):
+        assert main(args) == 2
+        err = capsys.readouterr().err
+        assert f"suite output folder {tree / 'out'} is in use by another dynaeval run" in err
+        assert not list((tree / "out" / "results").iterdir())
+        assert not list((tree / "out" / "prepared").iterdir())
+    assert main(args) == 0
+    assert not (tree / "out" / ".dynaeval.lock").exists()
