@@ -26,7 +26,8 @@ The work runs on an executor: by default in this process, one task after another
 ``dynaeval suite ... --scheduler tcp://HOST:PORT``, or a ``concurrent.futures`` executor). Tasks
 get paths, not pixels (every worker must see the folders at the same paths) and return the
 results as a dict; the results and key files are written here, by the client, so a worker that
-dies loses no result: Dask runs its tasks again elsewhere.
+dies loses no result: Dask runs its tasks again elsewhere. A scene's pairs are submitted as soon
+as its ground truth is prepared (they do not wait for the other scenes').
 
 SUITE.toml (paths relative to the file)::
 
@@ -43,6 +44,7 @@ SUITE.toml (paths relative to the file)::
 
 from __future__ import annotations
 
+import collections
 import concurrent.futures
 import json
 import re
@@ -406,22 +408,46 @@ class InlineExecutor:
         return future
 
 
-def _each_done(executor: Any, calls: list[tuple[Any, ...]], handle: Callable[[int, Any], None]) -> None:
-    """Run ``calls`` (``(fn, *args)`` each) on ``executor``; ``handle(i, future)`` as each one is
-    done: in order, one after the other, on the ``InlineExecutor`` (so that a result is written
-    before the next call starts); all submitted at once, handled as they finish, elsewhere (Dask's
-    own ``as_completed`` for a Dask client)."""
+Call = tuple[Any, ...]
+"""A task: ``(tag, fn, *args)``; ``tag`` tells the handler what it was."""
+
+
+def _run_calls(executor: Any, calls: list[Call],
+               handle: Callable[[Any, Any], list[Call]]) -> None:
+    """Run ``calls`` on ``executor``; ``handle(tag, future)`` as each one is done, which returns
+    the calls that may start now (a scene's pairs once its ground truth is prepared).
+
+    On the ``InlineExecutor`` the calls run in order, one after the other (a result is written
+    before the next call starts; follow-ups after the calls already queued); elsewhere every
+    call is submitted as soon as it may start and handled as it finishes (Dask's own
+    ``as_completed`` for a Dask client, ``concurrent.futures.wait`` for an executor of that
+    module), so on a cluster a scene's pairs do not wait for the other scenes' prepares.
+    """
     if isinstance(executor, InlineExecutor):
-        for i, call in enumerate(calls):
-            handle(i, executor.submit(*call))
+        queue = collections.deque(calls)
+        while queue:
+            tag, *call = queue.popleft()
+            queue.extend(handle(tag, executor.submit(*call)))
         return
-    futures = {executor.submit(*call): i for i, call in enumerate(calls)}
+    tags: dict[Any, Any] = {}
+
+    def submit(batch: list[Call]) -> list[Any]:
+        futures = [executor.submit(*call) for _, *call in batch]
+        tags.update(zip(futures, (tag for tag, *_ in batch), strict=True))
+        return futures
+
     if type(executor).__module__.split(".")[0] == "distributed":
-        as_completed = load("distributed").as_completed
-    else:
-        as_completed = concurrent.futures.as_completed
-    for future in as_completed(list(futures)):
-        handle(futures[future], future)
+        done = load("distributed").as_completed(submit(calls))
+        for future in done:
+            for follow in submit(handle(tags.pop(future), future)):
+                done.add(follow)
+        return
+    pending = set(submit(calls))
+    while pending:
+        finished, pending = concurrent.futures.wait(
+            pending, return_when=concurrent.futures.FIRST_COMPLETED)
+        for future in finished:
+            pending.update(submit(handle(tags.pop(future), future)))
 
 
 def _error_line(err: BaseException) -> str:
@@ -475,14 +501,13 @@ def _run_held(suite: Suite, executor: Any, progress: bool,
     bar = Progress({"regions": sum(len(gt_digests[s]) for s in to_prepare),
                     "frames": sum(len(gt_digests[p.scene]) for p in todo)},
                    enabled=progress and bool(todo), desc="suite")
+    tasks = _Tasks(suite, keys, prep_keys, gt_digests, bar, outcome, on_result,
+                   {s: [p for p in todo if p.scene == s] for s in to_prepare})
     completed = False
     try:
-        _prepare_scenes(suite, executor, to_prepare, prep_keys, gt_digests, bar, outcome)
-        ready = [p for p in todo if p.scene not in outcome.failed]
-        for p in todo:
-            if p.scene in outcome.failed:
-                outcome.failed[p.name] = f"ground truth not prepared: {outcome.failed[p.scene]}"
-        _score_pairs(suite, executor, ready, keys, gt_digests, bar, outcome, on_result)
+        _run_calls(executor, [*(tasks.prepare_call(s) for s in to_prepare),
+                              *(tasks.score_call(p) for p in todo if p.scene not in to_prepare)],
+                   tasks.handle)
         completed = True
     finally:
         bar.close(completed)
@@ -501,52 +526,69 @@ def _done(out: Path, pair: SuitePair, key: str) -> bool:
             and _read_key(out / "results" / f"{pair.name}.key") == key)
 
 
-def _prepare_scenes(suite: Suite, executor: Any, scenes: dict[str, str], keys: dict[str, str],
-                    gt_digests: dict[str, dict[str, str]], bar: Progress,
-                    outcome: SuiteOutcome) -> None:
-    """Prepare ``scenes`` (name -> GT folder) on ``executor``; their key files written here."""
-    names = list(scenes)
+@dataclass
+class _Tasks:
+    """A suite's prepare and score calls, and what is done as each finishes: key files and
+    results written here (by the client), failures recorded, a prepared scene's pairs released.
+    State is real here: the outcome and the pairs waiting for their ground truth."""
 
-    def handle(i: int, future: Any) -> None:
-        scene = names[i]
+    suite: Suite
+    keys: dict[str, str]
+    prep_keys: dict[str, str]
+    gt_digests: dict[str, dict[str, str]]
+    bar: Progress
+    outcome: SuiteOutcome
+    on_result: Callable[[str], None] | None
+    waiting: dict[str, list[SuitePair]]
+    """Scene -> its pairs, held until the scene's ground truth is prepared."""
+
+    def prepare_call(self, scene: str) -> Call:
+        return (("prepare", scene), prepare_task, self.suite.scenes[scene],
+                str(self.suite.out / "prepared" / scene), self.suite.config)
+
+    def score_call(self, pair: SuitePair) -> Call:
+        return (("score", pair), score_task, pair, str(self.suite.out / "prepared" / pair.scene),
+                self.suite.config)
+
+    def handle(self, tag: tuple[str, Any], future: Any) -> list[Call]:
+        kind, what = tag
+        if kind == "prepare":
+            return self._prepared(what, future)
+        self._scored(what, future)
+        return []
+
+    def _prepared(self, scene: str, future: Any) -> list[Call]:
+        pairs = self.waiting.pop(scene)
         try:
             future.result()
         except Exception as err:  # noqa: BLE001 - reported, the other scenes go on
-            outcome.failed[scene] = _error_line(err)
+            self.outcome.failed[scene] = _error_line(err)
+            for p in pairs:
+                self.outcome.failed[p.name] = f"ground truth not prepared: {self.outcome.failed[scene]}"
+            pairs = []
         else:
-            write_text_atomic(suite.out / "prepared" / f"{scene}.key", keys[scene] + "\n",
-                              overwrite=True, what="suite key file")
-            outcome.prepared.append(scene)
-        bar.advance("regions", len(gt_digests[scene]), note=f"prepared {scene}")
+            write_text_atomic(self.suite.out / "prepared" / f"{scene}.key",
+                              self.prep_keys[scene] + "\n", overwrite=True, what="suite key file")
+            self.outcome.prepared.append(scene)
+        self.bar.advance("regions", len(self.gt_digests[scene]), note=f"prepared {scene}")
+        return [self.score_call(p) for p in pairs]
 
-    _each_done(executor, [(prepare_task, scenes[s], str(suite.out / "prepared" / s), suite.config)
-                          for s in names], handle)
-
-
-def _score_pairs(suite: Suite, executor: Any, pairs: list[SuitePair], keys: dict[str, str],
-                 gt_digests: dict[str, dict[str, str]], bar: Progress, outcome: SuiteOutcome,
-                 on_result: Callable[[str], None] | None) -> None:
-    """Score ``pairs`` on ``executor``; each results file, then its key file, written here as
-    its task finishes."""
-    def handle(i: int, future: Any) -> None:
-        pair = pairs[i]
+    def _scored(self, pair: SuitePair, future: Any) -> None:
+        """Each results file, then its key file, written as the pair's task finishes."""
         try:
             doc = future.result()
         except Exception as err:  # noqa: BLE001 - reported, the other pairs go on
-            outcome.failed[pair.name] = _error_line(err)
+            self.outcome.failed[pair.name] = _error_line(err)
         else:
-            base = suite.out / "results" / pair.name
+            base = self.suite.out / "results" / pair.name
             write_text_atomic(base.with_suffix(".json"), results_text(doc), overwrite=True,
                               what="results file")
-            write_text_atomic(base.with_suffix(".key"), keys[pair.name] + "\n", overwrite=True,
-                              what="suite key file")
-            outcome.scored.append(pair.name)
-            if on_result is not None:
-                on_result(pair.name)
-        bar.advance("frames", len(gt_digests[pair.scene]), note=pair.name)
-
-    _each_done(executor, [(score_task, p, str(suite.out / "prepared" / p.scene), suite.config)
-                          for p in pairs], handle)
+            write_text_atomic(base.with_suffix(".key"), self.keys[pair.name] + "\n",
+                              overwrite=True, what="suite key file")
+            self.outcome.scored.append(pair.name)
+            if self.on_result is not None:
+                self.on_result(pair.name)
+        self.bar.advance("frames", len(self.gt_digests[pair.scene]), note=pair.name)
 
 
 def _write_summaries(suite: Suite, outcome: SuiteOutcome) -> None:

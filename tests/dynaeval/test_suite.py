@@ -293,3 +293,45 @@ def test_a_second_suite_into_the_same_out_is_exit_2_and_writes_nothing(tree, cap
         assert not list((tree / "out" / "prepared").iterdir())
     assert main(args) == 0
     assert not (tree / "out" / ".dynaeval.lock").exists()
+
+
+def test_on_an_executor_a_scene_is_scored_while_another_is_still_being_prepared(tree, monkeypatch):
+    """On a pool (or Dask) a scene's pairs start as soon as its own ground truth is prepared,
+    not after every scene's: scene ``slow``'s prepare waits (bounded) until every pair of
+    ``sample`` has been scored, which happens only if those pairs did not wait for it."""
+    import concurrent.futures
+    import threading
+
+    import dynaeval.suite as suite_module
+
+    shutil.copytree(tree / "gt" / "sample", tree / "gt" / "slow")
+    for m in ("m1", "m2", "m3"):
+        shutil.copytree(tree / "root" / m / "sample", tree / "root" / m / "slow")
+    sample_scored, seen = threading.Event(), []
+    real = suite_module.prepare_task
+
+    def prepare_task(gt, out, config):
+        if Path(gt).name == "slow":
+            seen.append(sample_scored.wait(timeout=30))
+        return real(gt, out, config)
+
+    def on_result(name):
+        if sum(n.startswith("sample__") for n in [*done, name]) == 3:
+            sample_scored.set()
+        done.append(name)
+
+    done: list[str] = []
+    monkeypatch.setattr(suite_module, "prepare_task", prepare_task)
+    suite = folder_suite(tree / "root", tree / "gt", tree / "out", _config())
+    with concurrent.futures.ThreadPoolExecutor(2) as pool:
+        outcome = run_suite(suite, pool, progress=False, on_result=on_result)
+    assert seen == [True]
+    assert not outcome.failed and len(outcome.scored) == 6
+    assert outcome.scored == [p.name for p in suite.pairs]  # reported in the suite's order
+    monkeypatch.setattr(suite_module, "prepare_task", real)
+    inline = run_suite(folder_suite(tree / "root", tree / "gt", tree / "inline", _config()),
+                       progress=False)
+    assert inline.scored == outcome.scored
+    for name in outcome.scored:  # the same numbers as one task after another
+        assert (_numbers(tree / "out" / "results" / f"{name}.json")
+                == _numbers(tree / "inline" / "results" / f"{name}.json"))
