@@ -22,6 +22,10 @@ and settings a run uses, and writes them into a folder (``dynaeval.io.prepared``
   N static pixels (the ground-truth half of the flicker terms; 44 MB for a mostly static 1080p
   camera), keyed by the digest of its static mask (``--masks`` that change it: computed again).
 
+The files are written and hashed in one background thread (``io.prepared.FolderWriter``) while
+the next ones are computed, and each ground-truth image is decoded once: the decoding saved is
+the one the regions and flows read.
+
 :func:`open_prepared` checks a folder against a run before any frame is scored: other settings,
 another dynaeval version or format, a ground-truth file that changed or is not in the folder:
 ``InputError`` naming the setting or the file. A camera whose frames differ from the prepared
@@ -34,6 +38,8 @@ from __future__ import annotations
 
 import json
 import os
+import threading
+from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -50,6 +56,7 @@ from dynaeval.io.images import STORED_RGB, decode_file
 from dynaeval.io.prepared import (
     FORMAT_VERSION,
     MANIFEST,
+    FolderWriter,
     PreparedFiles,
     file_digest,
     folder_digests,
@@ -57,8 +64,14 @@ from dynaeval.io.prepared import (
     read_manifest,
     write_folder_atomic,
 )
-from dynaeval.metrics.flow import FlowCache, FlowConfig, _flow_from_gray, check_flow_size
-from dynaeval.metrics.pair_kernels import prepare as frame_prep
+from dynaeval.metrics.flow import (
+    FlowCache,
+    FlowConfig,
+    _flow_from_gray,
+    check_flow_size,
+    gray_digest,
+    gray_of_checked,
+)
 from dynaeval.metrics.protocols import get_protocol
 from dynaeval.metrics.static_flicker import TemporalStd, check_static
 from dynaeval.outcome import Status, note
@@ -140,27 +153,32 @@ def prepare(gt_dir: str | Path, out: str | Path, config: ScoreConfig | None = No
         "files": {}, "decoded": {}, "cameras": {},
     }
 
+    kept = KeptDecodings(config.cache_mb * 2**20 // 4)
+
     def fill(tmp: Path) -> None:
-        (tmp / "regions").mkdir()
-        (tmp / "flows").mkdir()
-        (tmp / "frames").mkdir()
-        for p in pairing.pairs:  # a video file once, not once per frame
-            rel = _rel(p.gt, gt_dir).split("#")[0]
-            if rel not in manifest["files"]:
-                digest = manifest["files"][rel] = file_digest(p.gt.path)
-                stored = None if p.gt.index is not None else _save_decoded(p.gt.path, digest,
-                                                                           tmp / "frames")
-                if stored is not None:  # an 8-bit image (videos, 16-bit, float: decoded as usual)
-                    manifest["decoded"][rel] = stored
-        for i, (cam, pairs) in enumerate(cams.items()):
-            progress.set_note(f"camera {cam}")
-            manifest["cameras"][cam] = _prepare_camera(i, cam, pairs, plan, executor, gt_dir, tmp,
-                                                       progress)
-        manifest["hashes"] = folder_digests(tmp)  # every prepared file, checked when read
+        for sub in ("regions", "flows", "frames"):
+            (tmp / sub).mkdir()
+        with FolderWriter(tmp) as writer:  # files written and hashed beside the work
+            for p in pairing.pairs:  # a video file once, not once per frame
+                rel = _rel(p.gt, gt_dir).split("#")[0]
+                if rel not in manifest["files"]:
+                    digest = manifest["files"][rel] = file_digest(p.gt.path)
+                    stored = None if p.gt.index is not None else _save_decoded(
+                        p.gt.path, digest, writer, kept)
+                    if stored is not None:  # 8-bit (videos, 16-bit, float: decoded as usual)
+                        manifest["decoded"][rel] = stored
+            for i, (cam, pairs) in enumerate(cams.items()):
+                progress.set_note(f"camera {cam}")
+                manifest["cameras"][cam] = _prepare_camera(i, cam, pairs, plan, executor, gt_dir,
+                                                           writer, progress)
+                kept.drop(p.gt.path for p in pairs)  # the camera's frames are read
+            written = writer.finish()
+        manifest["hashes"] = folder_digests(tmp, written)  # every prepared file, checked when read
         manifest["id"] = manifest_id(manifest)
         (tmp / MANIFEST).write_text(json.dumps(manifest, indent=1) + "\n", encoding="utf-8")
 
-    executor = Executor(config.workers, cache_mb=config.cache_mb)  # one camera at a time
+    executor = Executor(config.workers, cache_mb=config.cache_mb,  # one camera at a time
+                        decoded=kept.get)
     completed = False
     try:
         with worker_opencv_threads(config.workers):
@@ -172,35 +190,71 @@ def prepare(gt_dir: str | Path, out: str | Path, config: ScoreConfig | None = No
     return manifest
 
 
-def _save_decoded(path: Path, digest: str, folder: Path) -> str | None:
+def _save_decoded(path: Path, digest: str, writer: FolderWriter,
+                  kept: KeptDecodings) -> str | None:
     """An 8-bit image file's decoding (``dynaeval.io.images.decode_file``: uint8, as OpenCV
-    returns it) as ``folder/<digest>.npy``, so that scoring skips its decoding; its path relative
-    to the prepared folder, or None for files of other depths (16-bit, float, EXR) or stored
-    as RGB arrays (``.npy.gz``)."""
+    returns it) as ``frames/<digest>.npy`` (``writer``), so that scoring skips its decoding; its
+    path relative to the prepared folder, or None for files of other depths (16-bit, float,
+    EXR) or stored as RGB arrays (``.npy.gz``). The decoding is also ``kept`` for the regions
+    and flows of this run, which read the file through it (``read_image``'s ``decoded``, as a
+    prepared run does) instead of decoding it a second time."""
     image, kind = decode_file(path)
     if kind in STORED_RGB or image.dtype != np.uint8:
         return None
-    target = folder / f"{digest}.npy"
-    if not target.exists():  # files of equal content share one
-        np.save(target, image)
-    return f"{folder.name}/{target.name}"
+    rel = f"frames/{digest}.npy"
+    if rel not in writer:  # files of equal content share one
+        writer.save(rel, image)
+    kept.add(path, image)
+    return rel
+
+
+class KeptDecodings:
+    """The ground-truth decodings ``prepare`` made, by file, for its own reads of them (the
+    executor's ``decoded``): up to ``max_bytes`` (uint8, a quarter of the float32 frames the
+    frame cache keeps), a camera's dropped once it is done; a file not kept is decoded again.
+    Thread-safe."""
+
+    def __init__(self, max_bytes: int) -> None:
+        self.max_bytes = max_bytes
+        self.bytes = 0
+        self._images: dict[Path, np.ndarray] = {}
+        self._lock = threading.Lock()
+
+    def add(self, path: Path, image: np.ndarray) -> None:
+        """Keep ``image``, the decoding of ``path``, if it fits."""
+        with self._lock:
+            if path not in self._images and self.bytes + image.nbytes <= self.max_bytes:
+                self._images[path] = image
+                self.bytes += image.nbytes
+
+    def get(self, path: Path) -> np.ndarray | None:
+        """The kept decoding of ``path``, or None."""
+        with self._lock:
+            return self._images.get(path)
+
+    def drop(self, paths: Iterable[Path]) -> None:
+        """Forget the decodings of ``paths``."""
+        with self._lock:
+            for path in paths:
+                image = self._images.pop(path, None)
+                self.bytes -= 0 if image is None else image.nbytes
 
 
 def _prepare_camera(i: int, cam: str, pairs: list[FramePair], plan: RunPlan, executor: Executor,
-                    gt_dir: Path, tmp: Path, progress: Any) -> dict[str, Any]:
-    """Camera ``cam``'s manifest entry; its regions and flows written under ``tmp``."""
+                    gt_dir: Path, writer: FolderWriter, progress: Any) -> dict[str, Any]:
+    """Camera ``cam``'s manifest entry; its regions and flows written by ``writer``."""
     cache = executor.frame_cache()
     regions = camera_regions_of(cam, pairs, plan, executor, cache)
     progress.advance("regions", len(pairs))
     entry: dict[str, Any] = {"frames": [[p.frame, _rel(p.gt, gt_dir)] for p in pairs],
                              "regions": None, "flows": None, "static_std": None}
     if regions and regions[0].not_video is None:  # no video: computed again when scored
-        entry["regions"] = _save_regions(regions, tmp / "regions" / f"{i}.npz")
+        entry["regions"] = _save_regions(regions, f"regions/{i}.npz", writer)
         if plan.config.temporal:
-            entry["flows"] = _save_flows(pairs, plan, executor, cache, tmp / "flows", progress)
+            entry["flows"] = _save_flows(pairs, plan, executor, cache, writer, progress)
             if entry["flows"] is not None:  # a sequence the temporal pass scores
                 entry["static_std"] = _save_static_std(pairs, regions, plan, cache,
-                                                       tmp / "static_std" / f"{i}.npy")
+                                                       f"static_std/{i}.npy", writer)
     if plan.config.temporal:
         progress.advance("pairs", max(len(pairs) - 1, 0) - len(entry["flows"] or ()))
     return entry
@@ -209,8 +263,8 @@ def _prepare_camera(i: int, cam: str, pairs: list[FramePair], plan: RunPlan, exe
 _FIELDS = ("boxes", "raw_boxes", "mask")
 
 
-def _save_regions(regions: list[FrameRegions], path: Path) -> dict[str, Any]:
-    """Write the arrays of a camera's regions to ``path`` (npz, masks bit-packed as
+def _save_regions(regions: list[FrameRegions], rel: str, writer: FolderWriter) -> dict[str, Any]:
+    """Write the arrays of a camera's regions as ``rel`` (npz, masks bit-packed as
     ``FrameRegions`` holds them); returns the JSON part (reasons, records, sizes, the camera's
     motion check)."""
     arrays: dict[str, np.ndarray] = {}
@@ -226,15 +280,15 @@ def _save_regions(regions: list[FrameRegions], path: Path) -> dict[str, Any]:
                        "mask_status": r.mask_status and r.mask_status.value,
                        "records": r.records, "size": r.size,
                        "mask_shape": None if packed is None else list(packed.shape)})
-    np.savez_compressed(path, **arrays)
-    return {"file": f"regions/{path.name}", "frames": _jsonable(frames),
+    writer.write(rel, lambda path: np.savez_compressed(path, **arrays))
+    return {"file": rel, "frames": _jsonable(frames),
             "camera_motion": _jsonable(regions[0].camera_motion)}
 
 
 def _save_flows(pairs: list[FramePair], plan: RunPlan, executor: Executor, cache: Any,
-                folder: Path, progress: Any) -> list[list[str]] | None:
+                writer: FolderWriter, progress: Any) -> list[list[str]] | None:
     """The ground-truth flows of every consecutive pair (forward, backward) as
-    ``folder/<key>.npy``; their keys, or None when the camera has no temporal terms."""
+    ``flows/<key>.npy``; their keys, or None when the camera has no temporal terms."""
     if len(pairs) < 2 or not consecutive(pairs):
         return None
     first = plan.read_gt(pairs[0], cache)
@@ -243,23 +297,48 @@ def _save_flows(pairs: list[FramePair], plan: RunPlan, executor: Executor, cache
     except UndefinedMetricError:
         return None
     flow_cfg = FlowConfig(method=plan.config.flow)
-
-    def gray(k: int) -> Any:
-        g = as_image(plan.read_gt(pairs[k], cache))
-        return frame_prep(g, g)
+    gray = _GrayFrames(lambda k: as_image(plan.read_gt(pairs[k], cache)), len(pairs))
 
     def pair(k: int) -> list[str]:
-        a, b = gray(k), gray(k + 1)
+        (ga, da), (gb, db) = gray.take(k), gray.take(k + 1)
         keys = []
-        for x, y in ((a, b), (b, a)):
-            key = FlowCache.key(x.gray_gt, y.gray_gt, flow_cfg, (x.digests[1], y.digests[1]))
-            np.save(folder / f"{key}.npy", _flow_from_gray(x.gray_gt, y.gray_gt, flow_cfg))
+        for x, y, digests in ((ga, gb, (da, db)), (gb, ga, (db, da))):
+            key = FlowCache.key(x, y, flow_cfg, digests)
+            writer.save(f"flows/{key}.npy", _flow_from_gray(x, y, flow_cfg))
             keys.append(key)
         progress.advance("pairs")
         return keys
 
     ks = range(len(pairs) - 1)
     return executor.map(pair, ks)
+
+
+class _GrayFrames:
+    """The flow estimators' gray frames of a camera (``gray_of_checked`` and its
+    ``gray_digest``, as a scoring run's ``FramePrep`` holds them), each made once: frame ``k`` is
+    in pairs ``k - 1`` and ``k``, and kept until both took it. Thread-safe (two threads asking
+    for one frame at once may both make it; the values agree)."""
+
+    def __init__(self, load: Any, n: int) -> None:
+        self._load = load
+        self._uses = {k: (1 if k in (0, n - 1) else 2) for k in range(n)}
+        self._kept: dict[int, tuple[np.ndarray, bytes]] = {}
+        self._lock = threading.Lock()
+
+    def take(self, k: int) -> tuple[np.ndarray, bytes]:
+        """Frame ``k``'s ``(H, W)`` uint8 gray and its digest, for one of its pairs."""
+        with self._lock:
+            got = self._kept.get(k)
+        if got is None:
+            g = gray_of_checked(self._load(k))
+            got = (g, gray_digest(g))
+        with self._lock:
+            self._uses[k] -= 1
+            if self._uses[k] > 0:
+                self._kept.setdefault(k, got)
+            else:
+                self._kept.pop(k, None)
+        return got
 
 
 def static_digest(static: np.ndarray) -> str:
@@ -273,9 +352,9 @@ def static_digest(static: np.ndarray) -> str:
 
 
 def _save_static_std(pairs: list[FramePair], regions: list[FrameRegions], plan: RunPlan,
-                     cache: Any, path: Path) -> dict[str, str] | None:
+                     cache: Any, rel: str, writer: FolderWriter) -> dict[str, str] | None:
     """The ground truth's temporal std on the camera's static pixels (``(N, C)`` float64, what
-    the flicker terms accumulate of it: ``SequenceFlicker``) as ``path``; its entry (path
+    the flicker terms accumulate of it: ``SequenceFlicker``) as ``rel``; its entry (path
     relative to the folder, digest of the static mask it follows), or None when the camera has
     no static pixels to follow."""
     static = static_pixels(regions, plan.focus)
@@ -292,9 +371,9 @@ def _save_static_std(pairs: list[FramePair], regions: list[FrameRegions], plan: 
         elif frame.shape != shape:  # frames of several sizes: the temporal terms are null
             return None
         acc.update(frame)
-    path.parent.mkdir(exist_ok=True)
-    np.save(path, acc.std())
-    return {"file": f"{path.parent.name}/{path.name}", "static": static_digest(static)}
+    (writer.root / rel).parent.mkdir(exist_ok=True)
+    writer.save(rel, acc.std())
+    return {"file": rel, "static": static_digest(static)}
 
 
 # --------------------------------------------------------------------------------------------

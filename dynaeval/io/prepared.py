@@ -15,10 +15,13 @@ import os
 import shutil
 import tempfile
 import threading
+from collections import deque
 from collections.abc import Callable
 from concurrent.futures import Future
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from dynaeval.errors import InputError
 from dynaeval.io.atomic import _UMASK, parent_folders, write_failure
@@ -118,12 +121,138 @@ def _fill_and_rename(out: Path, fill: Callable[[Path], None], overwrite: bool, w
 PREPARE_AGAIN = "prepare it again: dynaeval prepare GT -o PREP --overwrite"
 
 
-def folder_digests(folder: str | Path) -> dict[str, str]:
+def folder_digests(folder: str | Path, known: dict[str, str] | None = None) -> dict[str, str]:
     """``file_digest`` of every file under ``folder`` but the manifest, by its path relative to
-    ``folder`` (``/``-separated): what ``PreparedFiles`` checks them against."""
-    folder = Path(folder)
-    return {p.relative_to(folder).as_posix(): file_digest(p) for p in sorted(folder.rglob("*"))
-            if p.is_file() and p.name != MANIFEST}
+    ``folder`` (``/``-separated): what ``PreparedFiles`` checks them against. ``known``: digests
+    of files by that path, taken as they were written (``FolderWriter.finish``), not read again."""
+    folder, known = Path(folder), known or {}
+    rels = (p.relative_to(folder).as_posix() for p in sorted(folder.rglob("*"))
+            if p.is_file() and p.name != MANIFEST)
+    return {rel: known[rel] if rel in known else file_digest(folder / rel) for rel in rels}
+
+
+WRITE_AHEAD_BYTES = 256 * 2**20
+"""Bytes of arrays a ``FolderWriter`` holds queued before ``save`` waits for the disk."""
+
+
+def saved_digest(path: Path, array: np.ndarray) -> str:
+    """``numpy.save`` of ``array`` as ``path`` and the file's ``file_digest``, from the bytes
+    written: the header read back and the array's memory (what ``tofile`` wrote), not a second
+    pass over the file. An array whose bytes are not its memory in C order (Fortran-ordered,
+    objects) is hashed from the file."""
+    with open(path, "wb") as f:
+        np.save(f, array)
+        size = f.tell()
+    if not array.flags.c_contiguous or array.dtype.hasobject or size < array.nbytes:
+        return file_digest(path)
+    h = hashlib.blake2b(digest_size=20)
+    with open(path, "rb") as f:
+        h.update(f.read(size - array.nbytes))
+    h.update(array.reshape(-1).view(np.uint8))
+    return h.hexdigest()
+
+
+class FolderWriter:
+    """Writes the files of a folder being built in one background thread, in the order given,
+    with the digest of each (``file_digest``) taken as it is written: writing and hashing
+    release the GIL, so they overlap the caller's work instead of adding to it.
+
+    A failed write (a full disk, a read-only place) is raised in the caller's thread, the same
+    exception, by the next ``save``/``write`` or by ``finish``; nothing is written after it.
+    Used as a context manager: leaving the block by an exception (an interrupt) drops what is
+    queued and waits for the file being written, so that the caller can remove the folder
+    knowing nothing writes into it any more.
+    """
+
+    def __init__(self, root: str | Path, max_pending: int = WRITE_AHEAD_BYTES) -> None:
+        self.root = Path(root)
+        self.digests: dict[str, str] = {}
+        self._max = max_pending
+        self._jobs: deque[tuple[str, int, Callable[[Path], str]]] = deque()
+        self._names: set[str] = set()
+        self._pending = 0
+        self._error: BaseException | None = None
+        self._closed = False
+        self._cv = threading.Condition()
+        self._thread = threading.Thread(target=self._run, name="dynaeval-prepared-writer",
+                                        daemon=True)
+        self._thread.start()
+
+    def __contains__(self, rel: str) -> bool:
+        """Whether ``rel`` was queued (or written)."""
+        with self._cv:
+            return rel in self._names
+
+    def save(self, rel: str, array: np.ndarray) -> None:
+        """``numpy.save`` of ``array`` as ``root/rel``, queued: ``array`` must not change after."""
+        self._put(rel, array.nbytes, lambda path: saved_digest(path, array))
+
+    def write(self, rel: str, write: Callable[[Path], None]) -> None:
+        """``write(root/rel)``, queued (a small file: its digest is read from it)."""
+        self._put(rel, 0, lambda path: (write(path), file_digest(path))[1])
+
+    def _put(self, rel: str, nbytes: int, job: Callable[[Path], str]) -> None:
+        with self._cv:
+            while self._error is None and self._pending and self._pending + nbytes > self._max:
+                self._cv.wait()
+            if self._error is not None:
+                raise self._error
+            self._jobs.append((rel, nbytes, job))
+            self._names.add(rel)
+            self._pending += nbytes
+            self._cv.notify_all()
+
+    def _run(self) -> None:
+        while True:
+            with self._cv:
+                while not self._jobs and not self._closed:
+                    self._cv.wait()
+                if not self._jobs:
+                    return
+                rel, nbytes, job = self._jobs.popleft()
+            try:
+                digest = job(self.root / rel)
+            except BaseException as err:  # raised in the caller's thread
+                with self._cv:
+                    self._error = err
+                    self._jobs.clear()
+                    self._cv.notify_all()
+                return
+            with self._cv:
+                self.digests[rel] = digest
+                self._pending -= nbytes
+                self._cv.notify_all()
+
+    def finish(self) -> dict[str, str]:
+        """Wait until every queued file is written; their digests by path.
+
+        Raises:
+            The first failed write's exception (``OSError``: a full disk, a read-only place).
+        """
+        with self._cv:
+            self._closed = True
+            self._cv.notify_all()
+        self._thread.join()
+        if self._error is not None:
+            raise self._error
+        return dict(self.digests)
+
+    def __enter__(self) -> FolderWriter:
+        return self
+
+    def __exit__(self, kind: type | None, *_: Any) -> None:
+        if kind is None:
+            self.finish()
+            return
+        with self._cv:  # an error or an interrupt: write nothing more
+            self._jobs.clear()
+            self._closed = True
+            self._cv.notify_all()
+        while self._thread.is_alive():  # the file being written is finished before we go on
+            try:
+                self._thread.join()
+            except KeyboardInterrupt:  # a second Ctrl-C: still wait for that one file
+                continue
 
 
 class PreparedFiles:
@@ -198,8 +327,6 @@ class PreparedFiles:
     def load(self, rel: str, *, mmap: bool = False) -> Any:
         """``numpy.load`` of the checked file ``rel`` (memory-mapped, read-only, with ``mmap``;
         an ``.npz`` as its ``NpzFile``)."""
-        import numpy as np
-
         path = self.path(rel)
         try:
             return np.load(path, mmap_mode="r" if mmap else None)

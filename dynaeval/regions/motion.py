@@ -161,15 +161,22 @@ taken band by band of rows, each band reading its frames again (through the call
 cache), so the memory of the median does not grow with the frames it uses."""
 
 
+MEDIAN_BAND_BYTES = 8 * 2**20
+"""When the frames fit ``MEDIAN_MAX_BYTES``, they are read once and their rows copied into stacks
+of at most this many bytes (in the CPU's cache) for the median kernel."""
+
+
 def temporal_median(frames: Sequence, max_frames: int = 64, executor: Executor | None = None,
                     max_bytes: int = MEDIAN_MAX_BYTES) -> np.ndarray:
     """Per-pixel median ``(H, W, C)`` float32 over at most ``max_frames`` evenly spaced frames.
 
-    Exact (``np.median`` over all frames, mean of the two middle values for even counts) when
-    ``len(frames) <= max_frames``. Each pixel's median is its own, so it is taken band by band of
-    rows (the same values): bands of at most ``max_bytes`` of stacked rows, each reading the
-    frames again (a lazy sequence loads them once per band), and with ``executor`` (threads)
-    the frames read and the band's median taken in parts on it.
+    Exact (``np.median`` over all frames, mean of the two middle values for even counts, bit for
+    bit: ``dynaeval.regions.motion_kernels``) when ``len(frames) <= max_frames``. Each pixel's
+    median is its own, so it is taken band by band of rows (the same values): when the frames
+    fit ``max_bytes`` they are read once and their rows stacked a small band at a time; else in
+    bands of at most ``max_bytes`` of stacked rows, each reading the frames again (a lazy
+    sequence loads them once per band). With ``executor`` (threads) the frames are read and the
+    bands' medians taken on it.
     """
     seq = _as_sequence(frames)
     n = len(seq)
@@ -180,25 +187,48 @@ def temporal_median(frames: Sequence, max_frames: int = 64, executor: Executor |
     height = first.shape[0]
     row_bytes = len(idx) * first[0].nbytes
     rows = int(min(height, max(1, max_bytes // row_bytes)))
-    stack = np.empty((len(idx), rows, *first.shape[1:]), dtype=np.float32)
     out = np.empty(first.shape, np.float32)
     run = executor.map if executor is not None else map
+
+    def load(k: int) -> np.ndarray:
+        return first if k == 0 else _frame(seq[int(idx[k])], int(idx[k]), first.shape)
+
+    if rows == height:  # every frame in memory at once: read once, no frame-sized stack
+        loaded = list(run(load, range(len(idx))))
+        step = int(max(1, MEDIAN_BAND_BYTES // row_bytes))
+
+        def small(r0: int) -> None:
+            part = np.empty((len(idx), min(step, height - r0), *first.shape[1:]), np.float32)
+            for k, frame in enumerate(loaded):
+                part[k] = frame[r0 : r0 + part.shape[1]]
+            _median_rows(part, out[r0 : r0 + part.shape[1]])
+
+        list(run(small, range(0, height, step)))
+        return out
+    stack = np.empty((len(idx), rows, *first.shape[1:]), dtype=np.float32)
     for r0 in range(0, height, rows):
         part = stack[:, : min(rows, height - r0)]
 
         def put(k: int, r0: int = r0, part: np.ndarray = part) -> None:
-            frame = first if k == 0 else _frame(seq[int(idx[k])], int(idx[k]), first.shape)
-            part[k] = frame[r0 : r0 + part.shape[1]]
+            part[k] = load(k)[r0 : r0 + part.shape[1]]
 
         list(run(put, range(len(idx))))
         step = part.shape[1] if executor is None else max(1, -(-part.shape[1] // 16))
 
         def band(b0: int, r0: int = r0, part: np.ndarray = part, step: int = step) -> None:
-            out[r0 + b0 : r0 + b0 + step] = np.median(part[:, b0 : b0 + step], axis=0,
-                                                      overwrite_input=True)
+            _median_rows(part[:, b0 : b0 + step], out[r0 + b0 : r0 + b0 + step])
 
         list(run(band, range(0, part.shape[1], step)))
     return out
+
+
+def _median_rows(part: np.ndarray, dest: np.ndarray) -> None:
+    """``dest[...] = np.median(part, axis=0)`` (bit for bit) of a float32 stack ``(n, rows, W,
+    C)``, each of its ``n`` rows contiguous, into ``dest``: rows of the C-contiguous median."""
+    from dynaeval.regions.motion_kernels import median_network, median_of_stack
+
+    median_of_stack(part.reshape(part.shape[0], -1), dest.reshape(-1),
+                    median_network(part.shape[0]))
 
 
 def isg_weight(frame: np.ndarray, median: np.ndarray, gamma: float = 2e-2) -> np.ndarray:

@@ -380,3 +380,66 @@ def test_every_prepared_file_is_in_the_manifest(prepared_motion):
     assert set(_kinds(prepared_motion)) and all(
         p.relative_to(prepared_motion).as_posix() in manifest["hashes"]
         for p in _kinds(prepared_motion).values())
+
+
+def test_prepare_decodes_each_ground_truth_image_once(tmp_path, prepared_motion, monkeypatch):
+    """The decoding that is saved is the one the regions and flows read (issue 33: each file
+    was decoded twice); the prepared folder is the same, byte for byte."""
+    from dynaeval import prepare as module
+    from dynaeval.io import images
+
+    decoded = []
+    real = images.decode_file
+    counted = lambda path: decoded.append(Path(path)) or real(path)  # noqa: E731
+    monkeypatch.setattr(images, "decode_file", counted)  # read_image's
+    monkeypatch.setattr(module, "decode_file", counted)  # prepare's own
+    prepare(SAMPLE / "gt", tmp_path / "p", focus=FocusConfig(source="motion"), progress=False)
+    assert len(decoded) == len(set(decoded)) == 16
+    files = sorted(p.relative_to(prepared_motion) for p in prepared_motion.rglob("*"))
+    assert files == sorted(p.relative_to(tmp_path / "p") for p in (tmp_path / "p").rglob("*"))
+    for rel in files:
+        if (prepared_motion / rel).is_file():
+            assert (prepared_motion / rel).read_bytes() == (tmp_path / "p" / rel).read_bytes(), rel
+
+
+@pytest.mark.parametrize("after", [3, 20, 40])
+def test_a_disk_that_fills_during_prepare_leaves_nothing(tmp_path, monkeypatch, capsys, after):
+    """The prepared files are written in a background thread: a full disk at the first frame,
+    among the flows or at the last of them is the same exit 2 ("no space left"), with nothing
+    left behind."""
+    import errno
+    import os
+
+    calls = {"n": 0}
+    real = np.save
+
+    def save(*args, **kwargs):
+        calls["n"] += 1
+        if calls["n"] > after:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(np, "save", save)
+    out = tmp_path / "out" / "prep"
+    code = main(["prepare", str(SAMPLE / "gt"), "-o", str(out), "--focus", "motion", "-q"])
+    err = capsys.readouterr().err
+    assert code == 2 and "no space left on the device" in err and "nothing was written" in err
+    assert "Traceback" not in err and calls["n"] == after + 1
+    assert not (tmp_path / "out").exists()
+
+
+def test_an_interrupt_during_prepare_leaves_nothing_while_files_are_written(tmp_path,
+                                                                             monkeypatch):
+    from dynaeval import prepare as module
+
+    real = module._save_static_std
+
+    def interrupted(*a, **k):
+        real(*a, **k)  # its file queued behind the camera's flows
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(module, "_save_static_std", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        prepare(SAMPLE / "gt", tmp_path / "prep", focus=FocusConfig(source="motion"),
+                progress=False)
+    assert list(tmp_path.iterdir()) == []

@@ -88,3 +88,25 @@ def test_a_panning_camera_is_flagged_per_camera_and_the_sample_is_not(tmp_path):
     assert not any("static camera" in w["reason"] for w in sample["warnings"])
     for cam in sample["regions"]["cameras"].values():
         assert cam["global_motion_px"] < 0.05 and cam["mask_fraction"]["mean"] < 0.05
+
+
+@pytest.mark.parametrize("shape", [(1080, 1920, 3), (7, 5, 3), (1, 1, 3), (40, 30, 4), (3, 100, 3)])
+def test_grey_mean_is_numpys_channel_mean_bit_for_bit(shape):
+    """``_mean3`` (two whole-frame adds) is ``f[..., :3].mean(axis=2)`` (issue 33: 30 ms a 1080p
+    frame as numpy reduced it), on values of very different sizes (the order of the adds shows)."""
+    from dynaeval.regions.static_camera import _mean3
+
+    rng = np.random.default_rng(sum(shape))
+    f = rng.random(shape, dtype=np.float32) * rng.choice([1, 1e-3, 1e3], size=shape).astype(np.float32)
+    want = f[..., :3].mean(axis=2)
+    np.testing.assert_array_equal(_mean3(f).view(np.int32), want.view(np.int32))
+
+
+def test_camera_motion_loads_each_frame_once_and_equals_the_pairs_median():
+    """A frame in two consecutive pairs is loaded and turned grey once; the value is the median
+    of ``global_motion`` over the pairs, as it was."""
+    frames = _pan(1.5, n=7)
+    loads = []
+    got = camera_motion(lambda i: loads.append(i) or frames[i], len(frames))
+    assert sorted(loads) == list(range(7))
+    assert got == float(np.median([global_motion(frames[i], frames[i + 1]) for i in range(6)]))
