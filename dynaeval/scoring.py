@@ -107,7 +107,8 @@ def _score_frame(pair: FramePair, regions: FrameRegions, plan: RunPlan, cache: F
     row: dict[str, Any] = {"camera": pair.camera, "frame": pair.frame, "index": pair.index,
                            "pred": str(pair.pred), "gt": str(pair.gt)}
     work = FrameWork(pair, pred, gt, regions, row, elapsed)
-    with values_known_in(1.0):  # read by dynaeval.io.images: in [0, 1], no range pass per metric
+    with values_known_in(1.0, finite=True):  # read by dynaeval.io.images: in [0, 1] and finite,
+        # no range or NaN/Inf pass per metric
         values = [v for stage in stages for v in stage.frame(plan, work)]
     warnings: list[dict] = []
     for name, got in values:

@@ -7,10 +7,10 @@ together), with the work each of them repeats done once.
 * per pair, once: the sample grid of the backward flow (visibility, warping the prediction and
   warping the ground truth share it), the visibility mask and the flat indices of the kept
   pixels (whole frame; focus region), each frame difference ``cur - warp(prev)``;
-* per term: a gather of the kept values by index into per-thread buffers (``np.take`` instead of
-  a boolean mask re-evaluated per call) and the float64 mean of their squares, taken on an array
-  of the very shape and order ``warping_error`` reduces, so numpy's pairwise sum gives the same
-  bits.
+* per term: one compiled gather of the kept values' float64 squares by index into a per-thread
+  buffer (instead of a boolean mask re-evaluated per call) and their float64 mean, taken on an
+  array of the very shape and order ``warping_error`` reduces, so numpy's pairwise sum gives the
+  same bits.
 
 Frames: ``(H, W, C)`` or ``(H, W)`` float32 in ``[0, 1]``, already checked (``as_image``).
 """
@@ -62,12 +62,12 @@ def pair_flows(prev: FramePrep, cur: FramePrep, cache: FlowCache,
 _BUFFERS = threading.local()
 
 
-def _buffers(n: int) -> tuple[np.ndarray, np.ndarray]:
-    """This thread's float32 and float64 buffers of at least ``n`` values (kept between pairs:
-    fresh 25-50 MB arrays per term are page-faulted in again every time)."""
+def _buffer(n: int) -> np.ndarray:
+    """This thread's float64 buffer of at least ``n`` values (kept between pairs: a fresh
+    50 MB array per term is page-faulted in again every time)."""
     got = getattr(_BUFFERS, "pair", None)
-    if got is None or got[0].size < n:
-        got = _BUFFERS.pair = (np.empty(n, np.float32), np.empty(n, np.float64))
+    if got is None or got.size < n:
+        got = _BUFFERS.pair = np.empty(n, np.float64)
     return got
 
 
@@ -76,18 +76,18 @@ def kept_mse(diff: np.ndarray, keep: np.ndarray) -> float | None:
     ``keep`` is empty. ``diff``: ``(H, W, C)`` or ``(H, W)`` float32; ``keep``: flat pixel
     indices (``np.flatnonzero`` of the mask), in increasing order.
 
-    Equals ``(diff[mask].astype(np.float64) ** 2).mean()`` bit for bit: the same values, in the
-    same order, reduced as an array of the same shape.
+    Equals ``(diff[mask].astype(np.float64) ** 2).mean()`` bit for bit: the same squares (one
+    compiled gather, ``gather_kernels.squares_at``), in the same order, reduced as an array of
+    the same shape.
     """
+    from dynaeval.metrics.gather_kernels import squares_at
+
     if keep.size == 0:
         return None
     c = 1 if diff.ndim == 2 else diff.shape[2]
-    b32, b64 = _buffers(keep.size * c)
-    rows = diff.reshape(-1, c) if diff.ndim == 3 else diff.reshape(-1)
-    shape = (keep.size, c) if diff.ndim == 3 else (keep.size,)
-    got = np.take(rows, keep, axis=0, out=b32[: keep.size * c].reshape(shape))
-    sq = np.square(got, out=b64[: keep.size * c].reshape(shape), dtype=np.float64)
-    return float(sq.mean())
+    sq = _buffer(keep.size * c)[: keep.size * c]
+    squares_at(diff.reshape(-1, c), keep, sq.reshape(keep.size, c))
+    return float((sq.reshape(keep.size, c) if diff.ndim == 3 else sq).mean())
 
 
 def warp_errors(prev: np.ndarray, cur: np.ndarray, xs: np.ndarray, ys: np.ndarray,
