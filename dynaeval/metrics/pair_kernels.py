@@ -6,11 +6,11 @@ together), with the work each of them repeats done once.
   cache's key (the frame itself was checked once by the engine);
 * per pair, once: the sample grid of the backward flow (visibility, warping the prediction and
   warping the ground truth share it), the visibility mask and the flat indices of the kept
-  pixels (whole frame; focus region), each frame difference ``cur - warp(prev)``;
-* per term: one compiled gather of the kept values' float64 squares by index into a per-thread
-  buffer (instead of a boolean mask re-evaluated per call) and their float64 mean, taken on an
-  array of the very shape and order ``warping_error`` reduces, so numpy's pairwise sum gives the
-  same bits.
+  pixels (whole frame; focus region), each frame's warp ``warp(prev)``;
+* per term: one compiled gather of the kept differences' (``cur - warp(prev)``) float64
+  squares by index into a per-thread buffer (instead of a boolean mask re-evaluated per call)
+  and their float64 mean, taken on an array of the very shape and order ``warping_error``
+  reduces, so numpy's pairwise sum gives the same bits.
 
 Frames: ``(H, W, C)`` or ``(H, W)`` float32 in ``[0, 1]``, already checked (``as_image``).
 """
@@ -71,32 +71,33 @@ def _buffer(n: int) -> np.ndarray:
     return got
 
 
-def kept_mse(diff: np.ndarray, keep: np.ndarray) -> float | None:
-    """Mean of ``diff ** 2`` (in float64) over the pixels ``keep`` and every channel; None when
-    ``keep`` is empty. ``diff``: ``(H, W, C)`` or ``(H, W)`` float32; ``keep``: flat pixel
-    indices (``np.flatnonzero`` of the mask), in increasing order.
+def kept_mse(cur: np.ndarray, warped: np.ndarray, keep: np.ndarray) -> float | None:
+    """Mean of ``(cur - warped) ** 2`` (difference in float32, square and mean in float64) over
+    the pixels ``keep`` and every channel; None when ``keep`` is empty. ``cur``, ``warped``:
+    ``(H, W, C)`` or ``(H, W)`` float32 of one shape; ``keep``: flat pixel indices
+    (``np.flatnonzero`` of the mask), in increasing order.
 
-    Equals ``(diff[mask].astype(np.float64) ** 2).mean()`` bit for bit: the same squares (one
-    compiled gather, ``gather_kernels.squares_at``), in the same order, reduced as an array of
-    the same shape.
+    Equals ``((cur - warped)[mask].astype(np.float64) ** 2).mean()`` bit for bit: the same
+    squares (one compiled gather, ``gather_kernels.squared_differences_at``), in the same order,
+    reduced as an array of the same shape.
     """
-    from dynaeval.metrics.gather_kernels import squares_at
+    from dynaeval.metrics.gather_kernels import squared_differences_at
 
     if keep.size == 0:
         return None
-    c = 1 if diff.ndim == 2 else diff.shape[2]
+    c = 1 if cur.ndim == 2 else cur.shape[2]
     sq = _buffer(keep.size * c)[: keep.size * c]
-    squares_at(diff.reshape(-1, c), keep, sq.reshape(keep.size, c))
-    return float((sq.reshape(keep.size, c) if diff.ndim == 3 else sq).mean())
+    squared_differences_at(cur.reshape(-1, c), warped.reshape(-1, c), keep, sq.reshape(keep.size, c))
+    return float((sq.reshape(keep.size, c) if cur.ndim == 3 else sq).mean())
 
 
 def warp_errors(prev: np.ndarray, cur: np.ndarray, xs: np.ndarray, ys: np.ndarray,
                 keeps: list[np.ndarray]) -> list[float | None]:
     """``warping_error(prev, cur, bw, valid, region)`` for each kept set of ``keeps`` (flat
-    indices), the warp of ``prev`` done once on ``bw``'s sample grid ``(xs, ys)``."""
-    diff = warp_on_grid(prev, xs, ys)
-    np.subtract(cur, diff, out=diff)  # cur - warp(prev, bw), in the warp's fresh array
-    return [kept_mse(diff, k) for k in keeps]
+    indices), the warp of ``prev`` done once on ``bw``'s sample grid ``(xs, ys)``, the difference
+    ``cur - warp(prev, bw)`` taken at the kept pixels only."""
+    warped = warp_on_grid(prev, xs, ys)
+    return [kept_mse(cur, warped, k) for k in keeps]
 
 
 def tof_terms(fp: np.ndarray, fw: np.ndarray, region: np.ndarray | None) -> tuple[float, float | None]:
@@ -111,5 +112,6 @@ def tof_terms(fp: np.ndarray, fw: np.ndarray, region: np.ndarray | None) -> tupl
     whole = float(epe.mean())
     if region is None:
         return whole, None
-    idx = np.flatnonzero(region)
-    return whole, (float(np.take(epe.reshape(-1), idx).mean()) if idx.size else None)
+    # np.compress: the values of epe[region] in their order, without their indices
+    kept = np.compress(region.reshape(-1), epe.reshape(-1))
+    return whole, (float(kept.mean()) if kept.size else None)
