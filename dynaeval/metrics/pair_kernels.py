@@ -22,15 +22,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from dynaeval.metrics.flow import (
-    BAND_ROWS,
-    FlowCache,
-    FlowConfig,
-    gray_digest,
-    gray_of_checked,
-    sq_sum,
-    warp_on_grid,
-)
+from dynaeval.metrics.flow import FlowCache, FlowConfig, gray_digest, gray_of_checked, warp_on_grid
 
 
 class FramePrep(NamedTuple):
@@ -101,14 +93,14 @@ def warp_errors(prev: np.ndarray, cur: np.ndarray, xs: np.ndarray, ys: np.ndarra
 
 
 def tof_terms(fp: np.ndarray, fw: np.ndarray, region: np.ndarray | None) -> tuple[float, float | None]:
-    """``(tof(fp, fw), tof(fp, fw, region))`` bit for bit, the endpoint map computed once; the
-    focused value None when ``region`` is None or empty."""
-    # epe = np.sqrt(np.sum((fp.astype(np.float64) - fw) ** 2, axis=-1)), band by band of rows
+    """``(tof(fp, fw), tof(fp, fw, region))`` bit for bit, the endpoint map computed once (one
+    compiled loop, ``flow_kernels.endpoint_error``: ``np.sqrt(np.sum((fp.astype(np.float64) -
+    fw) ** 2, axis=-1))``'s operations); the focused value None when ``region`` is None or
+    empty."""
+    from dynaeval.metrics.flow_kernels import endpoint_error
+
     epe = np.empty(fp.shape[:2], np.float64)
-    for r0 in range(0, epe.shape[0], BAND_ROWS):
-        b = slice(r0, r0 + BAND_ROWS)
-        d = np.subtract(fp[b], fw[b], dtype=np.float64)
-        np.sqrt(sq_sum(d[..., 0], d[..., 1]), out=epe[b])
+    endpoint_error(fp, fw, epe)
     whole = float(epe.mean())
     if region is None:
         return whole, None
