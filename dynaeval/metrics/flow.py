@@ -111,6 +111,8 @@ def to_gray_u8(image: np.ndarray) -> np.ndarray:
 def gray_of_checked(arr: np.ndarray) -> np.ndarray:
     """:func:`to_gray_u8` of a frame already checked by ``as_image`` (float32, ``(H, W[, C])``):
     the conversion without the check, for frames validated once upstream."""
+    from dynaeval.metrics.flow_kernels import gray_u8
+
     if arr.ndim == 3:
         if arr.shape[2] == 1:
             arr = arr[..., 0]
@@ -118,7 +120,11 @@ def gray_of_checked(arr: np.ndarray) -> np.ndarray:
             arr = arr[..., :3] @ _LUMA
         else:
             raise InputError(f"image must have 1, 3 or 4 channels, got {arr.shape[2]}")
-    return np.clip(np.rint(arr * 255.0), 0, 255).astype(np.uint8)
+    if arr.dtype != np.float32:  # float64 (the luma of float64 frames): numpy's steps
+        return np.clip(np.rint(arr * 255.0), 0, 255).astype(np.uint8)
+    out = np.empty(arr.shape, np.uint8)
+    gray_u8(arr, out)  # np.clip(np.rint(arr * 255.0), 0, 255).astype(np.uint8) in one loop
+    return out
 
 
 MIN_FLOW_SIZE = 16

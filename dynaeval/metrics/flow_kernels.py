@@ -71,3 +71,21 @@ def endpoint_error(fp: np.ndarray, fw: np.ndarray, out: np.ndarray) -> None:
             d0 = np.float64(fp[i, j, 0]) - np.float64(fw[i, j, 0])
             d1 = np.float64(fp[i, j, 1]) - np.float64(fw[i, j, 1])
             out[i, j] = np.sqrt(d0 * d0 + d1 * d1)
+
+
+@compiled
+def gray_u8(luma: np.ndarray, out: np.ndarray) -> None:
+    """``out = clip(rint(luma * 255), 0, 255)`` as uint8 (``luma`` float32 ``(H, W)``, the
+    product in float32, ties to even as ``np.rint``)."""
+    h, w = out.shape
+    scale = np.float32(255.0)
+    lo = np.float32(0.0)
+    hi = np.float32(255.0)
+    for i in range(h):
+        for j in range(w):
+            v = np.rint(luma[i, j] * scale)
+            if v < lo:
+                v = lo
+            elif v > hi:
+                v = hi
+            out[i, j] = np.uint8(v)

@@ -55,3 +55,16 @@ def test_tof_terms_equal_the_numpy_endpoint_error_bit_for_bit(rng, scale):
     region = rng.random((67, 131)) > 0.5
     for reg in (region, None, np.zeros_like(region)):
         assert tof_terms(fp, fw, reg) == _numpy_tof(fp, fw, reg)
+
+
+@pytest.mark.parametrize("shape", [(45, 77, 3), (45, 77, 1), (45, 77), (20, 30, 4)])
+def test_the_gray_image_equals_the_numpy_steps(rng, shape):
+    from dynaeval.metrics.flow import _LUMA, gray_of_checked
+
+    frame = rng.random(shape, dtype=np.float32)
+    frame.flat[::7] = (rng.integers(0, 255, frame.size)[::7] + 0.5) / np.float32(255.0)  # ties
+    frame.flat[::11] = rng.choice([-0.3, 0.0, 1.0, 1.4], frame.size)[::11]  # clipped, edges
+    luma = frame if frame.ndim == 2 else frame[..., 0] if shape[2] == 1 else frame[..., :3] @ _LUMA
+    want = np.clip(np.rint(luma * 255.0), 0, 255).astype(np.uint8)
+    got = gray_of_checked(frame)
+    assert got.dtype == np.uint8 and np.array_equal(got, want)
