@@ -374,3 +374,40 @@ def test_a_non_finite_float_prediction_is_exit_2_naming_the_file(tmp_path, capsy
     err = capsys.readouterr().err
     assert f"0001{ext}" in err and "NaN or Inf" in err
     assert not (tmp_path / "r.json").exists()
+
+
+def test_without_workers_the_next_frames_are_read_ahead_on_a_thread(tmp_path, monkeypatch):
+    """Issue 33: with one worker, frame i + 1 is read (decoded) on a thread of its own while
+    frame i is scored; the numbers are those of reading in turn, and with worker threads
+    nothing is read ahead (the pool overlaps the frames already)."""
+    import threading
+
+    import dynaeval.plan as plan_mod
+
+    rng = np.random.default_rng(4)
+    base = textured_frame(rng, 48, 64)
+    _write(tmp_path, [np.roll(base, 2 * t, axis=1) for t in range(4)])
+    threads = []
+    real = plan_mod.RunPlan.read_pair
+    monkeypatch.setattr(plan_mod.RunPlan, "read_pair", lambda self, *a: threads.append(
+        threading.current_thread().name) or real(self, *a))
+    before = threading.active_count()
+    one = _score(tmp_path, metrics=("psnr", "ssim"), focus=FocusConfig(source="motion"))
+    ahead = [t for t in threads if t.startswith("dynaeval-read")]
+    assert len(ahead) == 4 and threading.active_count() == before  # every frame; thread gone
+    threads.clear()
+    two = _score(tmp_path, metrics=("psnr", "ssim"), focus=FocusConfig(source="motion"),
+                 workers=2)
+    assert not [t for t in threads if t.startswith("dynaeval-read")]
+    assert [f["ssim"] for f in one["frames"]] == [f["ssim"] for f in two["frames"]]
+    assert one["cameras"] == two["cameras"]
+
+
+def test_a_broken_frame_read_ahead_is_refused_at_its_own_frame(tmp_path):
+    rng = np.random.default_rng(5)
+    base = textured_frame(rng, 48, 64)
+    _write(tmp_path, [np.roll(base, 2 * t, axis=1) for t in range(4)])
+    bad = tmp_path / "pred" / "0002.png"
+    bad.write_bytes(bad.read_bytes()[:200])  # truncated
+    with pytest.raises(InputError, match="0002.png"):
+        _score(tmp_path, metrics=("psnr",), focus=FocusConfig(source="none"))
