@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any
 
@@ -82,13 +83,14 @@ def _summary_of(regions: list[FrameRegions], plan: RunPlan) -> dict[str, Any] | 
 
 def score_frame(pair: FramePair, regions: FrameRegions, plan: RunPlan, cache: FrameCache,
                 executor: Executor, stages: Sequence[Stage] | None = None,
-                ) -> tuple[dict[str, Any], list[dict]]:
+                frames: Future | None = None) -> tuple[dict[str, Any], list[dict]]:
     """The results row of one frame (its values from the frame ``stages``, default the plan's;
-    inf kept, None for undefined) and its warnings. An InputError that names no file is raised
-    again naming the pair's files."""
+    inf kept, None for undefined) and its warnings; ``frames``: the pair's ``plan.read_pair``
+    read beforehand (``ReadAhead``), its error raised here. An InputError that names no file is
+    raised again naming the pair's files."""
     try:
         return _score_frame(pair, regions, plan, cache, executor,
-                            active_stages(plan) if stages is None else stages)
+                            active_stages(plan) if stages is None else stages, frames)
     except InputError as err:
         if err.path is not None:
             raise
@@ -97,9 +99,10 @@ def score_frame(pair: FramePair, regions: FrameRegions, plan: RunPlan, cache: Fr
 
 
 def _score_frame(pair: FramePair, regions: FrameRegions, plan: RunPlan, cache: FrameCache,
-                 executor: Executor, stages: Sequence[Stage]) -> tuple[dict[str, Any], list[dict]]:
+                 executor: Executor, stages: Sequence[Stage],
+                 frames: Future | None = None) -> tuple[dict[str, Any], list[dict]]:
     t0 = time.perf_counter()
-    pred, gt = plan.read_pair(pair, cache)
+    pred, gt = plan.read_pair(pair, cache) if frames is None else frames.result()
     elapsed = {"read": time.perf_counter() - t0}
     regions = fit_to(regions, gt.shape[:2], plan.focus)
     if plan.masks is not None and plan.protocol.uses_masks():
@@ -107,7 +110,8 @@ def _score_frame(pair: FramePair, regions: FrameRegions, plan: RunPlan, cache: F
     row: dict[str, Any] = {"camera": pair.camera, "frame": pair.frame, "index": pair.index,
                            "pred": str(pair.pred), "gt": str(pair.gt)}
     work = FrameWork(pair, pred, gt, regions, row, elapsed)
-    with values_known_in(1.0):  # read by dynaeval.io.images: in [0, 1], no range pass per metric
+    with values_known_in(1.0, finite=True):  # read by dynaeval.io.images: in [0, 1] and finite,
+        # no range or NaN/Inf pass per metric
         values = [v for stage in stages for v in stage.frame(plan, work)]
     warnings: list[dict] = []
     for name, got in values:
@@ -120,6 +124,35 @@ def _score_frame(pair: FramePair, regions: FrameRegions, plan: RunPlan, cache: F
         row[name] = value
     executor.add_time(elapsed)
     return row, warnings
+
+
+class ReadAhead:
+    """The frames of a camera's pairs read one pair ahead on a thread of their own, for a run
+    without worker threads: decoding the prediction of frame i + 1 (and reading its ground
+    truth) overlaps the metrics of frame i, which keep one core busy. Only the order of the
+    work changes (the same ``plan.read_pair``, whose frames the cache keeps as before), so no
+    number does; a read's error is raised at its own frame. ``close`` waits for the read in
+    flight."""
+
+    def __init__(self, plan: RunPlan, cache: FrameCache, pairs: list[FramePair]) -> None:
+        self._plan, self._cache, self._pairs = plan, cache, pairs
+        self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="dynaeval-read")
+        self._ahead: dict[int, Future] = {}
+        self._submit(0)
+
+    def _submit(self, i: int) -> None:
+        if i < len(self._pairs) and i not in self._ahead:
+            self._ahead[i] = self._pool.submit(self._plan.read_pair, self._pairs[i], self._cache)
+
+    def take(self, i: int) -> Future:
+        """The read of pair ``i`` (started now if it was not), the read of ``i + 1`` started."""
+        self._submit(i)
+        fut = self._ahead.pop(i)
+        self._submit(i + 1)
+        return fut
+
+    def close(self) -> None:
+        self._pool.shutdown(wait=True, cancel_futures=True)
 
 
 # --------------------------------------------------------------------------------------------
@@ -149,14 +182,21 @@ def score_camera(camera: str, pairs: list[FramePair], plan: RunPlan, executor: E
     if on_regions is not None:
         on_regions(camera, pairs, regions)
     stages = active_stages(plan)
+    ahead = ReadAhead(plan, cache, pairs) if executor.pool is None and len(pairs) > 1 else None
 
-    def work(item: tuple[FramePair, FrameRegions]) -> tuple[dict[str, Any], list[dict]]:
-        out = score_frame(item[0], item[1], plan, cache, executor, stages)
+    def work(item: tuple[int, FramePair, FrameRegions]) -> tuple[dict[str, Any], list[dict]]:
+        frames = None if ahead is None else ahead.take(item[0])
+        out = score_frame(item[1], item[2], plan, cache, executor, stages, frames)
         if on_frame is not None:
             on_frame()
         return out
 
-    outputs = executor.map(work, list(zip(pairs, regions, strict=True)))
+    try:
+        outputs = executor.map(work, [(i, p, r) for i, (p, r) in
+                                      enumerate(zip(pairs, regions, strict=True))])
+    finally:
+        if ahead is not None:
+            ahead.close()
     rows = [row for row, _ in outputs]
     warnings = [w for _, ws in outputs for w in ws]
     cam = CameraWork(camera, pairs, regions, cache, executor,

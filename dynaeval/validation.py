@@ -144,7 +144,7 @@ def as_image(
         finite = False  # the range check's min/max saw every value: no NaN/Inf is left
     if arr.dtype != np.float32 and not (keep_float64 and arr.dtype == np.float64):
         arr = arr.astype(np.float32)
-    if finite:
+    if finite and not known_finite():
         check_finite_image(arr, name, path)
     if check_range and to_unit:
         check_unit_range(arr, name, path)
@@ -230,7 +230,7 @@ def check_pair(
             f"pred and gt must have the same shape, got pred {p.shape} and gt {g.shape}; "
             "render the prediction at the ground truth's resolution"
         )
-    if finite and data_range is None:  # else the range check saw NaN/Inf
+    if finite and data_range is None and not known_finite():  # else seen by the range check
         check_finite(p, g)
     return p, g
 
@@ -292,23 +292,32 @@ _KNOWN = threading.local()
 
 
 @contextmanager
-def values_known_in(hi: float) -> Iterator[None]:
+def values_known_in(hi: float, *, finite: bool = False) -> Iterator[None]:
     """Within this block (this thread), images are known to hold values in ``[0, hi]``: frames
     read by ``dynaeval.io.images`` (hi = 1), a batch ``ImageMetrics`` checked. ``check_pair``
-    then skips its range pass for every ``data_range >= hi`` (the NaN/Inf check stays): the
-    check is made once where the values come in, not by every metric of every frame."""
-    before = getattr(_KNOWN, "hi", None)
-    _KNOWN.hi = float(hi)
+    then skips its range pass for every ``data_range >= hi``; the NaN/Inf check stays unless
+    ``finite``: the images are also known to be finite (frames read by ``dynaeval.io.images``:
+    decoded from integer pixels, or float files it refused NaN/Inf in; the prepared ground truth
+    is such a frame, its bytes hash-verified), and ``check_pair`` and ``as_image`` skip that
+    pass too. The checks are made once where the values come in, not by every metric of every
+    frame."""
+    before = getattr(_KNOWN, "hi", None), getattr(_KNOWN, "finite", False)
+    _KNOWN.hi, _KNOWN.finite = float(hi), bool(finite)
     try:
         yield
     finally:
-        _KNOWN.hi = before
+        _KNOWN.hi, _KNOWN.finite = before
 
 
 def known_in_range(data_range: float) -> bool:
     """True inside ``values_known_in(hi)`` with ``hi <= data_range``."""
     hi = getattr(_KNOWN, "hi", None)
     return hi is not None and hi <= check_data_range(data_range)
+
+
+def known_finite() -> bool:
+    """True inside ``values_known_in(hi, finite=True)``: this thread's images hold no NaN/Inf."""
+    return getattr(_KNOWN, "finite", False)
 
 
 def check_finite(p: np.ndarray, g: np.ndarray) -> None:

@@ -111,6 +111,8 @@ def to_gray_u8(image: np.ndarray) -> np.ndarray:
 def gray_of_checked(arr: np.ndarray) -> np.ndarray:
     """:func:`to_gray_u8` of a frame already checked by ``as_image`` (float32, ``(H, W[, C])``):
     the conversion without the check, for frames validated once upstream."""
+    from dynaeval.metrics.flow_kernels import gray_u8
+
     if arr.ndim == 3:
         if arr.shape[2] == 1:
             arr = arr[..., 0]
@@ -118,7 +120,11 @@ def gray_of_checked(arr: np.ndarray) -> np.ndarray:
             arr = arr[..., :3] @ _LUMA
         else:
             raise InputError(f"image must have 1, 3 or 4 channels, got {arr.shape[2]}")
-    return np.clip(np.rint(arr * 255.0), 0, 255).astype(np.uint8)
+    if arr.dtype != np.float32:  # float64 (the luma of float64 frames): numpy's steps
+        return np.clip(np.rint(arr * 255.0), 0, 255).astype(np.uint8)
+    out = np.empty(arr.shape, np.uint8)
+    gray_u8(arr, out)  # np.clip(np.rint(arr * 255.0), 0, 255).astype(np.uint8) in one loop
+    return out
 
 
 MIN_FLOW_SIZE = 16
@@ -397,10 +403,25 @@ def visibility(flow_ts: np.ndarray, flow_st: np.ndarray) -> tuple[np.ndarray, np
     """``(valid, xs, ys)``: :func:`valid_warp_mask` of two checked flows and the sample grid of
     ``flow_ts`` it was found with (:func:`warp_on_grid` reuses it to warp frame ``s`` onto ``t``).
 
-    The test is evaluated on the flows' ``dx`` and ``dy`` planes, band by band of rows (the
-    temporaries stay in the cache), with the same float32 operations in the same order as
-    ``np.sum(v ** 2, axis=-1)``: the same bits.
+    The grid, the in-frame test and the forward-backward test are single compiled loops
+    (``flow_kernels``) with the float32 operations of ``_sample_grid``, ``_in_frame`` and
+    ``np.sum(v ** 2, axis=-1)`` in their order: the same bits (tested against
+    :func:`visibility_reference`).
     """
+    from dynaeval.metrics.flow_kernels import consistent, sample_grid
+
+    h, w = flow_ts.shape[:2]
+    xs, ys = np.empty((h, w), np.float32), np.empty((h, w), np.float32)
+    valid = np.empty((h, w), bool)
+    sample_grid(flow_ts, xs, ys, valid)
+    consistent(flow_ts, warp_on_grid(flow_st, xs, ys), valid)
+    return valid, xs, ys
+
+
+def visibility_reference(flow_ts: np.ndarray,
+                         flow_st: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`visibility` in numpy steps, band by band of rows (what it was before its compiled
+    loops; the test holds them together)."""
     xs, ys = _sample_grid(flow_ts)
     g = warp_on_grid(flow_st, xs, ys)
     valid = _in_frame(xs, ys)
@@ -418,7 +439,7 @@ def visibility(flow_ts: np.ndarray, flow_st: np.ndarray) -> tuple[np.ndarray, np
 
 
 BAND_ROWS = 64
-"""Rows per band of the plane-wise flow arithmetic (:func:`visibility`)."""
+"""Rows per band of the plane-wise flow arithmetic (:func:`visibility_reference`)."""
 
 
 def sq_sum(x: np.ndarray, y: np.ndarray) -> np.ndarray:

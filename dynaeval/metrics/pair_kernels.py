@@ -6,11 +6,11 @@ together), with the work each of them repeats done once.
   cache's key (the frame itself was checked once by the engine);
 * per pair, once: the sample grid of the backward flow (visibility, warping the prediction and
   warping the ground truth share it), the visibility mask and the flat indices of the kept
-  pixels (whole frame; focus region), each frame difference ``cur - warp(prev)``;
-* per term: a gather of the kept values by index into per-thread buffers (``np.take`` instead of
-  a boolean mask re-evaluated per call) and the float64 mean of their squares, taken on an array
-  of the very shape and order ``warping_error`` reduces, so numpy's pairwise sum gives the same
-  bits.
+  pixels (whole frame; focus region), each frame's warp ``warp(prev)``;
+* per term: one compiled gather of the kept differences' (``cur - warp(prev)``) float64
+  squares by index into a per-thread buffer (instead of a boolean mask re-evaluated per call)
+  and their float64 mean, taken on an array of the very shape and order ``warping_error``
+  reduces, so numpy's pairwise sum gives the same bits.
 
 Frames: ``(H, W, C)`` or ``(H, W)`` float32 in ``[0, 1]``, already checked (``as_image``).
 """
@@ -22,15 +22,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from dynaeval.metrics.flow import (
-    BAND_ROWS,
-    FlowCache,
-    FlowConfig,
-    gray_digest,
-    gray_of_checked,
-    sq_sum,
-    warp_on_grid,
-)
+from dynaeval.metrics.flow import FlowCache, FlowConfig, gray_digest, gray_of_checked, warp_on_grid
 
 
 class FramePrep(NamedTuple):
@@ -62,54 +54,56 @@ def pair_flows(prev: FramePrep, cur: FramePrep, cache: FlowCache,
 _BUFFERS = threading.local()
 
 
-def _buffers(n: int) -> tuple[np.ndarray, np.ndarray]:
-    """This thread's float32 and float64 buffers of at least ``n`` values (kept between pairs:
-    fresh 25-50 MB arrays per term are page-faulted in again every time)."""
+def _buffer(n: int) -> np.ndarray:
+    """This thread's float64 buffer of at least ``n`` values (kept between pairs: a fresh
+    50 MB array per term is page-faulted in again every time)."""
     got = getattr(_BUFFERS, "pair", None)
-    if got is None or got[0].size < n:
-        got = _BUFFERS.pair = (np.empty(n, np.float32), np.empty(n, np.float64))
+    if got is None or got.size < n:
+        got = _BUFFERS.pair = np.empty(n, np.float64)
     return got
 
 
-def kept_mse(diff: np.ndarray, keep: np.ndarray) -> float | None:
-    """Mean of ``diff ** 2`` (in float64) over the pixels ``keep`` and every channel; None when
-    ``keep`` is empty. ``diff``: ``(H, W, C)`` or ``(H, W)`` float32; ``keep``: flat pixel
-    indices (``np.flatnonzero`` of the mask), in increasing order.
+def kept_mse(cur: np.ndarray, warped: np.ndarray, keep: np.ndarray) -> float | None:
+    """Mean of ``(cur - warped) ** 2`` (difference in float32, square and mean in float64) over
+    the pixels ``keep`` and every channel; None when ``keep`` is empty. ``cur``, ``warped``:
+    ``(H, W, C)`` or ``(H, W)`` float32 of one shape; ``keep``: flat pixel indices
+    (``np.flatnonzero`` of the mask), in increasing order.
 
-    Equals ``(diff[mask].astype(np.float64) ** 2).mean()`` bit for bit: the same values, in the
-    same order, reduced as an array of the same shape.
+    Equals ``((cur - warped)[mask].astype(np.float64) ** 2).mean()`` bit for bit: the same
+    squares (one compiled gather, ``gather_kernels.squared_differences_at``), in the same order,
+    reduced as an array of the same shape.
     """
+    from dynaeval.metrics.gather_kernels import squared_differences_at
+
     if keep.size == 0:
         return None
-    c = 1 if diff.ndim == 2 else diff.shape[2]
-    b32, b64 = _buffers(keep.size * c)
-    rows = diff.reshape(-1, c) if diff.ndim == 3 else diff.reshape(-1)
-    shape = (keep.size, c) if diff.ndim == 3 else (keep.size,)
-    got = np.take(rows, keep, axis=0, out=b32[: keep.size * c].reshape(shape))
-    sq = np.square(got, out=b64[: keep.size * c].reshape(shape), dtype=np.float64)
-    return float(sq.mean())
+    c = 1 if cur.ndim == 2 else cur.shape[2]
+    sq = _buffer(keep.size * c)[: keep.size * c]
+    squared_differences_at(cur.reshape(-1, c), warped.reshape(-1, c), keep, sq.reshape(keep.size, c))
+    return float((sq.reshape(keep.size, c) if cur.ndim == 3 else sq).mean())
 
 
 def warp_errors(prev: np.ndarray, cur: np.ndarray, xs: np.ndarray, ys: np.ndarray,
                 keeps: list[np.ndarray]) -> list[float | None]:
     """``warping_error(prev, cur, bw, valid, region)`` for each kept set of ``keeps`` (flat
-    indices), the warp of ``prev`` done once on ``bw``'s sample grid ``(xs, ys)``."""
-    diff = warp_on_grid(prev, xs, ys)
-    np.subtract(cur, diff, out=diff)  # cur - warp(prev, bw), in the warp's fresh array
-    return [kept_mse(diff, k) for k in keeps]
+    indices), the warp of ``prev`` done once on ``bw``'s sample grid ``(xs, ys)``, the difference
+    ``cur - warp(prev, bw)`` taken at the kept pixels only."""
+    warped = warp_on_grid(prev, xs, ys)
+    return [kept_mse(cur, warped, k) for k in keeps]
 
 
 def tof_terms(fp: np.ndarray, fw: np.ndarray, region: np.ndarray | None) -> tuple[float, float | None]:
-    """``(tof(fp, fw), tof(fp, fw, region))`` bit for bit, the endpoint map computed once; the
-    focused value None when ``region`` is None or empty."""
-    # epe = np.sqrt(np.sum((fp.astype(np.float64) - fw) ** 2, axis=-1)), band by band of rows
+    """``(tof(fp, fw), tof(fp, fw, region))`` bit for bit, the endpoint map computed once (one
+    compiled loop, ``flow_kernels.endpoint_error``: ``np.sqrt(np.sum((fp.astype(np.float64) -
+    fw) ** 2, axis=-1))``'s operations); the focused value None when ``region`` is None or
+    empty."""
+    from dynaeval.metrics.flow_kernels import endpoint_error
+
     epe = np.empty(fp.shape[:2], np.float64)
-    for r0 in range(0, epe.shape[0], BAND_ROWS):
-        b = slice(r0, r0 + BAND_ROWS)
-        d = np.subtract(fp[b], fw[b], dtype=np.float64)
-        np.sqrt(sq_sum(d[..., 0], d[..., 1]), out=epe[b])
+    endpoint_error(fp, fw, epe)
     whole = float(epe.mean())
     if region is None:
         return whole, None
-    idx = np.flatnonzero(region)
-    return whole, (float(np.take(epe.reshape(-1), idx).mean()) if idx.size else None)
+    # np.compress: the values of epe[region] in their order, without their indices
+    kept = np.compress(region.reshape(-1), epe.reshape(-1))
+    return whole, (float(kept.mean()) if kept.size else None)

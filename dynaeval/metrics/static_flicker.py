@@ -36,6 +36,7 @@ class TemporalStd:
         self._mean: np.ndarray | None = None
         self._m2: np.ndarray | None = None
         self._tail: tuple[int, ...] = ()  # the frames' channel axis, () for (H, W) frames
+        self._std: np.ndarray | None = None  # std() of the frames so far, until the next update
 
     def update(self, frame: np.ndarray) -> None:
         from dynaeval.metrics.flicker_kernels import welford_update
@@ -51,16 +52,23 @@ class TemporalStd:
             self._mean = np.zeros((self._index.size, rows.shape[1]), np.float64)
             self._m2 = np.zeros_like(self._mean)
         self.count += 1
+        self._std = None
         welford_update(rows, self._index, self._mean, self._m2, np.float64(self.count))
 
     def std(self) -> np.ndarray:
+        """The ``(N, C)`` (``(N,)`` for ``(H, W)`` frames) float64 population std of the frames
+        so far; read-only, computed once per frame count (the whole-frame and the focused
+        flicker read the same)."""
         from dynaeval.metrics.flicker_kernels import population_std
 
         if self.count == 0 or self._m2 is None:
             raise InputError("temporal std needs at least one frame")
-        out = np.empty_like(self._m2)
-        population_std(self._m2, np.float64(self.count), out)
-        return out.reshape(self._index.size, *self._tail)
+        if self._std is None:
+            out = np.empty_like(self._m2)
+            population_std(self._m2, np.float64(self.count), out)
+            out.setflags(write=False)
+            self._std = out.reshape(self._index.size, *self._tail)
+        return self._std
 
 
 def check_static(static_mask: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
@@ -111,7 +119,8 @@ class SequenceFlicker:
         std_pred, std_gt = self.pred.std(), self.gt_std()
         if region is not None:
             sel = keep[self.pixels]  # the followed pixels, in the accumulators' order
-            std_pred, std_gt = std_pred[sel], std_gt[sel]
+            # np.compress: the values of std[sel], in their order, ~4x faster than the mask index
+            std_pred, std_gt = np.compress(sel, std_pred, axis=0), np.compress(sel, std_gt, axis=0)
         vp, vg = float(std_pred.mean()), float(std_gt.mean())
         return {"value": abs(vp - vg), "signed": vp - vg, "pred": vp, "gt": vg}
 

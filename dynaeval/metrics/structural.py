@@ -23,7 +23,9 @@ from __future__ import annotations
 
 import math
 import threading
-from typing import Any
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -115,8 +117,7 @@ def _tiles(width: int, channels: int) -> list[tuple[int, int]]:
     may overlap the one before it (it is written after it; overlapping columns are the same
     values). A row narrower than ``SIMD_SPAN`` values is one tile.
     """
-    span = SIMD_SPAN // math.gcd(SIMD_SPAN, channels)  # pixels per SIMD-clean step
-    span *= -(-WIN_SIZE // span)  # a tile holds at least one window
+    span = _simd_span(channels)
     if width < span:
         return [(0, width)]
     size = min(max(1, TILE_VALUES // channels // span) * span, width // span * span)
@@ -126,6 +127,13 @@ def _tiles(width: int, channels: int) -> list[tuple[int, int]]:
         start += size - 2 * RADIUS
     last = min(size, -(-(width - start) // span) * span)  # covers [start, width)
     return tiles + [(width - last, width)]
+
+
+def _simd_span(channels: int) -> int:
+    """Pixels of the narrowest SIMD-clean tile: a whole number of ``SIMD_SPAN`` values that holds
+    at least one window."""
+    span = SIMD_SPAN // math.gcd(SIMD_SPAN, channels)  # pixels per SIMD-clean step
+    return span * -(-WIN_SIZE // span)
 
 
 _WORKSPACES = threading.local()
@@ -227,20 +235,30 @@ def _run_bands(p: np.ndarray, g: np.ndarray, data_range: float, threads: int, pe
         return [v for part in pool.map(run, chunks) for v in part]
 
 
-def _channel_sum(p: np.ndarray, g: np.ndarray, data_range: float, threads: int = 1) -> tuple[float, int]:
-    """(float64 sum of the per-channel SSIM of every valid window, number of terms)."""
-    import cv2
-
+def _channel_sum(p: np.ndarray, g: np.ndarray, data_range: float, threads: int = 1,
+                 keep: np.ndarray | None = None) -> tuple[float, int]:
+    """(float64 sum of the per-channel SSIM of every valid window, number of terms); ``keep``:
+    an (H - 2r, W * C) float32 array that receives the bands' window values (``_Workspace.q``
+    rows, border columns included)."""
     h, w = p.shape[:2]
     c = 1 if p.ndim == 2 else p.shape[2]
     lo, hi = RADIUS * c, (w - RADIUS) * c
 
     def band_sums(r0: int, r1: int, q: np.ndarray) -> list[float]:
-        # OpenCV accumulates float32 sums in float64; one partial sum per SUM_ROWS rows
-        return [cv2.sumElems(q[s : s + SUM_ROWS, lo:hi])[0] for s in range(0, r1 - r0, SUM_ROWS)]
+        if keep is not None:
+            keep[r0:r1] = q
+        return _block_sums(q, r1 - r0, lo, hi)
 
     sums = [v for part in _run_bands(p, g, data_range, threads, band_sums) for v in part]
     return float(np.sum(sums, dtype=np.float64)), (h - 2 * RADIUS) * (w - 2 * RADIUS) * c
+
+
+def _block_sums(q: np.ndarray, rows: int, lo: int, hi: int) -> list[float]:
+    """The float64 partial sums of ``q[:rows, lo:hi]`` (window values, float32), one per
+    ``SUM_ROWS`` rows (OpenCV accumulates float32 sums in float64, a row at a time)."""
+    import cv2
+
+    return [cv2.sumElems(q[s : min(s + SUM_ROWS, rows), lo:hi])[0] for s in range(0, rows, SUM_ROWS)]
 
 
 def _channel_mean(p: np.ndarray, g: np.ndarray, data_range: float, threads: int = 1) -> float:
@@ -288,6 +306,69 @@ def ssim_map(pred: object, gt: object, *, data_range: float = 1.0, threads: int 
     return _valid_map(p, g, check_data_range(data_range), threads)
 
 
+class _WholeMap(NamedTuple):
+    """The window values of one whole-image SSIM (``reusing_whole_map``)."""
+
+    pred: np.ndarray
+    gt: np.ndarray
+    data_range: float
+    q: np.ndarray
+    """(H - 2r, W * C) float32: row i, value j is the SSIM of channel ``j % C`` of the window
+    centred at pixel ``(i + r, j // C)`` (valid for r <= j // C < W - r)."""
+
+
+_WHOLE = threading.local()
+
+
+@contextmanager
+def reusing_whole_map() -> Iterator[None]:
+    """Within this block (this thread), the whole-image ``ssim`` of a pair keeps its window
+    values, and ``ssim`` of the very same two arrays (the same objects, values unchanged) over
+    boxes (crop mode) or a mask reads a region's windows from them instead of filtering its
+    crop again. Same bits: a window's value depends on its own 11x11 pixels alone, whatever
+    tile or crop it is computed in (``_tiles``: SIMD-clean widths; a crop narrower than one
+    SIMD-clean tile is still computed on its own), and the sums are taken over the same rows in
+    the same blocks. For the frame metrics of one frame (``stages.frame_metrics``)."""
+    before = getattr(_WHOLE, "on", False), getattr(_WHOLE, "last", None)
+    _WHOLE.on, _WHOLE.last = True, None
+    try:
+        yield
+    finally:
+        _WHOLE.on, _WHOLE.last = before
+
+
+def _whole_mean(p: np.ndarray, g: np.ndarray, data_range: float, threads: int) -> float:
+    """``_channel_mean`` of the whole image, its window values kept inside ``reusing_whole_map``."""
+    if not getattr(_WHOLE, "on", False):
+        return _channel_mean(p, g, data_range, threads)
+    h, w = p.shape[:2]
+    c = 1 if p.ndim == 2 else p.shape[2]
+    q = np.empty((h - 2 * RADIUS, w * c), np.float32)
+    total, count = _channel_sum(p, g, data_range, threads, keep=q)
+    _WHOLE.last = _WholeMap(p, g, data_range, q)
+    return total / count
+
+
+def _kept_map(p: np.ndarray, g: np.ndarray, data_range: float, width: int) -> np.ndarray | None:
+    """The kept window values of the whole-image SSIM of ``p`` and ``g`` (these very arrays, at
+    this ``data_range``) for a crop ``width`` pixels wide; None when there are none or the crop
+    is narrower than one SIMD-clean tile."""
+    last = getattr(_WHOLE, "last", None)
+    c = 1 if p.ndim == 2 else p.shape[2]
+    if (last is None or last.pred is not p or last.gt is not g or last.data_range != data_range
+            or width < _simd_span(c)):
+        return None
+    return last.q
+
+
+def _crop_mean_from(q: np.ndarray, x0: int, y0: int, x1: int, y1: int, c: int) -> float:
+    """``_channel_mean`` of the crop ``[y0:y1, x0:x1]`` from the whole image's window values."""
+    r = RADIUS
+    rows = y1 - y0 - 2 * r
+    total = float(np.sum(_block_sums(q[y0:], rows, (x0 + r) * c, (x1 - r) * c), dtype=np.float64))
+    return total / (rows * (x1 - x0 - 2 * r) * c)
+
+
 def _map_mean_over(p: np.ndarray, g: np.ndarray, m: np.ndarray, data_range: float) -> float:
     """Mean of the SSIM map over the region pixels whose window fits in the image."""
     h, w = m.shape
@@ -303,19 +384,27 @@ def _map_mean_over(p: np.ndarray, g: np.ndarray, m: np.ndarray, data_range: floa
             f"the region lies entirely within {r} px of the image border, where no SSIM window "
             "fits: masked SSIM is undefined for this frame"
         )
-    maps = _channel_maps(p[y0:y1, x0:x1], g[y0:y1, x0:x1], data_range)
+    q = _kept_map(p, g, data_range, x1 - x0)
+    if q is None:
+        maps = _channel_maps(p[y0:y1, x0:x1], g[y0:y1, x0:x1], data_range)
+    else:  # the same windows of the whole image, in the same layout
+        maps = q.reshape(q.shape[0], w, -1)[y0 : y1 - 2 * r, x0 + r : x1 - r].reshape(
+            y1 - y0 - 2 * r, x1 - x0 - 2 * r, *p.shape[2:])
     return float(maps[sub].mean(dtype=np.float64))
 
 
 def _crop_mean(p: np.ndarray, g: np.ndarray, boxes: object, data_range: float) -> float:
     """Box-area-weighted mean of the SSIM of each box's crop (boxes grown to >= 11x11)."""
     h, w = p.shape[:2]
+    c = 1 if p.ndim == 2 else p.shape[2]
     total = 0.0
     weight = 0
     for box in clipped_boxes(boxes, h, w):
         area = int((box[2] - box[0]) * (box[3] - box[1]))
         x0, y0, x1, y1 = grow_box(box, WIN_SIZE, WIN_SIZE, h, w)
-        total += area * _channel_mean(p[y0:y1, x0:x1], g[y0:y1, x0:x1], data_range)
+        q = _kept_map(p, g, data_range, x1 - x0)
+        total += area * (_channel_mean(p[y0:y1, x0:x1], g[y0:y1, x0:x1], data_range) if q is None
+                         else _crop_mean_from(q, x0, y0, x1, y1, c))
         weight += area
     return total / weight
 
@@ -371,7 +460,7 @@ def ssim(
         raise InputError("region_mode='crop' needs boxes; a mask is scored with region_mode='map'")
     m = region_mask(mask, boxes, h, w)
     if m is None:
-        return _channel_mean(p, g, data_range, threads)
+        return _whole_mean(p, g, data_range, threads)
     if boxes is not None and region_mode in (None, "crop"):
         return _crop_mean(p, g, boxes, data_range)
     return _map_mean_over(p, g, m, data_range)

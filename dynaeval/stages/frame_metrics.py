@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING
 
 from dynaeval.errors import EmptyRegionError, InputError, UndefinedMetricError
 from dynaeval.metrics.registry import region_argument
+from dynaeval.metrics.structural import reusing_whole_map
 from dynaeval.outcome import Outcome, Status
 from dynaeval.stages.base import FrameWork, Stage, Value
 
@@ -27,7 +28,12 @@ class FrameMetrics(Stage):
         return list(plan.fns)
 
     def frame(self, plan: RunPlan, work: FrameWork) -> list[Value]:
-        """``(key, Outcome)`` of every per-frame metric of one frame."""
+        """``(key, Outcome)`` of every per-frame metric of one frame (SSIM over the regions reads
+        the whole frame's window values: ``structural.reusing_whole_map``)."""
+        with reusing_whole_map():
+            return self._values(plan, work)
+
+    def _values(self, plan: RunPlan, work: FrameWork) -> list[Value]:
         pair, pred, gt, regions, elapsed = work.pair, work.pred, work.gt, work.regions, work.elapsed
         values: list[Value] = []
         for name, (region, fn) in plan.fns.items():

@@ -20,6 +20,7 @@ from dynaeval.outcome import Status
 from dynaeval.regions.focus import FocusConfig, FrameRegions, FramesDiffer, same_shape
 from dynaeval.regions.packed import union
 from dynaeval.stages.base import CameraWork, Stage
+from dynaeval.validation import values_known_in
 
 if TYPE_CHECKING:
     from dynaeval.plan import RunPlan
@@ -117,20 +118,21 @@ def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], plan
     small = _small_for_tlp(plan, *shape[:2])
     tcfg = plan.temporal if "lpips" in plan.fns and small is None else replace(plan.temporal, tlp=False)
     gt_of = same_shape(lambda i: plan.read_gt(pairs[i], cache), shape)
-    out = temporal_metrics(
-        (plan.read_pair(p, cache)[0] for p in pairs),
-        (gt_of(i) for i in range(len(pairs))),
-        static_mask=static,
-        region_masks=region_masks,
-        config=tcfg,
-        flow_cache=prepared.flow_cache() if prepared is not None else None,
-        executor=work.executor.pool,
-        window=work.executor.window,  # pairs in flight, all cameras: 2 x workers
-        on_pair=work.on_pair,
-        gt_static_std=None if static is None or prepared is None
-        else prepared.gt_static_std(pairs[0].camera, static),
-        frame_indices=[p.index for p in pairs],
-    )
+    with values_known_in(1.0, finite=True):  # frames read by dynaeval.io.images: no NaN/Inf pass
+        out = temporal_metrics(
+            (plan.read_pair(p, cache)[0] for p in pairs),
+            (gt_of(i) for i in range(len(pairs))),
+            static_mask=static,
+            region_masks=region_masks,
+            config=tcfg,
+            flow_cache=prepared.flow_cache() if prepared is not None else None,
+            executor=work.executor.pool,
+            window=work.executor.window,  # pairs in flight, all cameras: 2 x workers
+            on_pair=work.on_pair,
+            gt_static_std=None if static is None or prepared is None
+            else prepared.gt_static_std(pairs[0].camera, static),
+            frame_indices=[p.index for p in pairs],
+        )
     _name_gaps(pairs, out)
     if small is not None:
         out.update({k: {"value": None, "status": Status.UNDEFINED.value, "reason": small,

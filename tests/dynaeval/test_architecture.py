@@ -299,6 +299,8 @@ def test_no_import_cycle():
 
 LAZY_INTERNAL = {
     "dynaeval.metrics.flicker_kernels": "compiles its numba kernels at import",
+    "dynaeval.metrics.flow_kernels": "compiles its numba kernels at import",
+    "dynaeval.metrics.gather_kernels": "compiles its numba kernels at import",
     "dynaeval.metrics.structural_kernels": "compiles its numba kernels at import",
     "dynaeval.regions.motion_kernels": "compiles its numba kernels at import",
 }

@@ -312,3 +312,102 @@ def test_allow_missing_scores_the_consecutive_pairs_present_and_says_which_frame
                    and w.get("metric") == key]
         assert reasons == ["not a pair of consecutive frames: the ground-truth frame(s) between "
                            "'0002' and '0004' have no prediction (--allow-missing)"]
+
+
+def test_frames_read_from_files_get_no_second_finite_pass(tmp_path, monkeypatch):
+    """Issue 33: io.images refused NaN/Inf when it read the frames (integer pixels cannot hold
+    them); the frame metrics and the temporal terms do not look for them again per metric."""
+    import dynaeval.validation as validation
+
+    rng = np.random.default_rng(1)
+    base = textured_frame(rng, 48, 64)
+    _write(tmp_path, [np.roll(base, 2 * t, axis=1) for t in range(3)])
+    calls = []
+    real = validation.check_finite_image
+    monkeypatch.setattr(validation, "check_finite_image",
+                        lambda *a, **k: calls.append(a[1]) or real(*a, **k))
+    res = _score(tmp_path, metrics=("psnr", "ssim"), focus=FocusConfig(source="motion"))
+    assert all(f["psnr"] is not None and f["ssim"] is not None for f in res["frames"])
+    assert res["cameras"][next(iter(res["cameras"]))]["warp_error"] is not None
+    # the motion masks (regions layer) check each ground-truth frame they are made of, once
+    assert calls and [c for c in calls if not c.startswith("frame ")] == []
+    with validation.values_known_in(1.0):  # without finite=True the pass stays
+        with pytest.raises(InputError, match="pred contains 1 NaN"):
+            validation.check_pair(np.array([[np.nan, 0.5]]), np.zeros((1, 2)), data_range=1.0)
+
+
+@pytest.mark.parametrize("ext", [".tiff", ".npy.gz", ".exr"])
+@pytest.mark.parametrize("prepared", [False, True])
+def test_a_non_finite_float_prediction_is_exit_2_naming_the_file(tmp_path, capsys, ext, prepared):
+    """Skipping the per-metric NaN/Inf pass loses no check: a float prediction file holding NaN
+    or Inf is still refused when read, with or without a prepared ground truth."""
+    import gzip
+
+    from dynaeval.cli import main
+
+    rng = np.random.default_rng(2)
+    base = textured_frame(rng, 48, 64)
+    _write(tmp_path, [np.roll(base, 2 * t, axis=1) for t in range(3)])
+    bad = (base / 255.0).astype(np.float32)
+    bad[3, 4, 1] = np.nan if ext != ".exr" else np.inf
+    (tmp_path / "pred" / "0001.png").unlink()
+    path = tmp_path / "pred" / f"0001{ext}"
+    if ext == ".tiff":
+        cv2.imwrite(str(path), bad)
+    elif ext == ".npy.gz":
+        with gzip.open(path, "wb") as f:
+            np.save(f, bad)
+    else:
+        openexr = pytest.importorskip("OpenEXR")
+        with openexr.File({"compression": openexr.ZIP_COMPRESSION, "type": openexr.scanlineimage},
+                          {"RGB": bad}) as f:
+            f.write(str(path))
+    args = ["score", str(tmp_path / "pred"), str(tmp_path / "gt"), "--no-lpips", "-q",
+            "--focus", "motion", "-o", str(tmp_path / "r.json")]
+    if prepared:
+        prep = tmp_path / "prep"
+        assert main(["prepare", str(tmp_path / "gt"), "-o", str(prep), "--focus", "motion",
+                     "-q"]) == 0
+        args += ["--prepared", str(prep)]
+    capsys.readouterr()
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert f"0001{ext}" in err and "NaN or Inf" in err
+    assert not (tmp_path / "r.json").exists()
+
+
+def test_without_workers_the_next_frames_are_read_ahead_on_a_thread(tmp_path, monkeypatch):
+    """Issue 33: with one worker, frame i + 1 is read (decoded) on a thread of its own while
+    frame i is scored; the numbers are those of reading in turn, and with worker threads
+    nothing is read ahead (the pool overlaps the frames already)."""
+    import threading
+
+    import dynaeval.plan as plan_mod
+
+    rng = np.random.default_rng(4)
+    base = textured_frame(rng, 48, 64)
+    _write(tmp_path, [np.roll(base, 2 * t, axis=1) for t in range(4)])
+    threads = []
+    real = plan_mod.RunPlan.read_pair
+    monkeypatch.setattr(plan_mod.RunPlan, "read_pair", lambda self, *a: threads.append(
+        threading.current_thread().name) or real(self, *a))
+    before = threading.active_count()
+    one = _score(tmp_path, metrics=("psnr", "ssim"), focus=FocusConfig(source="motion"))
+    ahead = [t for t in threads if t.startswith("dynaeval-read")]
+    assert len(ahead) == 4 and threading.active_count() == before  # every frame; thread gone
+    threads.clear()
+    two = _score(tmp_path, metrics=("psnr", "ssim"), focus=FocusConfig(source="motion"),
+                 workers=2)
+    assert not [t for t in threads if t.startswith("dynaeval-read")]
+    assert [f["ssim"] for f in one["frames"]] == [f["ssim"] for f in two["frames"]]
+    assert one["cameras"] == two["cameras"]
+
+
+def test_a_broken_frame_read_ahead_is_refused_at_its_own_frame(tmp_path):
+    rng = np.random.default_rng(5)
+    base = textured_frame(rng, 48, 64)
+    _write(tmp_path, [np.roll(base, 2 * t, axis=1) for t in range(4)])
+    bad = tmp_path / "pred" / "0002.png"
+    bad.write_bytes(bad.read_bytes()[:200])  # truncated
+    with pytest.raises(InputError, match="0002.png"):
+        _score(tmp_path, metrics=("psnr",), focus=FocusConfig(source="none"))

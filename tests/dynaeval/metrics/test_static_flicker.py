@@ -84,3 +84,40 @@ def test_a_given_ground_truth_std_gives_the_accumulated_terms_bit_for_bit(rng):
     assert given.terms() == both.terms() and given.terms(region) == both.terms(region)
     with pytest.raises(InputError, match="static pixels"):
         SequenceFlicker(pixels, gt_std.std()[1:])
+
+
+@pytest.mark.parametrize("shape", [(24, 32, 3), (24, 32)])
+def test_the_std_is_computed_once_per_frame_count_and_read_only(rng, shape):
+    """Issue 33: the whole-frame and the focused flicker read one std of the frames so far (it
+    was computed again for each); an update makes it stale, and it is never written to."""
+    pixels = rng.random(shape[:2]) > 0.3
+    acc, fresh = TemporalStd(pixels), TemporalStd(pixels)
+    for _ in range(3):
+        frame = rng.random(shape, dtype=np.float32)
+        acc.update(frame)
+        fresh.update(frame)
+        first = acc.std()
+        assert acc.std() is first and not first.flags.writeable
+        assert np.array_equal(first.view(np.uint64), _numpy_std(fresh).view(np.uint64))
+        assert first.shape == (pixels.sum(), *shape[2:])
+
+
+def _numpy_std(acc):
+    """The std as ``TemporalStd.std`` computed it before it kept its result: a fresh array."""
+    from dynaeval.metrics.flicker_kernels import population_std
+
+    out = np.empty_like(acc._m2)
+    population_std(acc._m2, np.float64(acc.count), out)
+    return out.reshape(acc._index.size, *acc._tail)
+
+
+def test_the_focused_terms_select_the_region_as_the_boolean_index_did(rng):
+    pixels = rng.random((30, 40)) > 0.2
+    seq = SequenceFlicker(pixels)
+    for _ in range(4):
+        seq.update(rng.random((30, 40, 3), dtype=np.float32), rng.random((30, 40, 3), dtype=np.float32))
+    region = rng.random((30, 40)) > 0.6
+    sel = (pixels & region)[pixels]
+    vp = float(seq.pred.std()[sel].mean())
+    vg = float(seq.gt.std()[sel].mean())
+    assert seq.terms(region) == {"value": abs(vp - vg), "signed": vp - vg, "pred": vp, "gt": vg}

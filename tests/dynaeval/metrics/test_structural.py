@@ -362,3 +362,59 @@ def test_channel_first_tensor_is_told_to_permute(rng):
     with pytest.raises(InputError, match=r"pred looks channel-first: shape \(3, 40, 383\) read as "
                                          r"\(C, H, W\).* pass x\.permute\(1, 2, 0\)"):
         ssim(t, t)
+
+
+def _regions(rng, h, w):
+    """Boxes of every kind (narrower than a SIMD-clean tile, at the edges, overlapping, thin,
+    the whole image) and a mask."""
+    boxes = np.array([[0, 0, w, h], [3, 2, 9, 7], [w - 70, h - 20, w, h], [0, 5, 66, 40],
+                      [20, 10, 20 + min(64, w - 20), 30], [10, 0, 200, 3], [5, 5, 90, 60],
+                      [40, 30, 120, 70]])
+    mask = rng.random((h, w)) > 0.7
+    mask[:, : w // 3] = False
+    return boxes, mask
+
+
+@pytest.mark.parametrize("shape", [(75, 210, 3), (64, 130), (50, 190, 1), (40, 150, 4)])
+@pytest.mark.parametrize("data_range", [1.0, 255.0])
+def test_reusing_the_whole_map_changes_no_bit(rng, monkeypatch, shape, data_range):
+    """Issue 33: inside ``reusing_whole_map`` SSIM over boxes and masks reads the windows the
+    whole-image SSIM of the same arrays computed; the numbers are the bits of the crops
+    filtered on their own (every box alone, all boxes, the mask), and no crop is filtered
+    again (but one narrower than a SIMD-clean tile)."""
+    from dynaeval.metrics import structural
+
+    a, b = _pair(rng, shape)
+    a, b = (a * data_range).astype(np.float32), (b * data_range).astype(np.float32)
+    boxes, mask = _regions(rng, *shape[:2])
+    kw = {"data_range": data_range}
+    cases = [{"boxes": boxes[i : i + 1]} for i in range(len(boxes))]
+    cases += [{"boxes": boxes}, {"mask": mask}, {"boxes": boxes, "region_mode": "map"}]
+    want = [ssim(a, b, **kw)] + [ssim(a, b, **kw, **c) for c in cases]
+    bands = []
+    real = structural._band
+    monkeypatch.setattr(structural, "_band", lambda *x: bands.append(x[0].shape) or real(*x))
+    with structural.reusing_whole_map():
+        got = [ssim(a, b, **kw)]
+        whole = len(bands)
+        got += [ssim(a, b, **kw, **c) for c in cases]
+    assert got == want
+    span = structural._simd_span(1 if a.ndim == 2 else a.shape[2])
+    assert all(s[1] < span * (1 if a.ndim == 2 else a.shape[2]) for s in bands[whole:])
+
+
+def test_the_whole_map_is_reused_only_for_the_same_arrays(rng):
+    from dynaeval.metrics import structural
+
+    a, b = _pair(rng, (60, 140, 3))
+    a, b = a.astype(np.float32), b.astype(np.float32)
+    other = np.ascontiguousarray(a[::-1])
+    boxes = np.array([[4, 4, 120, 50]])
+    with structural.reusing_whole_map():
+        ssim(a, b)
+        assert ssim(other, b, boxes=boxes) == ssim(other.copy(), b, boxes=boxes)
+        assert ssim(a, b, boxes=boxes, data_range=2.0) == ssim(a.copy(), b, boxes=boxes,
+                                                               data_range=2.0)
+    with structural.reusing_whole_map():
+        assert structural._WHOLE.last is None  # nothing kept from an earlier block
+    assert structural._WHOLE.last is None and not structural._WHOLE.on
