@@ -15,6 +15,7 @@ import os
 import shutil
 import tempfile
 import threading
+import time
 from collections import deque
 from collections.abc import Callable
 from concurrent.futures import Future
@@ -35,13 +36,38 @@ is missing), which a version-2 folder lacks and would have reported as ``no-regi
 MANIFEST = "manifest.json"
 
 
+RACY_SECONDS = 2.0
+"""A file whose status changed less than this before it was hashed is not remembered: a change
+within the same timestamp tick of a coarse file system could leave its stamp as it was."""
+_DIGESTS: dict[str, tuple[tuple[int, ...], str]] = {}
+"""Absolute path -> (stamp, digest) of the files this process hashed (``file_digest``)."""
+_DIGESTS_LOCK = threading.Lock()
+
+
 def file_digest(path: str | Path) -> str:
-    """blake2b (20 bytes, hex) of a file's bytes: a ground-truth file's identity."""
-    h = hashlib.blake2b(digest_size=20)
+    """blake2b (20 bytes, hex) of a file's bytes: a ground-truth file's identity.
+
+    Remembered for the process by the file's stamp (device, inode, size, modification and
+    status-change times in ns, read from the open file), as git's index does: a suite's
+    scorings of one prepared folder, and its keys of the same inputs, hash each file once. Any
+    write, truncation, replacement or ``touch`` changes the status-change time, which no user
+    can set back, so a changed file is always hashed again."""
+    key = os.path.abspath(path)
     with open(path, "rb") as f:
+        st = os.fstat(f.fileno())
+        stamp = (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns)
+        with _DIGESTS_LOCK:
+            known = _DIGESTS.get(key)
+        if known is not None and known[0] == stamp:
+            return known[1]
+        h = hashlib.blake2b(digest_size=20)
         for block in iter(lambda: f.read(1 << 22), b""):
             h.update(block)
-    return h.hexdigest()
+    digest = h.hexdigest()
+    if time.time_ns() - st.st_ctime_ns > RACY_SECONDS * 1e9:
+        with _DIGESTS_LOCK:
+            _DIGESTS[key] = (stamp, digest)
+    return digest
 
 
 def json_digest(obj: Any, size: int) -> str:
@@ -258,8 +284,10 @@ class FolderWriter:
 class PreparedFiles:
     """The files of a prepared folder, each checked against the manifest's digest the first
     time it is read (a file changed, truncated or deleted after ``dynaeval prepare`` would
-    otherwise give other numbers, silently). Thread-safe; a file is hashed once per process.
-    Reading a file costs one extra pass over its bytes (blake2b, ~1 GB/s), once."""
+    otherwise give other numbers, silently). Thread-safe. Reading a file costs one extra pass
+    over its bytes (blake2b, ~1 GB/s), once per process while the file's stamp is unchanged
+    (``file_digest`` remembers it: a suite's second and third scorings of a scene do not hash its
+    prepared folder again)."""
 
     def __init__(self, root: str | Path, digests: dict[str, str]) -> None:
         self.root = Path(root)

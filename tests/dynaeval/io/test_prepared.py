@@ -110,3 +110,84 @@ def test_leaving_by_an_interrupt_waits_for_the_file_being_written(tmp_path, monk
     assert done == ["0.npy"]  # the one being written when the interrupt came, and no other
     assert not writer._thread.is_alive()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["0.npy"]
+
+
+def _counting_hashes(monkeypatch) -> list[int]:
+    """Count the files ``file_digest`` reads (blake2b objects of 20 bytes made)."""
+    import hashlib
+
+    made, real = [], hashlib.blake2b
+
+    def blake2b(*args, **kwargs):
+        if kwargs.get("digest_size") == 20:
+            made.append(1)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(prepared.hashlib, "blake2b", blake2b)
+    return made
+
+
+def test_file_digest_hashes_an_unchanged_file_once_per_process(tmp_path, monkeypatch):
+    monkeypatch.setattr(prepared, "_DIGESTS", {})
+    monkeypatch.setattr(prepared, "RACY_SECONDS", 0.0)
+    made = _counting_hashes(monkeypatch)
+    f = tmp_path / "a.bin"
+    f.write_bytes(b"x" * 5000)
+    first = file_digest(f)
+    assert file_digest(f) == file_digest(str(f)) == first and len(made) == 1
+
+
+def test_file_digest_sees_every_change_even_with_the_size_and_mtime_kept(tmp_path, monkeypatch):
+    """Rewritten in place with the same size and its mtime set back, or replaced by rename:
+    the status-change time (or the inode) differs, so the file is hashed again."""
+    import hashlib
+
+    monkeypatch.setattr(prepared, "_DIGESTS", {})
+    monkeypatch.setattr(prepared, "RACY_SECONDS", 0.0)
+    f = tmp_path / "a.bin"
+    f.write_bytes(b"x" * 5000)
+    before = os.stat(f)
+    old = file_digest(f)
+    with open(f, "r+b") as g:
+        g.write(b"y")
+    os.utime(f, ns=(before.st_atime_ns, before.st_mtime_ns))
+    assert os.stat(f).st_size == before.st_size and os.stat(f).st_mtime_ns == before.st_mtime_ns
+    now = file_digest(f)
+    assert now != old and now == hashlib.blake2b(f.read_bytes(), digest_size=20).hexdigest()
+    (tmp_path / "b.bin").write_bytes(b"z" * 5000)
+    os.replace(tmp_path / "b.bin", f)
+    assert file_digest(f) == hashlib.blake2b(b"z" * 5000, digest_size=20).hexdigest()
+
+
+def test_a_file_changed_just_before_it_was_hashed_is_not_remembered(tmp_path, monkeypatch):
+    monkeypatch.setattr(prepared, "_DIGESTS", {})
+    made = _counting_hashes(monkeypatch)
+    f = tmp_path / "a.bin"
+    f.write_bytes(b"x" * 5000)  # its status changed now: within RACY_SECONDS
+    file_digest(f)
+    file_digest(f)
+    assert len(made) == 2 and not prepared._DIGESTS
+
+
+def test_a_second_prepared_run_in_one_process_does_not_hash_the_folder_again(tmp_path, monkeypatch):
+    """Two PreparedFiles of one folder (a suite's scorings of one scene): the files are hashed
+    by the first only, and a file changed in between is still refused by the second."""
+    from dynaeval.errors import InputError
+
+    monkeypatch.setattr(prepared, "_DIGESTS", {})
+    monkeypatch.setattr(prepared, "RACY_SECONDS", 0.0)
+    np.save(tmp_path / "a.npy", np.arange(10.0))
+    np.save(tmp_path / "b.npy", np.arange(20.0))
+    digests = folder_digests(tmp_path)
+    made = _counting_hashes(monkeypatch)
+    for _ in range(2):
+        files = prepared.PreparedFiles(tmp_path, digests)
+        assert files.load("a.npy").sum() == 45 and files.load("b.npy").sum() == 190
+    assert len(made) == 0  # folder_digests above hashed them already, in this process
+    st = os.stat(tmp_path / "b.npy")
+    with open(tmp_path / "b.npy", "r+b") as g:
+        g.seek(-1, 2)
+        g.write(b"\x01")
+    os.utime(tmp_path / "b.npy", ns=(st.st_atime_ns, st.st_mtime_ns))
+    with pytest.raises(InputError, match="changed or truncated"):
+        prepared.PreparedFiles(tmp_path, digests).load("b.npy")
