@@ -262,7 +262,7 @@ def _count_std_updates(monkeypatch) -> list:
 def test_prepared_static_std_is_read_not_accumulated(prepared_motion, monkeypatch):
     """Flicker accumulates the predictions only: the ground truth's temporal std is prepared."""
     manifest = json.loads((prepared_motion / "manifest.json").read_text())
-    assert all(c["static_std"] for c in manifest["cameras"].values())
+    assert all(c["flicker"] for c in manifest["cameras"].values())
     calls = _count_std_updates(monkeypatch)
     score(SAMPLE / "pred", SAMPLE / "gt", focus=FocusConfig(source="motion"),
           prepared=str(prepared_motion), **FAST)
@@ -307,13 +307,14 @@ def test_prepared_ground_truth_images_are_not_decoded_again(prepared_motion, mon
 
 
 def _kinds(prep: Path) -> dict[str, Path]:
-    """One prepared file of each kind: a flow, a decoded frame, a camera's regions, a static std."""
+    """One prepared file of each kind: a flow, a decoded frame, a camera's regions, a pair's
+    visibility mask."""
     def first(pattern):
         found = sorted(prep.glob(pattern))
         assert found, pattern
         return found[0]
     return {"flow": first("flows/*.npy"), "frame": first("frames/*.npy"),
-            "regions": first("regions/*.npz"), "static_std": first("static_std/*.npy")}
+            "regions": first("regions/*.npz"), "visible": first("visible/*.npy")}
 
 
 def _flip_values(path: Path) -> None:
@@ -330,7 +331,7 @@ def _flip_values(path: Path) -> None:
     np.save(path, arr)
 
 
-@pytest.mark.parametrize("kind", ["flow", "frame", "regions", "static_std"])
+@pytest.mark.parametrize("kind", ["flow", "frame", "regions", "visible"])
 @pytest.mark.parametrize("damage", ["changed", "truncated", "deleted"])
 def test_a_prepared_file_changed_truncated_or_deleted_is_exit_2_naming_it(
         tmp_path, prepared_motion, capsys, kind, damage):
@@ -366,8 +367,10 @@ def test_prepared_folder_of_the_format_without_hashes_is_refused(tmp_path, prepa
 
     manifest["id"] = manifest_id(manifest)
     (prep / "manifest.json").write_text(json.dumps(manifest))
-    with pytest.raises(InputError, match="format version 1; this dynaeval reads version 3: "
-                                         "prepare it again"):
+    from dynaeval.io.prepared import FORMAT_VERSION
+
+    with pytest.raises(InputError, match=f"format version 1; this dynaeval reads version "
+                                         f"{FORMAT_VERSION}: prepare it again"):
         score(SAMPLE / "pred", SAMPLE / "gt", focus=FocusConfig(source="motion"),
               prepared=str(prep), **FAST)
 
@@ -432,13 +435,13 @@ def test_an_interrupt_during_prepare_leaves_nothing_while_files_are_written(tmp_
                                                                              monkeypatch):
     from dynaeval import prepare as module
 
-    real = module._save_static_std
+    real = module._save_pair
 
     def interrupted(*a, **k):
-        real(*a, **k)  # its file queued behind the camera's flows
+        real(*a, **k)  # its file queued behind the pair's flows
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(module, "_save_static_std", interrupted)
+    monkeypatch.setattr(module, "_save_pair", interrupted)
     with pytest.raises(KeyboardInterrupt):
         prepare(SAMPLE / "gt", tmp_path / "prep", focus=FocusConfig(source="motion"),
                 progress=False)
