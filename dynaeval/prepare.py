@@ -45,7 +45,7 @@ import json
 import os
 import threading
 from collections.abc import Iterable
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -313,36 +313,59 @@ def _save_flows(pairs: list[FramePair], regions: list[FrameRegions], plan: RunPl
     def region(k: int, shape: tuple[int, ...]) -> np.ndarray | None:
         return None if items is None or items[k] is None else region_mask(items[k], shape[:2], k)
 
-    def pair(k: int) -> tuple[list[str], dict[str, Any]]:
+    def terms(k: int, keys: list[str], flows: list[np.ndarray]) -> dict[str, Any]:
         with values_known_in(1.0, finite=True):  # read by dynaeval.io.images: no NaN/Inf pass
-            (ga, da), (gb, db) = gray.take(k), gray.take(k + 1)
-            keys, flows = [], []
-            for x, y, digests in ((ga, gb, (da, db)), (gb, ga, (db, da))):
-                key = FlowCache.key(x, y, flow_cfg, digests)
-                flows.append(_flow_from_gray(x, y, flow_cfg))
-                writer.save(f"flows/{key}.npy", flows[-1])
-                keys.append(key)
             prev, cur = (as_image(plan.read_gt(pairs[j], cache)) for j in (k, k + 1))
-            terms = ground_truth_pair(prev, cur, *flows, pair_region(region(k, prev.shape),
-                                                                     region(k + 1, cur.shape)))
+            got = ground_truth_pair(prev, cur, *flows, pair_region(region(k, prev.shape),
+                                                                   region(k + 1, cur.shape)))
+        return _save_pair(got, f"visible/{keys[1]}.npy", writer)
+
+    def pair(k: int) -> tuple[list[str], Future]:
+        with values_known_in(1.0, finite=True):
+            (ga, da), (gb, db) = gray.take(k), gray.take(k + 1)
+        keys, flows = [], []
+        for x, y, digests in ((ga, gb, (da, db)), (gb, ga, (db, da))):
+            key = FlowCache.key(x, y, flow_cfg, digests)
+            flows.append(_flow_from_gray(x, y, flow_cfg))
+            writer.save(f"flows/{key}.npy", flows[-1])
+            keys.append(key)
         progress.advance("pairs")
-        return keys, _save_pair(terms, f"visible/{keys[1]}.npy", writer)
+        return keys, beside.run(terms, k, keys, flows)
 
-    ks = range(len(pairs) - 1)
-    if executor.pool is not None:
-        done = executor.map(pair, ks)
-    else:  # no worker threads: two pairs at once all the same (see PAIRS_AT_ONCE)
-        with ThreadPoolExecutor(PAIRS_AT_ONCE, thread_name_prefix="dynaeval-prepare") as pool:
-            done = list(pool.map(pair, ks))
-    return [keys for keys, _ in done], [entry for _, entry in done]
+    with _Beside(executor.pool is None) as beside:
+        done = executor.map(pair, range(len(pairs) - 1))
+        return [keys for keys, _ in done], [entry.result() for _, entry in done]
 
 
-PAIRS_AT_ONCE = 2
-"""Pairs ``prepare`` computes at once without worker threads (``workers=1``): a pair's flows
-and ground-truth terms are compiled or OpenCV loops that release the GIL, so two of them keep
-both cores busy where one left the second to the file writer. Each pair's numbers are its own
-(the flows are deterministic, the files are content-named and listed in pair order): the
-manifest is the one of pairs computed one after the other."""
+class _Beside:
+    """Calls run on a thread of their own, one at a time, for a run without worker threads: the
+    ground truth's terms of pair ``k`` (its visibility, warp and warping errors) are computed
+    while the flows of pair ``k + 1`` keep the other core busy (the work is the same, only its
+    order changes: no number does). With worker threads (``enabled`` False) a call runs in the
+    caller's thread. ``run`` returns the call's future (its error raised by ``result``);
+    leaving the block waits for the call in flight."""
+
+    def __init__(self, enabled: bool) -> None:
+        self._pool = (ThreadPoolExecutor(max_workers=1, thread_name_prefix="dynaeval-prepare-pair")
+                      if enabled else None)
+        self._last: Future | None = None
+
+    def run(self, fn: Any, *args: Any) -> Future:
+        if self._pool is None:
+            done: Future = Future()
+            done.set_result(fn(*args))
+            return done
+        if self._last is not None:
+            self._last.result()  # one in flight: its frames and flows are not held longer
+        self._last = self._pool.submit(fn, *args)
+        return self._last
+
+    def __enter__(self) -> _Beside:
+        return self
+
+    def __exit__(self, *_: Any) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
 
 
 def _save_pair(terms: GroundTruthPair, rel: str, writer: FolderWriter) -> dict[str, Any]:
