@@ -407,7 +407,8 @@ class _GrayFrames:
 
 
 def static_digest(static: np.ndarray) -> str:
-    """blake2b of a ``(H, W)`` bool mask (its shape and bits): the key of a prepared std."""
+    """blake2b of a ``(H, W)`` bool mask (its shape and bits): the key of the prepared flicker
+    means."""
     import hashlib
 
     h = hashlib.blake2b(digest_size=16)
@@ -598,7 +599,7 @@ def open_prepared(path: str | Path, gt_root: Path, pairs: list[FramePair],
 
 def _files_in_order_of_use(prepared: PreparedGT, pairs: list[FramePair], gt_root: Path) -> list[str]:
     """The prepared files a run of ``pairs`` reads, camera by camera as it reads them (regions,
-    decoded frames, flows, static std): the order of the background check."""
+    decoded frames, flows and visibility masks): the order of the background check."""
     out: list[str] = []
     for cam, cam_pairs in pairs_by_camera(pairs).items():
         entry = prepared.manifest["cameras"].get(cam) or {}
