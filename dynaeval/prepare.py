@@ -3,8 +3,9 @@
 What a scoring run computes from the ground truth alone is the same for every method scored on
 one scene: the regions of every frame (detector boxes, motion masks, the camera's motion check),
 the ground-truth optical flows of every consecutive pair (forward and backward, the two of
-the three flows a temporal pair needs) and the ground truth's temporal std on the static pixels
-(flicker). :func:`prepare` computes them once, with the same code
+the three flows a temporal pair needs) with the rest of the ground truth's half of each pair
+(its visibility mask and warping errors) and the ground truth's flicker means on the static
+pixels. :func:`prepare` computes them once, with the same code
 and settings a run uses, and writes them into a folder (``dynaeval.io.prepared``):
 
 * ``manifest.json``: format version, dynaeval version, the settings that change these numbers
@@ -18,9 +19,13 @@ and settings a run uses, and writes them into a folder (``dynaeval.io.prepared``
 * ``frames/<digest>.npy``: each 8-bit ground-truth image decoded (uint8, as OpenCV returns it:
   6.2 MB at 1080p RGB), named by the file's blake2b, so scoring reads it instead of decoding the
   file (whose digest it still checks);
-* ``static_std/<i>.npy``: float64 ``(N, C)``, the ground truth's temporal std on camera ``i``'s
-  N static pixels (the ground-truth half of the flicker terms; 44 MB for a mostly static 1080p
-  camera), keyed by the digest of its static mask (``--masks`` that change it: computed again).
+* ``visible/<key>.npy``: each consecutive pair's visibility mask (``flow.visibility`` of its
+  two flows, bit-packed: 260 KB at 1080p), named by its backward flow's key; the manifest holds
+  the pair's ground-truth warping errors (whole, focused) beside it (``gt_pairs``), and per
+  camera the ground truth's flicker means ``S(gt)`` (whole, focused) with the digest of the
+  static mask they follow (``--masks`` that change it: computed again). A scoring run computes
+  none of the ground truth's half of a temporal pair (gray images and their hashes, visibility,
+  its warp and warping error) nor its temporal std again.
 
 The files are written and hashed in one background thread (``io.prepared.FolderWriter``) while
 the next ones are computed, and each ground-truth image is decoded once: the decoding saved is
@@ -40,6 +45,7 @@ import json
 import os
 import threading
 from collections.abc import Iterable
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -73,7 +79,9 @@ from dynaeval.metrics.flow import (
     gray_of_checked,
 )
 from dynaeval.metrics.protocols import get_protocol
-from dynaeval.metrics.static_flicker import TemporalStd, check_static
+from dynaeval.metrics.static_flicker import TemporalStd, check_static, static_mean
+from dynaeval.metrics.temporal import region_mask
+from dynaeval.metrics.temporal_pairs import GroundTruthPair, ground_truth_pair, pair_region
 from dynaeval.outcome import Status, note
 from dynaeval.plan import RunPlan, ground_truth_plan
 from dynaeval.progress import Progress
@@ -82,8 +90,8 @@ from dynaeval.regions.packed import PackedMask
 from dynaeval.runtime import worker_opencv_threads
 from dynaeval.scoring import camera_regions_of
 from dynaeval.stages import consecutive
-from dynaeval.stages.temporal import static_pixels
-from dynaeval.validation import as_image
+from dynaeval.stages.temporal import region_items, static_pixels
+from dynaeval.validation import as_image, values_known_in
 
 __all__ = ["PreparedGT", "open_prepared", "prepare", "prepared_settings"]
 
@@ -156,7 +164,7 @@ def prepare(gt_dir: str | Path, out: str | Path, config: ScoreConfig | None = No
     kept = KeptDecodings(config.cache_mb * 2**20 // 4)
 
     def fill(tmp: Path) -> None:
-        for sub in ("regions", "flows", "frames"):
+        for sub in ("regions", "flows", "visible", "frames"):
             (tmp / sub).mkdir()
         with FolderWriter(tmp) as writer:  # files written and hashed beside the work
             for p in pairing.pairs:  # a video file once, not once per frame
@@ -247,14 +255,14 @@ def _prepare_camera(i: int, cam: str, pairs: list[FramePair], plan: RunPlan, exe
     regions = camera_regions_of(cam, pairs, plan, executor, cache)
     progress.advance("regions", len(pairs))
     entry: dict[str, Any] = {"frames": [[p.frame, _rel(p.gt, gt_dir)] for p in pairs],
-                             "regions": None, "flows": None, "static_std": None}
+                             "regions": None, "flows": None, "gt_pairs": None, "flicker": None}
     if regions and regions[0].not_video is None:  # no video: computed again when scored
         entry["regions"] = _save_regions(regions, f"regions/{i}.npz", writer)
         if plan.config.temporal:
-            entry["flows"] = _save_flows(pairs, plan, executor, cache, writer, progress)
+            entry["flows"], entry["gt_pairs"] = _save_flows(
+                pairs, regions, plan, executor, cache, writer, progress) or (None, None)
             if entry["flows"] is not None:  # a sequence the temporal pass scores
-                entry["static_std"] = _save_static_std(pairs, regions, plan, cache,
-                                                       f"static_std/{i}.npy", writer)
+                entry["flicker"] = _gt_flicker(pairs, regions, plan, cache)
     if plan.config.temporal:
         progress.advance("pairs", max(len(pairs) - 1, 0) - len(entry["flows"] or ()))
     return entry
@@ -285,10 +293,12 @@ def _save_regions(regions: list[FrameRegions], rel: str, writer: FolderWriter) -
             "camera_motion": _jsonable(regions[0].camera_motion)}
 
 
-def _save_flows(pairs: list[FramePair], plan: RunPlan, executor: Executor, cache: Any,
-                writer: FolderWriter, progress: Any) -> list[list[str]] | None:
+def _save_flows(pairs: list[FramePair], regions: list[FrameRegions], plan: RunPlan,
+                executor: Executor, cache: Any, writer: FolderWriter,
+                progress: Any) -> tuple[list[list[str]], list[dict[str, Any]]] | None:
     """The ground-truth flows of every consecutive pair (forward, backward) as
-    ``flows/<key>.npy``; their keys, or None when the camera has no temporal terms."""
+    ``flows/<key>.npy`` and the rest of its ``GroundTruthPair`` (``_save_pair``); their keys and
+    the pairs' entries, or None when the camera has no temporal terms."""
     if len(pairs) < 2 or not consecutive(pairs):
         return None
     first = plan.read_gt(pairs[0], cache)
@@ -298,19 +308,74 @@ def _save_flows(pairs: list[FramePair], plan: RunPlan, executor: Executor, cache
         return None
     flow_cfg = FlowConfig(method=plan.config.flow)
     gray = _GrayFrames(lambda k: as_image(plan.read_gt(pairs[k], cache)), len(pairs))
+    items = region_items(regions, plan.focus)
 
-    def pair(k: int) -> list[str]:
-        (ga, da), (gb, db) = gray.take(k), gray.take(k + 1)
-        keys = []
+    def region(k: int, shape: tuple[int, ...]) -> np.ndarray | None:
+        return None if items is None or items[k] is None else region_mask(items[k], shape[:2], k)
+
+    def terms(k: int, keys: list[str], flows: list[np.ndarray]) -> dict[str, Any]:
+        with values_known_in(1.0, finite=True):  # read by dynaeval.io.images: no NaN/Inf pass
+            prev, cur = (as_image(plan.read_gt(pairs[j], cache)) for j in (k, k + 1))
+            got = ground_truth_pair(prev, cur, *flows, pair_region(region(k, prev.shape),
+                                                                   region(k + 1, cur.shape)))
+        return _save_pair(got, f"visible/{keys[1]}.npy", writer)
+
+    def pair(k: int) -> tuple[list[str], Future]:
+        with values_known_in(1.0, finite=True):
+            (ga, da), (gb, db) = gray.take(k), gray.take(k + 1)
+        keys, flows = [], []
         for x, y, digests in ((ga, gb, (da, db)), (gb, ga, (db, da))):
             key = FlowCache.key(x, y, flow_cfg, digests)
-            writer.save(f"flows/{key}.npy", _flow_from_gray(x, y, flow_cfg))
+            flows.append(_flow_from_gray(x, y, flow_cfg))
+            writer.save(f"flows/{key}.npy", flows[-1])
             keys.append(key)
         progress.advance("pairs")
-        return keys
+        return keys, beside.run(terms, k, keys, flows)
 
-    ks = range(len(pairs) - 1)
-    return executor.map(pair, ks)
+    with _Beside(executor.pool is None) as beside:
+        done = executor.map(pair, range(len(pairs) - 1))
+        return [keys for keys, _ in done], [entry.result() for _, entry in done]
+
+
+class _Beside:
+    """Calls run on a thread of their own, one at a time, for a run without worker threads: the
+    ground truth's terms of pair ``k`` (its visibility, warp and warping errors) are computed
+    while the flows of pair ``k + 1`` keep the other core busy (the work is the same, only its
+    order changes: no number does). With worker threads (``enabled`` False) a call runs in the
+    caller's thread. ``run`` returns the call's future (its error raised by ``result``);
+    leaving the block waits for the call in flight."""
+
+    def __init__(self, enabled: bool) -> None:
+        self._pool = (ThreadPoolExecutor(max_workers=1, thread_name_prefix="dynaeval-prepare-pair")
+                      if enabled else None)
+        self._last: Future | None = None
+
+    def run(self, fn: Any, *args: Any) -> Future:
+        if self._pool is None:
+            done: Future = Future()
+            done.set_result(fn(*args))
+            return done
+        if self._last is not None:
+            self._last.result()  # one in flight: its frames and flows are not held longer
+        self._last = self._pool.submit(fn, *args)
+        return self._last
+
+    def __enter__(self) -> _Beside:
+        return self
+
+    def __exit__(self, *_: Any) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _save_pair(terms: GroundTruthPair, rel: str, writer: FolderWriter) -> dict[str, Any]:
+    """A pair's visibility mask bit-packed as ``rel`` (``PackedMask``'s bits) and its manifest
+    entry: the mask's file and shape, ``E(gt)`` whole and focused (floats, which JSON gives
+    back bit for bit, or None)."""
+    packed = PackedMask.pack(terms.valid)
+    if rel not in writer:  # two pairs of equal frames share one
+        writer.save(rel, packed.bits)
+    return {"visible": rel, "shape": list(packed.shape), "warp_error": list(terms.warp_error)}
 
 
 class _GrayFrames:
@@ -342,7 +407,8 @@ class _GrayFrames:
 
 
 def static_digest(static: np.ndarray) -> str:
-    """blake2b of a ``(H, W)`` bool mask (its shape and bits): the key of a prepared std."""
+    """blake2b of a ``(H, W)`` bool mask (its shape and bits): the key of the prepared flicker
+    means."""
     import hashlib
 
     h = hashlib.blake2b(digest_size=16)
@@ -351,18 +417,19 @@ def static_digest(static: np.ndarray) -> str:
     return h.hexdigest()
 
 
-def _save_static_std(pairs: list[FramePair], regions: list[FrameRegions], plan: RunPlan,
-                     cache: Any, rel: str, writer: FolderWriter) -> dict[str, str] | None:
-    """The ground truth's temporal std on the camera's static pixels (``(N, C)`` float64, what
-    the flicker terms accumulate of it: ``SequenceFlicker``) as ``rel``; its entry (path
-    relative to the folder, digest of the static mask it follows), or None when the camera has
-    no static pixels to follow."""
+def _gt_flicker(pairs: list[FramePair], regions: list[FrameRegions], plan: RunPlan,
+                cache: Any) -> dict[str, Any] | None:
+    """The ground truth's ``S`` of the flicker terms (``static_mean`` of its temporal std on the
+    camera's static pixels, whole and inside the union of the frames' regions, as
+    ``SequenceFlicker`` takes them: ``gt_means``) with the digest of the static mask they
+    follow, or None when the camera has no static pixels to follow."""
     static = static_pixels(regions, plan.focus)
     if static is None:
         return None
     acc, shape = None, None
     for p in pairs:
-        frame = as_image(plan.read_gt(p, cache))
+        with values_known_in(1.0, finite=True):  # read by dynaeval.io.images: no NaN/Inf pass
+            frame = as_image(plan.read_gt(p, cache))
         if acc is None:
             shape = frame.shape
             if static.shape != shape[:2]:
@@ -371,9 +438,15 @@ def _save_static_std(pairs: list[FramePair], regions: list[FrameRegions], plan: 
         elif frame.shape != shape:  # frames of several sizes: the temporal terms are null
             return None
         acc.update(frame)
-    (writer.root / rel).parent.mkdir(exist_ok=True)
-    writer.save(rel, acc.std())
-    return {"file": rel, "static": static_digest(static)}
+    union = None  # the union of the frames' regions, as the temporal engine forms it
+    for k, item in enumerate(region_items(regions, plan.focus) or ()):
+        if item is not None:
+            mask = region_mask(item, shape[:2], k)
+            union = mask.copy() if union is None else union | mask
+    std = acc.std()
+    return {"static": static_digest(static),
+            "gt": [static_mean(std, acc.pixels, None),
+                   None if union is None else static_mean(std, acc.pixels, union)]}
 
 
 # --------------------------------------------------------------------------------------------
@@ -420,14 +493,37 @@ class PreparedGT:
                     mask_status=_status(f.get("mask_status"))))
         return out
 
-    def gt_static_std(self, camera: str, static: np.ndarray) -> np.ndarray | None:
-        """The ground truth's temporal std on ``camera``'s static pixels ``static`` (``(N, C)``
-        float64, ``SequenceFlicker``'s ``gt_std``), or None when it is computed again: frames
-        that differ from the prepared ones, other static pixels (``--masks``), none prepared."""
-        entry = (self.manifest["cameras"].get(camera) or {}).get("static_std")
+    def gt_flicker(self, camera: str, static: np.ndarray) -> tuple[float | None, float | None] | None:
+        """The ground truth's ``S`` on ``camera``'s static pixels ``static``, whole and inside
+        the union of the regions (``SequenceFlicker``'s ``gt_means``), or None when computed
+        again: frames that differ from the prepared ones, other static pixels (``--masks``),
+        none prepared."""
+        entry = (self.manifest["cameras"].get(camera) or {}).get("flicker")
         if not self.reuse.get(camera) or not entry or entry["static"] != static_digest(static):
             return None
-        return self.files.load(entry["file"])
+        whole, focused = entry["gt"]
+        return whole, focused
+
+    def ground_truth_pairs(self, camera: str) -> Any:
+        """``k -> GroundTruthPair`` of ``camera``'s pair ``k`` (frames ``k, k + 1``), read from
+        the folder (flows memory-mapped, visibility mask unpacked, ``E(gt)`` from the manifest),
+        or None when they are computed again: frames that differ from the prepared ones, a
+        camera without prepared pairs."""
+        entry = self.manifest["cameras"].get(camera) or {}
+        if not self.reuse.get(camera) or not entry.get("gt_pairs"):
+            return None
+
+        def load(k: int) -> GroundTruthPair:
+            (fw, bw), got = entry["flows"][k], entry["gt_pairs"][k]
+            valid = PackedMask(self.files.load(got["visible"]), tuple(got["shape"])).unpack()
+            e_whole, e_focused = got["warp_error"]
+            return GroundTruthPair(self._flow(fw), self._flow(bw), valid, (e_whole, e_focused))
+
+        return load
+
+    def _flow(self, key: str) -> np.ndarray:
+        """The prepared flow ``key``, memory-mapped read-only."""
+        return self.files.load(f"flows/{key}.npy", mmap=True)
 
     def flow_cache(self) -> Any:
         """A flow cache (64 MiB in memory, as the run's own) that reads the prepared flows."""
@@ -503,7 +599,7 @@ def open_prepared(path: str | Path, gt_root: Path, pairs: list[FramePair],
 
 def _files_in_order_of_use(prepared: PreparedGT, pairs: list[FramePair], gt_root: Path) -> list[str]:
     """The prepared files a run of ``pairs`` reads, camera by camera as it reads them (regions,
-    decoded frames, flows, static std): the order of the background check."""
+    decoded frames, flows and visibility masks): the order of the background check."""
     out: list[str] = []
     for cam, cam_pairs in pairs_by_camera(pairs).items():
         entry = prepared.manifest["cameras"].get(cam) or {}
@@ -512,9 +608,10 @@ def _files_in_order_of_use(prepared: PreparedGT, pairs: list[FramePair], gt_root
         out += [prepared.manifest["decoded"][rel] for rel in
                 (_rel(p.gt, gt_root).split("#")[0] for p in cam_pairs)
                 if rel in prepared.manifest.get("decoded", {})]
-        out += [f"flows/{k}.npy" for pair in entry.get("flows") or () for k in pair]
-        if prepared.reuse.get(cam) and entry.get("static_std"):
-            out.append(entry["static_std"]["file"])
+        for k, pair in enumerate(entry.get("flows") or ()):
+            out += [f"flows/{key}.npy" for key in pair]
+            if prepared.reuse.get(cam) and entry.get("gt_pairs"):
+                out.append(entry["gt_pairs"][k]["visible"])
     return out
 
 

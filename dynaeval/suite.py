@@ -62,7 +62,7 @@ from dynaeval.errors import InputError
 from dynaeval.evaluate import DynaevalWarning
 from dynaeval.io.atomic import check_writable, write_text_atomic
 from dynaeval.io.lock import hold_folder
-from dynaeval.io.prepared import file_digest, folder_digests, json_digest
+from dynaeval.io.prepared import FORMAT_VERSION, file_digest, folder_digests, json_digest
 from dynaeval.prepare import prepare
 from dynaeval.progress import Progress
 from dynaeval.report.leaderboard import build_leaderboard, render
@@ -363,10 +363,12 @@ def pair_key(pair: SuitePair, settings: dict[str, Any], gt_digests: dict[str, st
 
 
 def prepare_key(settings: dict[str, Any], gt_digests: dict[str, str]) -> str:
-    """The key of a scene's prepared folder (version, settings, ground-truth files)."""
+    """The key of a scene's prepared folder (dynaeval and prepared-format versions, settings,
+    ground-truth files): a folder of an older format is prepared again, not refused."""
     from dynaeval import __version__
 
-    return json_digest({"dynaeval": __version__, "settings": settings, "gt": gt_digests}, 16)
+    return json_digest({"dynaeval": __version__, "format": FORMAT_VERSION, "settings": settings,
+                        "gt": gt_digests}, 16)
 
 
 def _read_key(path: Path) -> str | None:

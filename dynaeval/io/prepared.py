@@ -28,11 +28,14 @@ from dynaeval.errors import InputError
 from dynaeval.io.atomic import _UMASK, parent_folders, write_failure
 from dynaeval.io.jsonfile import read_json
 
-FORMAT_VERSION = 3
+FORMAT_VERSION = 4
 """Version of the prepared folder's layout; a folder of another version is refused. 2: the
 manifest holds the digest of every prepared file (``hashes``), checked when the file is read.
 3: each frame's regions carry their statuses (``boxes_status``, ``mask_status``: why a region
-is missing), which a version-2 folder lacks and would have reported as ``no-region``."""
+is missing), which a version-2 folder lacks and would have reported as ``no-region``.
+4: the ground-truth half of every temporal pair (``gt_pairs``: its visibility mask as
+``visible/<key>.npy``, its warping errors), which a scoring run read from a version-3 folder
+would compute again (a suite re-prepares such a folder: its key holds this version)."""
 MANIFEST = "manifest.json"
 
 
@@ -98,7 +101,8 @@ def read_manifest(folder: str | Path) -> dict[str, Any]:
     version = manifest.get("format_version") if isinstance(manifest, dict) else None
     if version != FORMAT_VERSION:
         raise InputError(f"prepared ground truth of format version {version!r}; this dynaeval "
-                         f"reads version {FORMAT_VERSION}: prepare it again", path=path)
+                         f"reads version {FORMAT_VERSION}: prepare it again ('dynaeval prepare "
+                         "GT -o PREP --overwrite')", path=path)
     if manifest.get("id") != manifest_id(manifest):
         raise InputError("the prepared ground truth's manifest was changed after it was written "
                          "(its id does not match): prepare it again", path=path)

@@ -418,6 +418,18 @@ def visibility(flow_ts: np.ndarray, flow_st: np.ndarray) -> tuple[np.ndarray, np
     return valid, xs, ys
 
 
+def sample_grid_of(flow: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(xs, ys)`` of a checked ``(H, W, 2)`` float32 flow: the sample grid :func:`visibility`
+    returns with its mask (the same compiled loop, the same bits), for a mask computed
+    beforehand (``dynaeval prepare``)."""
+    from dynaeval.metrics.flow_kernels import sample_grid
+
+    h, w = flow.shape[:2]
+    xs, ys = np.empty((h, w), np.float32), np.empty((h, w), np.float32)
+    sample_grid(flow, xs, ys, np.empty((h, w), bool))
+    return xs, ys
+
+
 def visibility_reference(flow_ts: np.ndarray,
                          flow_st: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`visibility` in numpy steps, band by band of rows (what it was before its compiled

@@ -30,25 +30,34 @@ class FramePrep(NamedTuple):
 
     gray_pred: np.ndarray
     """``(H, W)`` uint8, ``to_gray_u8(pred)``."""
-    gray_gt: np.ndarray
-    """``(H, W)`` uint8, ``to_gray_u8(gt)``."""
-    digests: tuple[bytes, bytes]
-    """``gray_digest`` of the prediction's and of the ground truth's gray image."""
+    gray_gt: np.ndarray | None
+    """``(H, W)`` uint8, ``to_gray_u8(gt)``; None when the ground truth's flows are not looked
+    up by content (prepared: ``temporal_pairs.GroundTruthPair``)."""
+    digests: tuple[bytes, bytes | None]
+    """``gray_digest`` of the prediction's and of the ground truth's gray image (None with it)."""
 
 
-def prepare(pred: np.ndarray, gt: np.ndarray) -> FramePrep:
-    """The :class:`FramePrep` of one time step (checked float32 frames)."""
-    gp, gg = gray_of_checked(pred), gray_of_checked(gt)
-    return FramePrep(gp, gg, (gray_digest(gp), gray_digest(gg)))
+def prepare(pred: np.ndarray, gt: np.ndarray, *, gt_gray: bool = True) -> FramePrep:
+    """The :class:`FramePrep` of one time step (checked float32 frames); ``gt_gray`` False:
+    the prediction's only."""
+    gp = gray_of_checked(pred)
+    gg = gray_of_checked(gt) if gt_gray else None
+    return FramePrep(gp, gg, (gray_digest(gp), None if gg is None else gray_digest(gg)))
 
 
-def pair_flows(prev: FramePrep, cur: FramePrep, cache: FlowCache,
-               flow: FlowConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(fw, bw, fp)``: ground-truth flows ``t-1 -> t`` and ``t -> t-1``, prediction ``t-1 -> t``."""
+def ground_truth_flows(prev: FramePrep, cur: FramePrep, cache: FlowCache,
+                       flow: FlowConfig) -> tuple[np.ndarray, np.ndarray]:
+    """``(fw, bw)``: ground-truth flows ``t-1 -> t`` and ``t -> t-1``."""
     fw = cache.flow_gray(prev.gray_gt, cur.gray_gt, flow, (prev.digests[1], cur.digests[1]))
     bw = cache.flow_gray(cur.gray_gt, prev.gray_gt, flow, (cur.digests[1], prev.digests[1]))
-    fp = cache.flow_gray(prev.gray_pred, cur.gray_pred, flow, (prev.digests[0], cur.digests[0]))
-    return fw, bw, fp
+    return fw, bw
+
+
+def prediction_flow(prev: FramePrep, cur: FramePrep, cache: FlowCache,
+                    flow: FlowConfig) -> np.ndarray:
+    """The prediction's flow ``t-1 -> t`` (from ``cache``: a prediction equal to its ground
+    truth gets the ground truth's very flow)."""
+    return cache.flow_gray(prev.gray_pred, cur.gray_pred, flow, (prev.digests[0], cur.digests[0]))
 
 
 _BUFFERS = threading.local()

@@ -81,47 +81,55 @@ def check_static(static_mask: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     return m
 
 
+def static_mean(std: np.ndarray, pixels: np.ndarray, region: np.ndarray | None) -> float | None:
+    """``S``: the mean of a temporal std ``std`` (``(N, C)`` float64 of the N followed
+    ``pixels``, ``TemporalStd.std``) over the followed pixels inside ``region`` (``(H, W)``
+    bool; None: all of them), or None when none is kept. One function for a scoring run and
+    ``dynaeval prepare``: the same bits."""
+    if region is None:
+        return float(std.mean()) if pixels.any() else None
+    sel = region[pixels]  # the followed pixels, in the accumulators' order
+    if not sel.any():
+        return None
+    # np.compress: the values of std[sel], in their order, ~4x faster than the mask index
+    return float(np.compress(sel, std, axis=0).mean())
+
+
 class SequenceFlicker:
     """Flicker of one sequence, streamed: the temporal std of prediction and ground truth on the
     pixels ``pixels`` (``(H, W)`` bool, checked), one frame pair at a time.
 
-    ``gt_std``: the ground truth's temporal std on these pixels computed beforehand (``(N, C)``
-    float64, ``TemporalStd(pixels).std()`` of the same frames: ``dynaeval prepare``); the ground
-    truth is then not accumulated again.
+    ``gt_means``: ``S(gt)`` over the pixels and over the pixels inside the focused region
+    (``static_mean`` of the ground truth's std of the same frames, computed beforehand:
+    ``dynaeval prepare``; None where no pixel is kept); the ground truth is then neither
+    accumulated nor read.
     """
 
-    def __init__(self, pixels: np.ndarray, gt_std: np.ndarray | None = None) -> None:
+    def __init__(self, pixels: np.ndarray,
+                 gt_means: tuple[float | None, float | None] | None = None) -> None:
         self.pixels = pixels
         self.pred = TemporalStd(pixels)
-        self.gt = TemporalStd(pixels) if gt_std is None else None
-        if gt_std is not None and (gt_std.ndim != 2 or gt_std.shape[0] != np.count_nonzero(pixels)):
-            raise InputError(f"the ground truth's temporal std must be (N, C) for the N = "
-                             f"{np.count_nonzero(pixels)} static pixels, got {gt_std.shape}")
-        self._gt_std = gt_std
+        self.gt = TemporalStd(pixels) if gt_means is None else None
+        self._gt_means = gt_means
 
-    def update(self, pred: np.ndarray, gt: np.ndarray) -> None:
-        """Add frame t of the prediction and of the ground truth (``(H, W, C)`` float)."""
+    def update(self, pred: np.ndarray, gt: np.ndarray | None) -> None:
+        """Add frame t of the prediction and of the ground truth (``(H, W, C)`` float; the
+        ground truth unused with ``gt_means``)."""
         self.pred.update(pred)
         if self.gt is not None:
             self.gt.update(gt)
 
-    def gt_std(self) -> np.ndarray:
-        """``(N, C)`` temporal std of the ground truth on the followed pixels."""
-        return self.gt.std() if self.gt is not None else self._gt_std
-
-    def terms(self, region: np.ndarray | None = None) -> dict[str, float] | None:
+    def terms(self, region: np.ndarray | None = None,
+              focused: bool = False) -> dict[str, float] | None:
         """``{"value": |S(pred) - S(gt)|, "signed": S(pred) - S(gt), "pred": S(pred), "gt": S(gt)}``
-        over the followed pixels (inside ``region``, ``(H, W)`` bool, when given); None when no
-        pixel is kept. Needs at least one frame."""
-        keep = self.pixels if region is None else self.pixels & region
-        if not keep.any():
+        over the followed pixels (inside ``region``, ``(H, W)`` bool, when given: the focused
+        region, ``focused`` True, when the sequence has ``gt_means``); None when no pixel is
+        kept. Needs at least one frame."""
+        vp = static_mean(self.pred.std(), self.pixels, region)
+        if vp is None:
             return None
-        std_pred, std_gt = self.pred.std(), self.gt_std()
-        if region is not None:
-            sel = keep[self.pixels]  # the followed pixels, in the accumulators' order
-            # np.compress: the values of std[sel], in their order, ~4x faster than the mask index
-            std_pred, std_gt = np.compress(sel, std_pred, axis=0), np.compress(sel, std_gt, axis=0)
-        vp, vg = float(std_pred.mean()), float(std_gt.mean())
+        vg = (static_mean(self.gt.std(), self.pixels, region) if self._gt_means is None
+              else self._gt_means[1 if focused else 0])
         return {"value": abs(vp - vg), "signed": vp - vg, "pred": vp, "gt": vg}
 
 

@@ -35,6 +35,7 @@ from collections import deque
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import Executor
 from dataclasses import dataclass, field
+from functools import partial
 from itertools import repeat
 
 import numpy as np
@@ -49,6 +50,7 @@ from dynaeval.metrics.temporal_pairs import (
     WARP_ERROR_KEYS,
     FeatureMemo,
     Frames,
+    GroundTruthPair,
     LpipsFn,
     default_lpips,
     pair_terms,
@@ -124,7 +126,9 @@ class TemporalConfig:
 _NO_REGIONS = "no region masks given (focus: none)"
 
 
-def _as_region_mask(item, shape: tuple[int, int], i: int) -> np.ndarray:
+def region_mask(item, shape: tuple[int, int], i: int) -> np.ndarray:
+    """Frame ``i``'s region item (an ``(H, W) = shape`` bool mask or ``(N, 4)`` boxes) as a
+    bool mask; InputError for a mask of another shape."""
     arr = np.asarray(item)
     if arr.dtype == bool:
         if arr.shape != shape:
@@ -137,8 +141,10 @@ def _time_steps(
     pred_frames: Iterable[np.ndarray],
     gt_frames: Iterable[np.ndarray],
     region_masks: Iterable[np.ndarray] | None,
+    gt_gray: bool = True,
 ) -> Iterator[Frames]:
-    """The checked frames of each time step with its region as a bool mask (None: no regions)."""
+    """The checked frames of each time step with its region as a bool mask (None: no regions);
+    ``gt_gray`` False: the ground truth's gray image is not made (its flows are prepared)."""
     regions = iter(region_masks) if region_masks is not None else repeat(None)
     shape = None
     for i, (p, g) in enumerate(paired_frames(pred_frames, gt_frames)):
@@ -151,8 +157,8 @@ def _time_steps(
             raise InputError(
                 f"region_masks has fewer items than the {i + 1} frames seen so far"
             ) from None
-        region = None if item is None else _as_region_mask(item, p.shape[:2], i)
-        yield Frames(p, g, region, prepare(p, g))
+        region = None if item is None else region_mask(item, p.shape[:2], i)
+        yield Frames(p, g, region, prepare(p, g, gt_gray=gt_gray))
 
 
 def _lpips_for_run(
@@ -217,9 +223,10 @@ class _CameraTerms:
     """The per-camera terms of a sequence (``flicker``): the temporal std of its static pixels,
     and the union of every frame's region for ``focused_flicker``."""
 
-    def __init__(self, static_mask: np.ndarray | None, gt_static_std: np.ndarray | None) -> None:
+    def __init__(self, static_mask: np.ndarray | None,
+                 gt_flicker: tuple[float | None, float | None] | None) -> None:
         self.static_mask = static_mask
-        self.gt_static_std = gt_static_std
+        self.gt_flicker = gt_flicker
         self.flicker: SequenceFlicker | None = None  # None: no static mask (or no frame yet)
         self.region_union: np.ndarray | None = None
 
@@ -230,7 +237,7 @@ class _CameraTerms:
         if self.static_mask is not None:
             if self.flicker is None:
                 self.flicker = SequenceFlicker(check_static(self.static_mask, cur.pred.shape[:2]),
-                                               self.gt_static_std)
+                                               self.gt_flicker)
             self.flicker.update(cur.pred, cur.gt)
 
     def entry(self, focused: bool, n_frames: int, has_regions: bool) -> dict:
@@ -246,7 +253,7 @@ class _CameraTerms:
         if focused and self.region_union is None:
             return _null(Status.NO_REGION, "no frame has a region")
         region = self.region_union if focused else None
-        terms = self.flicker.terms(region)
+        terms = self.flicker.terms(region, focused)
         if terms is None:
             return _null(Status.EMPTY_REGION, "no static pixel: the static mask is empty"
                          if region is None else "no static pixel inside the regions")
@@ -265,8 +272,9 @@ def temporal_metrics(
     executor: Executor | None = None,
     window: int = 4,
     on_pair: Callable[[], None] | None = None,
-    gt_static_std: np.ndarray | None = None,
+    gt_flicker: tuple[float | None, float | None] | None = None,
     frame_indices: Sequence[int] | None = None,
+    gt_pairs: Callable[[int], GroundTruthPair] | None = None,
 ) -> dict[str, dict]:
     """All temporal metrics of one camera's sequence, streaming over consecutive pairs.
 
@@ -285,14 +293,19 @@ def temporal_metrics(
     the torch default) gets each frame's whole-frame features computed once for tLP and kept
     while a pair in flight needs them (86 MB per frame and side at 1080p with AlexNet).
     ``on_pair()``: called as each pair's terms are folded, in order (progress).
-    ``gt_static_std``: the ground truth's per-pixel temporal std on the static pixels of these
-    very frames, computed beforehand (``(N, C)`` float64, ``N`` static pixels in row-major
-    order: ``dynaeval prepare``); flicker then accumulates the prediction only.
+    ``gt_flicker``: ``S(gt)`` of these very frames on the static pixels and on the static pixels
+    inside the union of the regions (``static_flicker.static_mean`` of the ground truth's
+    temporal std; None where no pixel is kept), computed beforehand (``dynaeval prepare``);
+    flicker then accumulates the prediction only.
     ``frame_indices``: each frame's position in its sequence (increasing integers, one per
     frame; None: ``0, 1, 2, ...``). Two neighbours whose positions are not consecutive (frames
     left out between them, ``--allow-missing``) are no pair: their per-pair values are None and
     no flow is computed for them; flicker uses every frame given (a std over time needs no
     neighbours).
+    ``gt_pairs(k)``: the ground-truth half of pair ``k`` (frames ``k, k + 1``), a
+    ``GroundTruthPair`` computed beforehand for these very frames and region masks (``dynaeval
+    prepare``: flows, visibility mask, ``E(gt)``); the ground truth's gray images and flows are
+    then not made here. None: computed from the frames.
 
     Returns ``{key: {"value": float | None, "reason": str | None, "per_pair": [float | None]}}``
     for the keys ``temporal_keys()``: ``warp_error, tof, tlp, flicker`` and their
@@ -311,12 +324,13 @@ def temporal_metrics(
     lpips_fn, lpips_off = _lpips_for_run(config, lpips_fn)
     memo = FeatureMemo(lpips_fn) if hasattr(lpips_fn, "features") else None
     pairs = _PairFold(executor, window, memo, lpips_off, on_pair)
-    camera = _CameraTerms(static_mask, gt_static_std)
+    camera = _CameraTerms(static_mask, gt_flicker)
     prev: Frames | None = None
     n_frames = 0
     regionless: list[int] = []  # frames whose region item was None
     positions = _Positions(frame_indices)
-    for i, cur in enumerate(_time_steps(pred_frames, gt_frames, region_masks)):
+    steps = _time_steps(pred_frames, gt_frames, region_masks, gt_gray=gt_pairs is None)
+    for i, cur in enumerate(steps):
         n_frames = i + 1
         if cur.region is None:
             regionless.append(i)
@@ -324,7 +338,8 @@ def temporal_metrics(
         if prev is not None and positions.next_follows(i):
             pairs.submit(pair_terms, prev, cur, cache, config.flow,
                          lpips_fn if pairs.lpips_off is None else None,
-                         config.tlp_min_crop, memo, i)
+                         config.tlp_min_crop, memo, i,
+                         None if gt_pairs is None else partial(gt_pairs, i - 1))
         elif prev is not None:  # a gap: no pair, its slot stays None
             pairs.submit(_no_pair_terms)
         prev = cur

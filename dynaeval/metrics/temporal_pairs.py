@@ -25,8 +25,22 @@ import numpy as np
 
 from dynaeval.boxes import grow_box, mask_to_box
 from dynaeval.errors import EmptyRegionError, InputError, WeightsUnavailableError
-from dynaeval.metrics.flow import FlowCache, FlowConfig, check_flow, visibility, warp
-from dynaeval.metrics.pair_kernels import FramePrep, pair_flows, prepare, tof_terms, warp_errors
+from dynaeval.metrics.flow import (
+    FlowCache,
+    FlowConfig,
+    check_flow,
+    sample_grid_of,
+    visibility,
+    warp,
+)
+from dynaeval.metrics.pair_kernels import (
+    FramePrep,
+    ground_truth_flows,
+    prediction_flow,
+    prepare,
+    tof_terms,
+    warp_errors,
+)
 from dynaeval.metrics.perceptual import LpipsFeatures, lpips
 from dynaeval.metrics.registry import result_key
 from dynaeval.validation import as_image
@@ -264,20 +278,69 @@ class FeatureMemo:
                 self._items.pop((index, side), None)
 
 
-def _warp_error_parts(prev: Frames, cur: Frames, xs: np.ndarray, ys: np.ndarray,
-                      keeps: list[np.ndarray | None]) -> list[dict[str, float | None]]:
-    """``{"pred": E(pred), "gt": E(gt), "signed": E(pred) - E(gt)}`` of the pair for each kept
-    pixel set of ``keeps`` (flat indices; None: not computed), each frame warped once on the
-    backward flow's grid ``(xs, ys)``; all None when no pixel is kept."""
-    wanted = [k for k in keeps if k is not None]
-    e_pred = iter(warp_errors(prev.pred, cur.pred, xs, ys, wanted))
-    e_gt = iter(warp_errors(prev.gt, cur.gt, xs, ys, wanted))
-    out = []
-    for k in keeps:
-        ep, eg = (None, None) if k is None else (next(e_pred), next(e_gt))
-        out.append(dict(_NO_PARTS) if ep is None or eg is None
-                   else {"pred": ep, "gt": eg, "signed": ep - eg})
-    return out
+class GroundTruthPair(NamedTuple):
+    """What the terms of a pair ``(t-1, t)`` need of the ground truth alone
+    (:func:`ground_truth_pair`): the same for every method scored on it, so ``dynaeval
+    prepare`` computes it once."""
+
+    fw: np.ndarray
+    """``(H, W, 2)`` float32 ground-truth flow ``t-1 -> t`` (tOF's reference)."""
+    bw: np.ndarray
+    """``(H, W, 2)`` float32 ground-truth flow ``t -> t-1`` (warps ``t-1`` onto ``t``)."""
+    valid: np.ndarray
+    """``(H, W)`` bool, the pixels of ``t`` visible in ``t-1`` (``flow.visibility(bw, fw)``)."""
+    warp_error: tuple[float | None, float | None]
+    """``E(gt)`` of the pair (:func:`warping_error`) over ``valid`` and over ``valid`` inside
+    the pair's focus region (:func:`pair_region`); None: no pixel kept, or no region."""
+
+
+def pair_region(prev: np.ndarray | None, cur: np.ndarray | None) -> np.ndarray | None:
+    """The focus region of a pair: the union of its two frames' ``(H, W)`` bool regions (None
+    when either frame has none)."""
+    return None if cur is None or prev is None else (cur | prev)
+
+
+def _kept_pixels(valid: np.ndarray, region: np.ndarray | None) -> list[np.ndarray | None]:
+    """The flat indices of the pixels the warping errors average: visible ones; visible ones
+    in ``region`` (None without a region)."""
+    return [np.flatnonzero(valid), None if region is None else np.flatnonzero(valid & region)]
+
+
+def _errors_of(prev: np.ndarray, cur: np.ndarray, xs: np.ndarray, ys: np.ndarray,
+               keeps: list[np.ndarray | None]) -> list[float | None]:
+    """``E`` of one sequence's pair for each kept pixel set of ``keeps`` (None: not computed),
+    ``prev`` warped once on the backward flow's grid ``(xs, ys)``."""
+    got = iter(warp_errors(prev, cur, xs, ys, [k for k in keeps if k is not None]))
+    return [None if k is None else next(got) for k in keeps]
+
+
+def ground_truth_pair(prev_gt: np.ndarray, cur_gt: np.ndarray, fw: np.ndarray, bw: np.ndarray,
+                      region: np.ndarray | None) -> GroundTruthPair:
+    """The :class:`GroundTruthPair` of ground-truth frames ``(t-1, t)`` (checked float32
+    ``(H, W, C)``), their flows and the pair's region (``(H, W)`` bool or None): what
+    ``dynaeval prepare`` stores, the very computation of a scoring run."""
+    return _ground_truth_on_grid(prev_gt, cur_gt, fw, bw, region)[0]
+
+
+def _ground_truth_on_grid(
+    prev_gt: np.ndarray, cur_gt: np.ndarray, fw: np.ndarray, bw: np.ndarray,
+    region: np.ndarray | None,
+) -> tuple[GroundTruthPair, np.ndarray, np.ndarray, list[np.ndarray | None]]:
+    """:func:`ground_truth_pair` with the sample grid ``(xs, ys)`` of ``bw`` it was found on
+    (``(H, W)`` float32 each) and the kept pixels (``_kept_pixels``), for the prediction's
+    warping errors."""
+    valid, xs, ys = visibility(bw, fw)  # the pixels of t visible in t-1, bw's grid
+    keeps = _kept_pixels(valid, region)
+    errors = _errors_of(prev_gt, cur_gt, xs, ys, keeps)
+    return GroundTruthPair(fw, bw, valid, (errors[0], errors[1])), xs, ys, keeps
+
+
+def _warp_error_parts(e_pred: list[float | None],
+                      e_gt: tuple[float | None, ...]) -> list[dict[str, float | None]]:
+    """``{"pred": E(pred), "gt": E(gt), "signed": E(pred) - E(gt)}`` of each kept pixel set;
+    all None where either is None (no pixel kept, or no region)."""
+    return [dict(_NO_PARTS) if ep is None or eg is None
+            else {"pred": ep, "gt": eg, "signed": ep - eg} for ep, eg in zip(e_pred, e_gt, strict=True)]
 
 
 _NO_PARTS: dict[str, float | None] = {"pred": None, "gt": None, "signed": None}
@@ -317,27 +380,36 @@ def pair_terms(
     min_crop: int = 32,
     memo: FeatureMemo | None = None,
     index: int = 0,
+    ground_truth: Callable[[], GroundTruthPair] | None = None,
 ) -> dict:
     """Every per-pair term of frames ``(t-1, t)`` = ``(prev, cur)``, ``index`` = t.
 
     The focused terms use the union of the two frames' regions (None when either has none).
     ``flow``: the estimator; ``lpips_fn`` None: no tLP; ``min_crop``: focused tLP's crop side;
-    ``memo``: whole-frame LPIPS features by frame. Pure given the caches (which only save work),
-    so pairs can be computed on several threads and folded in order.
+    ``memo``: whole-frame LPIPS features by frame; ``ground_truth()``: the pair's
+    :class:`GroundTruthPair` computed beforehand for these very frames and regions (``dynaeval
+    prepare``; None: computed here from the frames' gray images). Pure given the caches (which
+    only save work), so pairs can be computed on several threads and folded in order.
 
     Returns ``{"per_pair": {result key: float | None}, "parts": {warp-error key: {pred, gt,
     signed}}, "lpips_error": str | None}``; ``per_pair["warp_error"]`` is ``|E(pred) - E(gt)|``.
     """
-    region = None if cur.region is None or prev.region is None else (cur.region | prev.region)
-    fw, bw, fp = pair_flows(_prep(prev), _prep(cur), cache, flow)
-    valid, xs, ys = visibility(bw, fw)  # the pixels of t visible in t-1, bw's grid
-    keep = np.flatnonzero(valid)
-    keeps = [keep, None if region is None else np.flatnonzero(valid & region)]
-    parts = dict(zip(WARP_ERROR_KEYS, _warp_error_parts(prev, cur, xs, ys, keeps), strict=True))
+    region = pair_region(prev.region, cur.region)
+    p_prev, p_cur = _prep(prev), _prep(cur)
+    if ground_truth is None:
+        fw, bw = ground_truth_flows(p_prev, p_cur, cache, flow)
+        gt, xs, ys, keeps = _ground_truth_on_grid(prev.gt, cur.gt, fw, bw, region)
+    else:
+        gt = ground_truth()
+        xs, ys = sample_grid_of(gt.bw)  # the grid visibility found the mask on
+        keeps = _kept_pixels(gt.valid, region)
+    e_pred = _errors_of(prev.pred, cur.pred, xs, ys, keeps)
+    parts = dict(zip(WARP_ERROR_KEYS, _warp_error_parts(e_pred, gt.warp_error), strict=True))
     values: dict[str, float | None] = {
         key: None if got["signed"] is None else abs(got["signed"]) for key, got in parts.items()
     }
-    values[result_key("tof")], values[result_key("tof", "focused")] = tof_terms(fp, fw, region)
+    fp = prediction_flow(p_prev, p_cur, cache, flow)
+    values[result_key("tof")], values[result_key("tof", "focused")] = tof_terms(fp, gt.fw, region)
 
     lpips_error = None
     if lpips_fn is not None:

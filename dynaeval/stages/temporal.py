@@ -105,6 +105,12 @@ def static_pixels(regions: list[FrameRegions], focus: FocusConfig) -> np.ndarray
     return None if moving is None else ~moving
 
 
+def region_items(regions: list[FrameRegions], focus: FocusConfig) -> list | None:
+    """Each frame's focus region for the temporal terms (its boxes; None for a frame without),
+    or None when the run has no focus (``focus: none``)."""
+    return None if focus.source == "none" else [r.boxes for r in regions]
+
+
 def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], plan: RunPlan,
                        work: CameraWork, shape: tuple[int, ...]) -> dict[str, dict]:
     """The temporal terms of one camera (``dynaeval.metrics.temporal.temporal_metrics`` output),
@@ -112,9 +118,7 @@ def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], plan
     are smaller than LPIPS accepts."""
     cache, prepared = work.cache, plan.prepared
     static = static_pixels(regions, plan.focus)
-    region_masks = None  # a frame without boxes: None, the pairs with it have no focused value
-    if plan.focus.source != "none":
-        region_masks = [r.boxes for r in regions]
+    region_masks = region_items(regions, plan.focus)  # a frame's None: its pairs' focused: None
     small = _small_for_tlp(plan, *shape[:2])
     tcfg = plan.temporal if "lpips" in plan.fns and small is None else replace(plan.temporal, tlp=False)
     gt_of = same_shape(lambda i: plan.read_gt(pairs[i], cache), shape)
@@ -129,9 +133,10 @@ def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], plan
             executor=work.executor.pool,
             window=work.executor.window,  # pairs in flight, all cameras: 2 x workers
             on_pair=work.on_pair,
-            gt_static_std=None if static is None or prepared is None
-            else prepared.gt_static_std(pairs[0].camera, static),
+            gt_flicker=None if static is None or prepared is None
+            else prepared.gt_flicker(pairs[0].camera, static),
             frame_indices=[p.index for p in pairs],
+            gt_pairs=None if prepared is None else prepared.ground_truth_pairs(pairs[0].camera),
         )
     _name_gaps(pairs, out)
     if small is not None:

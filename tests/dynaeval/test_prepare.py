@@ -87,6 +87,98 @@ def test_prepared_flows_are_read_not_computed(prepared_motion, monkeypatch):
     assert len(calls) == 14  # 2 cameras x 7 pairs, one prediction flow each (GT: 2 x 14 read)
 
 
+def _count_calls(monkeypatch, module, name: str) -> list:
+    calls: list = []
+    real = getattr(module, name)
+    monkeypatch.setattr(module, name, lambda *a, **k: calls.append(1) or real(*a, **k))
+    return calls
+
+
+def test_a_prepared_run_computes_no_ground_truth_half_of_a_pair(prepared_motion, monkeypatch):
+    """Issue 33: the ground truth's gray images (and their hashes), the visibility of its
+    flows, its warp and its warping errors are read from the prepared folder: a prepared run
+    makes the predictions' gray images only and warps the predictions only."""
+    from dynaeval.metrics import pair_kernels, temporal_pairs
+
+    visible = _count_calls(monkeypatch, temporal_pairs, "visibility")
+    gray = _count_calls(monkeypatch, pair_kernels, "gray_of_checked")
+    warps = _count_calls(monkeypatch, pair_kernels, "warp_on_grid")
+    kw = {"focus": FocusConfig(source="motion"), **FAST}
+    fast = score(SAMPLE / "pred", SAMPLE / "gt", prepared=str(prepared_motion), **kw)
+    assert (len(visible), len(gray), len(warps)) == (0, 16, 14)  # 2 cameras x 8 frames, 7 pairs
+    plain = score(SAMPLE / "pred", SAMPLE / "gt", **kw)
+    assert (len(visible), len(gray), len(warps)) == (14, 16 + 32, 14 + 28)
+    assert _comparable(fast) == _comparable(plain)
+
+
+def _boxes_with_gaps(tmp_path: Path) -> Path:
+    """The sample's boxes with none for some of cam07's frames and for all of eval00's."""
+    boxes = json.loads((SAMPLE / "boxes.json").read_text())
+    for key in boxes:
+        cam, frame = key.split("/")
+        if cam == "eval00" or frame in ("0002", "0005", "0006"):
+            boxes[key] = []
+    path = tmp_path / "boxes.json"
+    path.write_text(json.dumps(boxes))
+    return path
+
+
+def test_every_temporal_term_and_status_equals_the_plain_run(tmp_path, monkeypatch):
+    """Frames without boxes (focused pairs null, a camera without any: no-region), a camera
+    missing a frame (not-consecutive pairs, computed again): every temporal entry, whole and
+    focused, with its per-pair values, parts and statuses, is the plain run's bit for bit."""
+    from dynaeval.metrics import temporal_pairs
+
+    focus = FocusConfig.parse(f"boxes:{_boxes_with_gaps(tmp_path)}")
+    prep = tmp_path / "prep"
+    prepare(SAMPLE / "gt", prep, focus=focus, progress=False)
+    manifest = json.loads((prep / "manifest.json").read_text())
+    eval00 = manifest["cameras"]["eval00"]["gt_pairs"]
+    assert all(p["warp_error"][1] is None and p["warp_error"][0] > 0 for p in eval00)
+    visible = _count_calls(monkeypatch, temporal_pairs, "visibility")
+    fast = score(SAMPLE / "pred", SAMPLE / "gt", focus=focus, prepared=str(prep), **FAST)
+    assert not visible
+    plain = score(SAMPLE / "pred", SAMPLE / "gt", focus=focus, **FAST)
+    assert _comparable(fast) == _comparable(plain)  # per-pair values in the frames, statuses
+    cams = plain["cameras"]
+    assert cams["eval00"]["focused_warp_error"] is None is cams["eval00"]["focused_flicker"]
+    assert cams["cam07"]["focused_warp_error"] is not None and cams["eval00"]["warp_error"] > 0
+    assert any(r.get("focused_warp_error", 0) is None and r.get("warp_error") is not None
+               for r in plain["frames"] if r["camera"] == "cam07")
+    pred = tmp_path / "pred"
+    shutil.copytree(SAMPLE / "pred", pred)
+    for frame in ("0001", "0003", "0005", "0007"):  # no two eval00 frames left are consecutive
+        (pred / "eval00" / f"{frame}.png").unlink()
+    kw = {"focus": focus, "allow_missing": True, **FAST}
+    fast = score(pred, SAMPLE / "gt", prepared=str(prep), **kw)
+    plain = score(pred, SAMPLE / "gt", **kw)
+    assert plain["cameras"]["eval00"]["warp_error"] is None
+    assert "not-consecutive" in json.dumps(plain)
+    fast["warnings"] = [w for w in fast["warnings"] if "computed again" not in w["reason"]]
+    assert _comparable(fast) == _comparable(plain)
+
+
+def test_a_prepared_folder_of_the_previous_format_is_exit_2_saying_prepare_again(
+        tmp_path, prepared_motion, capsys):
+    """Format 3 held no ground-truth pair terms: refused naming its manifest and the fix."""
+    from dynaeval.io.prepared import manifest_id
+
+    prep = tmp_path / "prep"
+    shutil.copytree(prepared_motion, prep)
+    manifest = json.loads((prep / "manifest.json").read_text())
+    manifest["format_version"] = 3
+    for cam in manifest["cameras"].values():
+        del cam["gt_pairs"]
+    manifest["id"] = manifest_id(manifest)
+    (prep / "manifest.json").write_text(json.dumps(manifest))
+    code = main(["score", str(SAMPLE / "pred"), str(SAMPLE / "gt"), "--focus", "motion",
+                 "--prepared", str(prep), "-o", str(tmp_path / "r.json"), "-q"])
+    err = capsys.readouterr().err
+    assert code == 2 and str(prep / "manifest.json") in err and "format version 3" in err
+    assert "dynaeval prepare" in err and "Traceback" not in err
+    assert not (tmp_path / "r.json").exists()
+
+
 def _copy_gt(tmp_path: Path) -> Path:
     gt = tmp_path / "gt"
     shutil.copytree(SAMPLE / "gt", gt)
@@ -262,7 +354,7 @@ def _count_std_updates(monkeypatch) -> list:
 def test_prepared_static_std_is_read_not_accumulated(prepared_motion, monkeypatch):
     """Flicker accumulates the predictions only: the ground truth's temporal std is prepared."""
     manifest = json.loads((prepared_motion / "manifest.json").read_text())
-    assert all(c["static_std"] for c in manifest["cameras"].values())
+    assert all(c["flicker"] for c in manifest["cameras"].values())
     calls = _count_std_updates(monkeypatch)
     score(SAMPLE / "pred", SAMPLE / "gt", focus=FocusConfig(source="motion"),
           prepared=str(prepared_motion), **FAST)
@@ -307,13 +399,14 @@ def test_prepared_ground_truth_images_are_not_decoded_again(prepared_motion, mon
 
 
 def _kinds(prep: Path) -> dict[str, Path]:
-    """One prepared file of each kind: a flow, a decoded frame, a camera's regions, a static std."""
+    """One prepared file of each kind: a flow, a decoded frame, a camera's regions, a pair's
+    visibility mask."""
     def first(pattern):
         found = sorted(prep.glob(pattern))
         assert found, pattern
         return found[0]
     return {"flow": first("flows/*.npy"), "frame": first("frames/*.npy"),
-            "regions": first("regions/*.npz"), "static_std": first("static_std/*.npy")}
+            "regions": first("regions/*.npz"), "visible": first("visible/*.npy")}
 
 
 def _flip_values(path: Path) -> None:
@@ -330,7 +423,7 @@ def _flip_values(path: Path) -> None:
     np.save(path, arr)
 
 
-@pytest.mark.parametrize("kind", ["flow", "frame", "regions", "static_std"])
+@pytest.mark.parametrize("kind", ["flow", "frame", "regions", "visible"])
 @pytest.mark.parametrize("damage", ["changed", "truncated", "deleted"])
 def test_a_prepared_file_changed_truncated_or_deleted_is_exit_2_naming_it(
         tmp_path, prepared_motion, capsys, kind, damage):
@@ -366,8 +459,10 @@ def test_prepared_folder_of_the_format_without_hashes_is_refused(tmp_path, prepa
 
     manifest["id"] = manifest_id(manifest)
     (prep / "manifest.json").write_text(json.dumps(manifest))
-    with pytest.raises(InputError, match="format version 1; this dynaeval reads version 3: "
-                                         "prepare it again"):
+    from dynaeval.io.prepared import FORMAT_VERSION
+
+    with pytest.raises(InputError, match=f"format version 1; this dynaeval reads version "
+                                         f"{FORMAT_VERSION}: prepare it again"):
         score(SAMPLE / "pred", SAMPLE / "gt", focus=FocusConfig(source="motion"),
               prepared=str(prep), **FAST)
 
@@ -432,13 +527,13 @@ def test_an_interrupt_during_prepare_leaves_nothing_while_files_are_written(tmp_
                                                                              monkeypatch):
     from dynaeval import prepare as module
 
-    real = module._save_static_std
+    real = module._save_pair
 
     def interrupted(*a, **k):
-        real(*a, **k)  # its file queued behind the camera's flows
+        real(*a, **k)  # its file queued behind the pair's flows
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(module, "_save_static_std", interrupted)
+    monkeypatch.setattr(module, "_save_pair", interrupted)
     with pytest.raises(KeyboardInterrupt):
         prepare(SAMPLE / "gt", tmp_path / "prep", focus=FocusConfig(source="motion"),
                 progress=False)

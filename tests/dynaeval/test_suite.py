@@ -335,3 +335,27 @@ def test_on_an_executor_a_scene_is_scored_while_another_is_still_being_prepared(
     for name in outcome.scored:  # the same numbers as one task after another
         assert (_numbers(tree / "out" / "results" / f"{name}.json")
                 == _numbers(tree / "inline" / "results" / f"{name}.json"))
+
+
+def test_a_scene_prepared_in_an_older_format_is_prepared_again(tree, monkeypatch):
+    """The prepared format is in a scene's prepare key: a folder a previous dynaeval wrote in
+    its older format (format 3, before the ground-truth pair terms) is prepared again instead of
+    failing every pair that has to be scored against it."""
+    from dynaeval import suite as module
+    from dynaeval.io.prepared import FORMAT_VERSION, manifest_id
+
+    with monkeypatch.context() as m:  # the key and the folder of the previous format
+        m.setattr(module, "FORMAT_VERSION", FORMAT_VERSION - 1)
+        run_suite(folder_suite(tree / "root", tree / "gt", tree / "out", _config()),
+                  progress=False)
+    path = tree / "out" / "prepared" / "sample" / "manifest.json"
+    manifest = json.loads(path.read_text())
+    manifest["format_version"] = FORMAT_VERSION - 1
+    manifest["id"] = manifest_id(manifest)
+    path.write_text(json.dumps(manifest))
+    (tree / "out" / "results" / "sample__m1.json").unlink()
+    outcome = run_suite(folder_suite(tree / "root", tree / "gt", tree / "out", _config()),
+                        progress=False)
+    assert outcome.prepared == ["sample"] and not outcome.failed
+    assert outcome.scored == ["sample__m1"]
+    assert json.loads(path.read_text())["format_version"] == FORMAT_VERSION

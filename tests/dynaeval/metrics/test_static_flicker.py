@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from dynaeval.errors import EmptyRegionError, InputError
-from dynaeval.metrics.static_flicker import SequenceFlicker, TemporalStd, flicker
+from dynaeval.metrics.static_flicker import SequenceFlicker, TemporalStd, flicker, static_mean
 
 from .temporal_frames import H, W, panning, texture
 
@@ -69,21 +69,26 @@ def test_sequence_flicker_over_a_region_equals_following_only_the_region(rng):
         flicker(pred, gt, static, region[1:])
 
 
-def test_a_given_ground_truth_std_gives_the_accumulated_terms_bit_for_bit(rng):
+def test_given_ground_truth_means_give_the_accumulated_terms_bit_for_bit(rng):
+    """``dynaeval prepare`` stores ``S(gt)`` (whole, focused) as ``static_mean`` of the ground
+    truth's std: the terms are those of a sequence that accumulates the ground truth."""
     pixels = rng.random((24, 32)) > 0.3
     preds = [rng.random((24, 32, 3), dtype=np.float32) for _ in range(5)]
     gts = [rng.random((24, 32, 3), dtype=np.float32) for _ in range(5)]
+    region = rng.random((24, 32)) > 0.5
     gt_std = TemporalStd(pixels)
     for g in gts:
         gt_std.update(g)
-    both, given = SequenceFlicker(pixels), SequenceFlicker(pixels, gt_std.std())
+    means = (static_mean(gt_std.std(), pixels, None), static_mean(gt_std.std(), pixels, region))
+    both, given = SequenceFlicker(pixels), SequenceFlicker(pixels, means)
     for p, g in zip(preds, gts, strict=True):
         both.update(p, g)
         given.update(p, None)  # the ground truth is not looked at
-    region = rng.random((24, 32)) > 0.5
-    assert given.terms() == both.terms() and given.terms(region) == both.terms(region)
-    with pytest.raises(InputError, match="static pixels"):
-        SequenceFlicker(pixels, gt_std.std()[1:])
+    assert given.terms() == both.terms()
+    assert given.terms(region, focused=True) == both.terms(region)
+    empty = np.zeros((24, 32), bool)
+    assert static_mean(gt_std.std(), pixels, empty) is None
+    assert given.terms(empty, focused=True) is None is both.terms(empty)
 
 
 @pytest.mark.parametrize("shape", [(24, 32, 3), (24, 32)])
