@@ -78,7 +78,7 @@ def bench_prepared(job: Path, rounds: int) -> str:
         timing_p = json.loads(outs["prepared"].read_text())["timing"]
         n_frames = len(json.loads(outs["first"].read_text())["frames"])
         flows_mb, regions_mb = _size_mb(prep / "flows", "*.npy"), _size_mb(prep, "*.npz")
-        std_mb = _size_mb(prep / "static_std", "*.npy")
+        frames_mb, visible_mb = _size_mb(prep / "frames", "*.npy"), _size_mb(prep / "visible", "*.npy")
         n_flows = len(list((prep / "flows").glob("*.npy")))
     ratio = best["first"] / best["prepared"]
     return "\n".join([
@@ -100,8 +100,10 @@ def bench_prepared(job: Path, rounds: int) -> str:
         "(sums of phases, not of the best run).", "",
         f"Size of PREP: {n_flows} flows, {flows_mb:.1f} MB ({flows_mb / max(n_frames, 1):.1f} MB per "
         f"frame: 2 float32 flows of {flows_mb / max(n_flows, 1):.1f} MB per consecutive pair), regions {regions_mb:.2f} MB "
-        f"(compressed npz, motion masks bit-packed), the ground truth's temporal std on the "
-        f"static pixels {std_mb:.1f} MB (float64, one array per camera).",
+        f"(compressed npz, motion masks bit-packed), visibility masks {visible_mb:.1f} MB "
+        f"(bit-packed, one per pair), decoded 8-bit frames {frames_mb:.1f} MB (uint8, so "
+        f"that scoring skips decoding the ground truth); the manifest holds the pairs' "
+        f"ground-truth warping errors and flicker means.",
     ])
 
 
