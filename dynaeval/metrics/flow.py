@@ -408,12 +408,9 @@ def visibility(flow_ts: np.ndarray, flow_st: np.ndarray) -> tuple[np.ndarray, np
     ``np.sum(v ** 2, axis=-1)`` in their order: the same bits (tested against
     :func:`visibility_reference`).
     """
-    from dynaeval.metrics.flow_kernels import consistent, sample_grid
+    from dynaeval.metrics.flow_kernels import consistent
 
-    h, w = flow_ts.shape[:2]
-    xs, ys = np.empty((h, w), np.float32), np.empty((h, w), np.float32)
-    valid = np.empty((h, w), bool)
-    sample_grid(flow_ts, xs, ys, valid)
+    xs, ys, valid = _grid_and_inside(flow_ts)
     consistent(flow_ts, warp_on_grid(flow_st, xs, ys), valid)
     return valid, xs, ys
 
@@ -422,12 +419,21 @@ def sample_grid_of(flow: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(xs, ys)`` of a checked ``(H, W, 2)`` float32 flow: the sample grid :func:`visibility`
     returns with its mask (the same compiled loop, the same bits), for a mask computed
     beforehand (``dynaeval prepare``)."""
+    xs, ys, _ = _grid_and_inside(flow)
+    return xs, ys
+
+
+def _grid_and_inside(flow: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(xs, ys, inside)`` of a checked ``(H, W, 2)`` float32 flow, one compiled loop
+    (``flow_kernels.sample_grid``): the grid ``p + flow(p)``, ``(H, W)`` float32 each, and
+    ``(H, W)`` bool, the sample lies in the frame."""
     from dynaeval.metrics.flow_kernels import sample_grid
 
     h, w = flow.shape[:2]
     xs, ys = np.empty((h, w), np.float32), np.empty((h, w), np.float32)
-    sample_grid(flow, xs, ys, np.empty((h, w), bool))
-    return xs, ys
+    inside = np.empty((h, w), bool)
+    sample_grid(flow, xs, ys, inside)
+    return xs, ys, inside
 
 
 def visibility_reference(flow_ts: np.ndarray,
