@@ -89,6 +89,9 @@ class Dataset:
     box: np.ndarray
     """(2, 3) float32 ``[min, max]`` corners (world metres) of the inner scene box; space outside it
     is contracted (see ``rays.contract``)."""
+    extent: np.ndarray | None = None
+    """(2, 3) float64 ``[min, max]`` corners (world metres) of everything in the scene but the sky
+    (the generator's ``metadata.json`` ``world.extent``); None when the files do not say."""
 
 
 def _read(path: Path) -> np.ndarray:
@@ -198,10 +201,12 @@ def load_dataset(path: str | Path) -> Dataset:
     if not root.is_dir():
         raise InputError("dataset folder does not exist", path=root)
     file = p if p.is_file() else root / "transforms.json"
-    ground = None
+    ground, extent = None, None
     meta = root / "metadata.json"
-    if meta.is_file() and json.loads(meta.read_text()).get("generator") == "reference_models.scenes":
+    if meta.is_file() and (info := json.loads(meta.read_text())).get("generator") == "reference_models.scenes":
         ground = 0.0  # the generator's pitch is the z = 0 plane
+        if "extent" in info.get("world", {}):
+            extent = np.asarray(info["world"]["extent"], dtype=np.float64)
     if file.is_file():
         top = _json(file)
         entries = top.get("frames")
@@ -237,7 +242,7 @@ def load_dataset(path: str | Path) -> Dataset:
                          "render one with `python -m reference_models.scenes render ...`", path=root)
     n_frames = len(np.unique(train.times))
     box = scene_box(train.c2w[:, :3, 3], ground)
-    return Dataset(root, train, evals, n_frames, box)
+    return Dataset(root, train, evals, n_frames, box, extent)
 
 
 def _json(path: Path) -> dict:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import itertools
 
+import numpy as np
 import torch
 from torch import nn
 from torch.nn import functional as F
@@ -42,6 +43,14 @@ def squared_difference_mean(p: torch.Tensor, dim: int) -> torch.Tensor:
     return _SquaredDifferenceMean.apply(p, dim)
 
 
+def _per_axis(cells: int | tuple[int, ...]) -> list[int]:
+    """Cells along x, y, z: one number for all three axes, or one per axis."""
+    out = [int(cells)] * 3 if isinstance(cells, int | np.integer) else [int(c) for c in cells]
+    if len(out) != 3 or min(out) < 2:
+        raise ValueError(f"expected one resolution or three (x, y, z), each >= 2; got {cells!r}")
+    return out
+
+
 class PlaneEncoding(nn.Module):
     """K-Planes (Fridovich-Keil et al. 2023): the six coordinate planes of 4D space-time.
 
@@ -53,11 +62,13 @@ class PlaneEncoding(nn.Module):
     ``factor=True`` starts every plane at 1: a multiplicative factor on another field that
     changes nothing until trained. ``static_only`` (set by the training loop's static warm-up) skips the planes with a time
     axis: while they are still 1 this is the same field (up to the rounding of a bilinear
-    look-up of ones) at half the look-ups.
+    look-up of ones) at half the look-ups. ``resolution`` and ``max_resolution`` are one number
+    for every space axis or three (x, y, z): cells per axis of the coarsest scale and the cap.
     """
 
-    def __init__(self, resolution: int, time_resolution: int, scales: tuple[int, ...],
-                 features: int, max_resolution: int = 256, planes: str = "space-time",
+    def __init__(self, resolution: int | tuple[int, int, int], time_resolution: int,
+                 scales: tuple[int, ...], features: int,
+                 max_resolution: int | tuple[int, int, int] = 256, planes: str = "space-time",
                  factor: bool = False) -> None:
         super().__init__()
         all_pairs = list(itertools.combinations(range(4), 2))
@@ -73,11 +84,12 @@ class PlaneEncoding(nn.Module):
         self.planes = nn.ParameterList()
         self.plane_pairs: list[tuple[int, int]] = []
         """Axes ``(a, b)`` of each plane in ``planes`` (columns along ``a``, rows along ``b``)."""
+        base, cap = _per_axis(resolution), _per_axis(max_resolution)
         for s in self.scales:
-            res = min(resolution * s, max_resolution)
+            res = [min(r * s, c) for r, c in zip(base, cap, strict=True)] + [time_resolution]
             for a, b in self.pairs:
                 self.plane_pairs.append((a, b))
-                size = [time_resolution if ax == 3 else res for ax in (b, a)]
+                size = [res[b], res[a]]
                 if 3 in (a, b) or factor:
                     self.planes.append(nn.Parameter(torch.ones(1, features, *size)))
                 else:

@@ -22,6 +22,7 @@ from torch import nn
 from dynaeval.errors import InputError
 from reference_models.common.data import Dataset
 from reference_models.common.encodings import PlaneEncoding
+from reference_models.common.footprint import footprint_resolution
 from reference_models.common.importance import moving_box
 from reference_models.common.rays import contract
 from reference_models.common.train import ModelSpec, standard_presets
@@ -45,6 +46,15 @@ class KPlanesConfig:
     """Time planes only inside the box the motion masks say moves, a static field elsewhere."""
     dynamic_resolution: int = 32
     """``dynamic_box``: space cells of the coarsest time planes across the moving box."""
+    footprint: bool = False
+    """Size the world planes per axis from the training cameras' pixel footprint on the scene's
+    extent (``common.footprint.footprint_resolution``, computed when a run starts and kept in
+    its ``config.json``): the finest scale gets those cells, coarser scales ``1 / scale`` of
+    them; ``resolution`` and ``max_resolution`` then do not size the world planes."""
+    footprint_quantile: float = 0.75
+    """``footprint``: the quantile of the pixels' needs the finest planes meet."""
+    footprint_max: int = 1024
+    """``footprint``: cap on the cells of any axis."""
     dynamic_planes: str = "time"
     """``dynamic_box``: planes of the factor over the moving box: ``time`` (xt, yt, zt) or
     ``space-time`` (all six, every one starting at 1: the box also gets its own fine space
@@ -54,11 +64,13 @@ class KPlanesConfig:
 class DynamicBoxEncoding(nn.Module):
     """Static planes everywhere, times a time factor inside the moving box (see module doc)."""
 
-    def __init__(self, cfg: KPlanesConfig, n_frames: int, box_grid: np.ndarray) -> None:
+    def __init__(self, cfg: KPlanesConfig, n_frames: int, box_grid: np.ndarray,
+                 world_resolution: list[int] | None = None) -> None:
         super().__init__()
         t_res = max(cfg.time_resolution or n_frames, 2)
-        self.static = PlaneEncoding(cfg.resolution, t_res, tuple(cfg.scales), cfg.features,
-                                    cfg.max_resolution, planes="space")
+        base, cap = world_cells(cfg, world_resolution)
+        self.static = PlaneEncoding(base, t_res, tuple(cfg.scales), cfg.features, cap,
+                                    planes="space")
         if cfg.dynamic_planes not in ("time", "space-time"):
             raise InputError(f"dynamic_planes must be 'time' or 'space-time', got {cfg.dynamic_planes!r}")
         # ``time``: the factor over the moving box (its planes also hold space-only ones with
@@ -95,6 +107,28 @@ class NothingMoves(InputError):
     region (far cameras at small sizes: the players are a few pixels); the plain preset fits it."""
 
 
+def world_cells(cfg: KPlanesConfig, world_resolution: list[int] | None
+                ) -> tuple[int | list[int], int | list[int]]:
+    """(coarsest-scale cells, cap) of the world planes: the config's, or per axis from the
+    footprint rule's finest cells ``world_resolution`` (x, y, z)."""
+    if world_resolution is None:
+        return cfg.resolution, cfg.max_resolution
+    top = max(cfg.scales)
+    return [max(2, int(r) // top) for r in world_resolution], [int(r) for r in world_resolution]
+
+
+def scene_extras(cfg: KPlanesConfig, data: Dataset) -> dict:
+    """``scene`` entries a run computes once from its training data: with ``footprint`` the world
+    planes' finest cells per axis (``world_resolution``), with ``dynamic_box`` the moving box
+    in metres (``moving_box``)."""
+    out = {}
+    if cfg.footprint:
+        out["world_resolution"] = list(footprint_resolution(
+            data.train, data.box, data.extent, quantile=cfg.footprint_quantile,
+            max_cells=cfg.footprint_max))
+    return {**out, **find_moving_box(cfg, data)}
+
+
 def find_moving_box(cfg: KPlanesConfig, data: Dataset) -> dict:
     """``scene`` entries for ``dynamic_box``: the moving box in metres (empty without it)."""
     if not cfg.dynamic_box:
@@ -110,11 +144,15 @@ def build_encoding(cfg: KPlanesConfig, scene: dict) -> nn.Module:
     """The encoding for a scene: six planes, or with ``dynamic_box`` static planes plus time
     planes over ``scene["moving_box"]`` (``scene["n_frames"]`` sets the default time cells)."""
     t_res = cfg.time_resolution or int(scene["n_frames"])
+    world = scene.get("world_resolution")
+    if cfg.footprint and world is None:
+        raise InputError("a footprint preset needs scene['world_resolution'] (computed when the "
+                         "run starts); this run's config.json has none")
     if not cfg.dynamic_box:
-        return PlaneEncoding(cfg.resolution, max(t_res, 2), tuple(cfg.scales), cfg.features,
-                             cfg.max_resolution)
+        base, cap = world_cells(cfg, world)
+        return PlaneEncoding(base, max(t_res, 2), tuple(cfg.scales), cfg.features, cap)
     corners = contract(torch.tensor(scene["moving_box"]), torch.tensor(scene["box"]))
-    return DynamicBoxEncoding(cfg, int(scene["n_frames"]), corners.numpy())
+    return DynamicBoxEncoding(cfg, int(scene["n_frames"]), corners.numpy(), world)
 
 
 PRESETS = standard_presets(
@@ -125,9 +163,13 @@ for _name in ("tiny", "small"):
     _dynbox = replace(_model, dynamic_box=True, dynamic_resolution=_model.resolution // 2)
     PRESETS[f"{_name}-dynbox"] = (_dynbox, _render, _train)
     PRESETS[f"{_name}-dynbox-fine"] = (replace(_dynbox, dynamic_planes="space-time"), _render, _train)
+    PRESETS[f"{_name}-fp"] = (replace(_model, footprint=True), _render, _train)
+    PRESETS[f"{_name}-dynbox-fine-fp"] = (replace(_dynbox, dynamic_planes="space-time",
+                                                  footprint=True), _render, _train)
 """``tiny``: tests (seconds); ``small``: the documented runs (see ``standard_presets``);
 ``-dynbox``: the same with ``dynamic_box``; ``-dynbox-fine``: with the six-plane factor over the
-moving box (``dynamic_planes="space-time"``)."""
+moving box (``dynamic_planes="space-time"``); ``-fp``: world planes sized per axis by the cameras'
+pixel footprint (``footprint=True``; ``-dynbox-fine-fp`` both)."""
 
-SPEC = ModelSpec("kplanes", KPlanesConfig, PRESETS, build_encoding, find_moving_box)
+SPEC = ModelSpec("kplanes", KPlanesConfig, PRESETS, build_encoding, scene_extras)
 """What the shared CLI and training loop need to run K-Planes."""

@@ -13,6 +13,7 @@ import numpy as np
 from dynaeval.errors import InputError
 from reference_models.scenes.presets import Scene, build_scene
 from reference_models.scenes.render import CameraRenderer, View
+from reference_models.scenes.world import world_extent
 
 GENERATOR_VERSION = "1"
 """Bumped whenever a change alters rendered bytes for the same preset and seed."""
@@ -79,7 +80,8 @@ def metadata(scene: Scene, spp: int, hide: tuple) -> dict:
         "classes": {"0": "static", **{str(k): v for k, v in scene.classes.items()}},
         "action": scene.action,
         "world": {"units": "metres", "axes": "x along the pitch length, y across, z up; pitch in z=0",
-                  "pitch": [105.0, 68.0], "sun_direction": [float(v) for v in scene.sun]},
+                  "pitch": [105.0, 68.0], "sun_direction": [float(v) for v in scene.sun],
+                  "extent": world_extent().tolist()},
         "depth": "float32 .npy, z-depth in metres along the optical axis, 0 = sky",
         "flow": "float32 .npy (H, W, 2), pixels (dx, dy) to the next frame; none for the last frame",
         "masks": "uint16 PNG, 0 = static world, else the instance id of 'classes'",

@@ -73,6 +73,17 @@ def _quads() -> list[tuple[int, np.ndarray, np.ndarray, np.ndarray]]:
     return q
 
 
+def world_extent() -> np.ndarray:
+    """(2, 3) float64 ``[min, max]`` corners (metres) of everything the world holds but the sky:
+    the stands' and boards' corners and the pitch's surround (models size their grids from it)."""
+    corners = [np.array([-HALF_LENGTH - 3.5, -HALF_WIDTH - 3.0, 0.0]),
+               np.array([HALF_LENGTH + 3.5, HALF_WIDTH + 3.0, GOAL_HEIGHT])]
+    for _, p0, e1, e2 in _quads():
+        corners += [p0, p0 + e1, p0 + e2, p0 + e1 + e2]
+    pts = np.stack(corners)
+    return np.stack([pts.min(axis=0), pts.max(axis=0)])
+
+
 def stand_points(which: int, u: float, v: float, lift: float) -> np.ndarray:
     """World point at ``(u, v)`` in [0, 1]^2 of stand ``which`` (0: +y, 1: -y, 2: +x, 3: -x),
     ``lift`` metres above its surface (a spectator's eye)."""
