@@ -57,6 +57,12 @@ class StudyPreset:
     fallback_sizes: dict[str, str] = field(default_factory=dict)
     """Model -> the preset trained instead where its ``model_sizes`` preset needs a moving region
     and the scene's motion masks find none (``NothingMoves``); the run's ``train.json`` says so."""
+    stadium: dict[str, Any] | None = None
+    """``TrainConfig`` fields of the stadium pre-training (e.g. its ``minutes``), trained once per
+    scene and model on the empty stadium and the start of every run of that model on the scene
+    (``reference_models.common.stadium``); None: runs start from scratch."""
+    stadium_models: tuple[str, ...] = ("kplanes",)
+    """Models whose runs start from a pre-trained stadium (those with a static part)."""
     description: str = ""
     """One sentence for the report: what a run of this preset trains."""
 
@@ -121,6 +127,51 @@ def scene_data(study: Path, scene: str, preset: StudyPreset) -> Path:
     return out
 
 
+def stadium_data(study: Path, scene: str, preset: StudyPreset) -> Path:
+    """Render ``scene``'s cameras without players and ball, one frame, into
+    ``study/data/<scene>-stadium`` unless it is there already."""
+    from reference_models.scenes import render_scene
+
+    out = study / "data" / f"{scene}-stadium"
+    if (out / "transforms.json").is_file():
+        return out
+    tmp = out.with_name(out.name + ".partial")
+    if tmp.exists():
+        import shutil
+
+        shutil.rmtree(tmp)
+    render_scene(scene, tmp, size=preset.scene_size, seed=0, frames=1, hide=("person", "ball"))
+    tmp.rename(out)
+    return out
+
+
+def stadium_run(study: Path, scene: str, model: str, preset: StudyPreset, data: Path,
+                progress: bool) -> Path | None:
+    """Pre-train ``model``'s stadium for ``scene`` once (resumable) into
+    ``study/runs/<scene>/<model>-stadium``; None when the preset pre-trains none for it."""
+    from reference_models.common.stadium import train_stadium
+    from reference_models.kplanes.field import NothingMoves
+
+    if preset.stadium is None or model not in preset.stadium_models:
+        return None
+    run = study / "runs" / scene / f"{model}-stadium"
+    if (run / "train.json").is_file():
+        return run
+    empty = stadium_data(study, scene, preset)
+    spec, t0 = _spec(model), time.perf_counter()
+    kwargs = {"iters": preset.iters, "progress": progress, "overrides": preset.stadium,
+              "resume": (run / "checkpoint.pt").is_file()}
+    try:
+        record = train_stadium(spec, data, empty, run, size=preset.size_of(model), **kwargs)
+    except NothingMoves:
+        if model not in preset.fallback_sizes:
+            raise
+        record = train_stadium(spec, data, empty, run, size=preset.fallback_sizes[model], **kwargs)
+    size = json.loads((run / "config.json").read_text())["size"]
+    _write_json(run / "train.json", {"wall_s": time.perf_counter() - t0, "size": size, **record})
+    return run
+
+
 def train_and_render(study: Path, scene: str, model: str, sampling: str, preset: StudyPreset,
                      data: Path, progress: bool) -> Path:
     """Train and render one run unless done; the run folder holds ``train.json`` and
@@ -132,20 +183,27 @@ def train_and_render(study: Path, scene: str, model: str, sampling: str, preset:
     run = study / "runs" / scene / f"{model}-{sampling}"
     if not (run / "train.json").is_file():
         resume = (run / "checkpoint.pt").is_file()
+        stadium = stadium_run(study, scene, model, preset, data, progress)
+        size = preset.size_of(model)
+        if stadium is not None:  # the stadium's size: its own fallback decided it
+            size = json.loads((stadium / "config.json").read_text())["size"]
         t0 = time.perf_counter()
         kwargs = {"iters": preset.iters, "sampling": sampling, "resume": resume,
-                  "progress": progress, "overrides": preset.overrides_of(model) or None}
+                  "progress": progress, "overrides": preset.overrides_of(model) or None,
+                  "init": stadium}
         try:
-            record = train(spec, data if not resume else None, run, size=preset.size_of(model),
-                           **kwargs)
+            record = train(spec, data if not resume else None, run, size=size, **kwargs)
         except NothingMoves:
             if model not in preset.fallback_sizes:
                 raise
             record = train(spec, data, run, size=preset.fallback_sizes[model], **kwargs)
-        size = json.loads((run / "config.json").read_text())["size"]  # a resumed run's own
+        cfg = json.loads((run / "config.json").read_text())
+        size = cfg["size"]  # a resumed run's own
         note = {} if size == preset.size_of(model) else {"fallback": (
             f"{preset.size_of(model)} -> {size}: the motion masks of the training cameras found "
             "nothing that moves")}
+        if "init" in cfg:
+            note["stadium"] = cfg["init"]
         _write_json(run / "train.json", {"wall_s": time.perf_counter() - t0, "size": size,
                                          **note, **record})
     if not (run / "render.json").is_file():
@@ -192,6 +250,15 @@ def _one_run(study: Path, scene: str, model: str, sampling: str, preset: str, pr
     return score_run(study, scene, model, sampling, run, data, progress)
 
 
+def _one_stadium(study: Path, scene: str, model: str, preset: str, threads: int) -> Path | None:
+    """Pre-train one stadium in a worker process (``threads`` torch threads, no progress bar)."""
+    import torch
+
+    torch.set_num_threads(threads)
+    p = PRESETS[preset]
+    return stadium_run(study, scene, model, p, scene_data(study, scene, p), False)
+
+
 def run_study(study: Path, preset: str = "tiny", scenes=SCENES, models=MODELS,
               samplings=SAMPLINGS, progress: bool = True, jobs: int = 1,
               threads: int = 1) -> dict[str, Any]:
@@ -224,6 +291,12 @@ def run_study(study: Path, preset: str = "tiny", scenes=SCENES, models=MODELS,
             for scene, future in [(s, pool.submit(scene_data, study, s, p)) for s in scenes]:
                 future.result()
                 print(f"scene ready: {scene}", file=sys.stderr)
+            stadiums = [(s, m) for s in scenes for m in models
+                        if p.stadium is not None and m in p.stadium_models]
+            for (scene, model), future in [(job, pool.submit(_one_stadium, study, *job, preset,
+                                                             threads)) for job in stadiums]:
+                future.result()
+                print(f"stadium ready: {scene} {model}", file=sys.stderr)
             futures = [pool.submit(_one_run, study, *job, preset, False, threads) for job in todo]
             for k, (job, future) in enumerate(zip(todo, futures, strict=True), 1):
                 future.result()

@@ -2,7 +2,10 @@
 
     python -m reference_models.<model> train DATA --out RUN [--size tiny|small] [--iters N]
         [--minutes M] [--sampling uniform|isg|ist] [--importance-fraction F]
-        [--static-warmup F] [--batch-rays N] [--clock wall|cpu] [--resume] [--threads 1]
+        [--static-warmup F] [--batch-rays N] [--clock wall|cpu] [--resume] [--init STADIUM]
+        [--threads 1]
+    python -m reference_models.<model> stadium CLIP_DATA STADIUM_DATA --out STADIUM [--size ...]
+        [--iters N] [--minutes M] [--clock wall|cpu] [--batch-rays N]
     python -m reference_models.<model> render RUN [--data DATA] [--every N]
 """
 
@@ -13,6 +16,7 @@ import sys
 
 from dynaeval.errors import InputError
 from reference_models.common.importance import SAMPLING
+from reference_models.common.stadium import train_stadium
 from reference_models.common.train import ModelSpec, render_run, train
 
 
@@ -37,8 +41,23 @@ def _parser(spec: ModelSpec) -> argparse.ArgumentParser:
     t.add_argument("--clock", choices=("wall", "cpu"),
                    help="what --minutes counts: elapsed (wall, default) or process CPU time")
     t.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
+    t.add_argument("--init", metavar="STADIUM",
+                   help="start from the weights of a pre-trained stadium run (see `stadium`)")
     t.add_argument("--threads", type=int, default=1, help="torch CPU threads (default 1: faster than 2 on a shared machine)")
     t.add_argument("--quiet", action="store_true", help="no progress bar")
+    st = sub.add_parser("stadium", help="pre-train the static field on the empty stadium, the "
+                                        "start of every run on the clip (train --init)")
+    st.add_argument("clip", help="the clip's dataset folder (the model is built for its scene)")
+    st.add_argument("stadium", help="the same cameras without players and ball (scenes render "
+                                    "PRESET OUT --hide person --hide ball --frames 1)")
+    st.add_argument("--out", required=True, help="run folder (config, checkpoint, log)")
+    st.add_argument("--size", default="small", help=f"preset: {', '.join(spec.presets)} (default small)")
+    st.add_argument("--iters", type=int, help="optimisation steps (default: the preset's)")
+    st.add_argument("--minutes", type=float, help="training-time budget (see train)")
+    st.add_argument("--clock", choices=("wall", "cpu"), help="what --minutes counts (see train)")
+    st.add_argument("--batch-rays", type=int, help="rays per step (default: the preset's)")
+    st.add_argument("--threads", type=int, default=1, help="torch CPU threads (default 1)")
+    st.add_argument("--quiet", action="store_true", help="no progress bar")
     r = sub.add_parser("render", help="render the eval cameras to RUN/pred/<camera>/<frame>.png")
     r.add_argument("run", help="run folder written by train")
     r.add_argument("--data", help="dataset folder (default: the one the run was trained on)")
@@ -47,6 +66,11 @@ def _parser(spec: ModelSpec) -> argparse.ArgumentParser:
     r.add_argument("--threads", type=int, default=1, help="torch CPU threads (default 1: faster than 2 on a shared machine)")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
     return p
+
+
+def _summary(rec: dict) -> str:
+    return ", ".join(f"{k} {rec[k]:.4g}" for k in ("step", "psnr", "eval_psnr", "train_seconds")
+                     if k in rec)
 
 
 def main(spec: ModelSpec, argv: list[str] | None = None) -> int:
@@ -63,10 +87,15 @@ def main(spec: ModelSpec, argv: list[str] | None = None) -> int:
             over = {k: v for k, v in given.items() if v is not None}
             rec = train(spec, args.data, args.out, size=args.size, iters=args.iters,
                         sampling=args.sampling, resume=args.resume, progress=not args.quiet,
-                        overrides=over)
-            msg = ", ".join(f"{k} {rec[k]:.4g}" for k in ("step", "psnr", "eval_psnr", "train_seconds")
-                            if k in rec)
-            print(f"trained {spec.name}: {msg}; checkpoint in {args.out}", file=sys.stderr)
+                        overrides=over, init=args.init)
+            print(f"trained {spec.name}: {_summary(rec)}; checkpoint in {args.out}", file=sys.stderr)
+        elif args.command == "stadium":
+            given = {"minutes": args.minutes, "batch_rays": args.batch_rays, "clock": args.clock}
+            rec = train_stadium(spec, args.clip, args.stadium, args.out, size=args.size,
+                                iters=args.iters, progress=not args.quiet,
+                                overrides={k: v for k, v in given.items() if v is not None})
+            print(f"pre-trained the {spec.name} stadium: {_summary(rec)}; checkpoint in {args.out}",
+                  file=sys.stderr)
         else:
             files = render_run(spec, args.run, args.data, progress=not args.quiet, every=args.every)
             print(f"rendered {len(files)} views to {args.run}/pred", file=sys.stderr)

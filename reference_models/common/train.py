@@ -59,8 +59,9 @@ class TrainConfig:
     static_warmup: float = 0.0
     """Fraction of the run (by steps or time, like the schedule) spent learning the static
     scene first: the planes with a time axis are not looked up (they stay 1, so the field is
-    K-Planes' own, at about half the look-ups) and rays are drawn uniformly — the seed's "learn the
-    empty stadium once". 0: off. Needs an encoding with ``static_only`` (K-Planes)."""
+    K-Planes' own, at about half the look-ups) and rays are drawn uniformly. 0: off; 1: the
+    whole run (a stadium pre-training, ``common.stadium``). Needs an encoding with
+    ``static_only`` (K-Planes)."""
     ist_from: float = 5 / 9
     """``ist``: fraction of the run after which IST replaces ISG (K-Planes: 50k of 90k)."""
     tv: float = 2e-4
@@ -209,16 +210,46 @@ def load_run(run: str | Path, spec: ModelSpec) -> tuple[dict, DynamicRadianceMod
     return cfg, model, ckpt
 
 
+def load_init(model: DynamicRadianceModel, cfg: dict, init: str | Path, spec: ModelSpec) -> dict:
+    """Load the weights of the run ``init`` into ``model`` (the run about to start, whose
+    ``config.json`` dict is ``cfg``); returns what ``config.json`` records of it (folder,
+    checkpoint digest, its steps and training seconds). Raises InputError unless ``init`` was
+    trained for the same model, size, model and render configs and scene."""
+    import hashlib
+
+    init = Path(init)
+    if not (init / "config.json").is_file() or not (init / "checkpoint.pt").is_file():
+        raise InputError("not a training run: config.json or checkpoint.pt is missing; pre-train "
+                         f"it with `python -m reference_models.{spec.name} stadium`", path=init)
+    init_cfg = json.loads((init / "config.json").read_text())  # no model built: the RNG is kept
+    ckpt = torch.load(init / "checkpoint.pt", weights_only=False)
+    for key in ("model", "size", "model_config", "render_config", "scene"):
+        if init_cfg.get(key) != json.loads(json.dumps(cfg.get(key))):  # tuples as JSON lists
+            raise InputError(f"cannot start from this run: its {key} differs from the new run's "
+                             f"({init_cfg.get(key)!r} against {cfg.get(key)!r}); pre-train the "
+                             "stadium with the same model, size and scene", path=init)
+    model.load_state_dict(ckpt["model"])
+    digest = hashlib.sha256((init / "checkpoint.pt").read_bytes()).hexdigest()
+    return {"run": str(init.resolve()), "checkpoint_sha256": digest, "step": int(ckpt["step"]),
+            "train_seconds": float(ckpt["train_seconds"]),
+            "train_cpu_seconds": float(ckpt.get("train_cpu_seconds", 0.0))}
+
+
 def train(spec: ModelSpec, data_path: str | Path, out: str | Path, size: str = "small",
           iters: int | None = None, sampling: str | None = None, resume: bool = False,
-          progress: bool = True, overrides: dict | None = None) -> dict:
+          progress: bool = True, overrides: dict | None = None, init: str | Path | None = None,
+          scene_data: str | Path | None = None) -> dict:
     """Train ``spec``'s model on the dataset at ``data_path`` into the run folder ``out``.
 
     ``size`` picks the preset; ``iters``, ``sampling`` and ``overrides`` (TrainConfig field ->
     value) change it. ``resume`` continues a run from its checkpoint (its saved configs, changed
-    only by ``iters``, ``sampling`` and ``overrides``). Returns the last log record. Raises
-    InputError for a bad preset or sampling, a missing dataset, or an existing run without
-    ``resume``.
+    only by ``iters``, ``sampling`` and ``overrides``). ``init`` starts from the weights of
+    another run of the same model, size and scene (a pre-trained stadium,
+    ``common.stadium``); ``scene_data`` builds the model for that dataset's scene (box, frames,
+    moving box, footprint planes) instead of the training data's (the stadium is trained on the
+    empty stadium for the clip's model). Returns the last log record. Raises InputError for a
+    bad preset or sampling, a missing dataset, an ``init`` run that does not match, or an
+    existing run without ``resume``.
     """
     out = Path(out)
     if resume:
@@ -245,8 +276,8 @@ def train(spec: ModelSpec, data_path: str | Path, out: str | Path, size: str = "
         raise InputError(f"iters must be >= 1, got {train_cfg.iters}")
     if train_cfg.clock not in ("wall", "cpu"):
         raise InputError(f"clock must be 'wall' or 'cpu', got {train_cfg.clock!r}")
-    if not 0.0 <= train_cfg.static_warmup < 1.0:
-        raise InputError(f"static_warmup must be in [0, 1), got {train_cfg.static_warmup}")
+    if not 0.0 <= train_cfg.static_warmup <= 1.0:
+        raise InputError(f"static_warmup must be in [0, 1], got {train_cfg.static_warmup}")
     if train_cfg.batch_rays < 1:
         raise InputError(f"batch_rays must be >= 1, got {train_cfg.batch_rays}")
     data = load_dataset(data_path)
@@ -255,9 +286,14 @@ def train(spec: ModelSpec, data_path: str | Path, out: str | Path, size: str = "
     else:
         torch.manual_seed(train_cfg.seed)
         cfg = _config_dict(spec, data, model_cfg, render_cfg, train_cfg, size)
+        built_for = data if scene_data is None else load_dataset(scene_data)
+        if scene_data is not None:
+            cfg["scene"], cfg["scene_data"] = scene_info(built_for), str(Path(scene_data).resolve())
         if spec.scene_extras is not None:
-            cfg["scene"].update(spec.scene_extras(model_cfg, data))
+            cfg["scene"].update(spec.scene_extras(model_cfg, built_for))
         model = build_model(spec, model_cfg, render_cfg, cfg["scene"])
+        if init is not None:
+            cfg["init"] = load_init(model, cfg, init, spec)
     if train_cfg.static_warmup and not hasattr(model.encoding, "static_only"):
         raise InputError(f"static_warmup needs a field with a static part (K-Planes' space "
                          f"planes); {spec.name}'s {type(model.encoding).__name__} has none")
