@@ -3,7 +3,8 @@
     python -m reference_models.<model> train DATA --out RUN [--size tiny|small] [--iters N]
         [--minutes M] [--sampling uniform|isg|ist] [--importance-fraction F]
         [--static-warmup F] [--batch-rays N] [--clock wall|cpu] [--resume] [--threads 1]
-    python -m reference_models.<model> render RUN [--data DATA] [--every N]
+        [--device cpu|cuda|auto]
+    python -m reference_models.<model> render RUN [--data DATA] [--every N] [--device cpu|cuda|auto]
 """
 
 from __future__ import annotations
@@ -12,8 +13,13 @@ import argparse
 import sys
 
 from dynaeval.errors import InputError
+from reference_models.common.device import DEVICES
 from reference_models.common.importance import SAMPLING
 from reference_models.common.train import ModelSpec, render_run, train
+
+
+_DEVICE_HELP = ("where the model runs: cpu (default), cuda (an error without a GPU) or auto (cuda "
+                "when torch sees one, else cpu); a run trained on one renders on any")
 
 
 def _parser(spec: ModelSpec) -> argparse.ArgumentParser:
@@ -39,6 +45,7 @@ def _parser(spec: ModelSpec) -> argparse.ArgumentParser:
     t.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
     t.add_argument("--threads", type=int, default=1, help="torch CPU threads (default 1: faster than 2 on a shared machine)")
     t.add_argument("--quiet", action="store_true", help="no progress bar")
+    t.add_argument("--device", choices=DEVICES, default="cpu", help=_DEVICE_HELP)
     r = sub.add_parser("render", help="render the eval cameras to RUN/pred/<camera>/<frame>.png")
     r.add_argument("run", help="run folder written by train")
     r.add_argument("--data", help="dataset folder (default: the one the run was trained on)")
@@ -46,6 +53,7 @@ def _parser(spec: ModelSpec) -> argparse.ArgumentParser:
                    help="render every N-th eval frame only (score with --allow-missing)")
     r.add_argument("--threads", type=int, default=1, help="torch CPU threads (default 1: faster than 2 on a shared machine)")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
+    r.add_argument("--device", choices=DEVICES, default="cpu", help=_DEVICE_HELP)
     return p
 
 
@@ -63,12 +71,13 @@ def main(spec: ModelSpec, argv: list[str] | None = None) -> int:
             over = {k: v for k, v in given.items() if v is not None}
             rec = train(spec, args.data, args.out, size=args.size, iters=args.iters,
                         sampling=args.sampling, resume=args.resume, progress=not args.quiet,
-                        overrides=over)
+                        overrides=over, device=args.device)
             msg = ", ".join(f"{k} {rec[k]:.4g}" for k in ("step", "psnr", "eval_psnr", "train_seconds")
                             if k in rec)
             print(f"trained {spec.name}: {msg}; checkpoint in {args.out}", file=sys.stderr)
         else:
-            files = render_run(spec, args.run, args.data, progress=not args.quiet, every=args.every)
+            files = render_run(spec, args.run, args.data, progress=not args.quiet, every=args.every,
+                               device=args.device)
             print(f"rendered {len(files)} views to {args.run}/pred", file=sys.stderr)
     except InputError as err:
         print(f"error: {err}", file=sys.stderr)

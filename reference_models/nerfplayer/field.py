@@ -114,7 +114,7 @@ class TemporalHashEncoding(nn.Module):
             table = torch.lerp(self.table[:, k0:k0 + feats], self.table[:, k0 + 1:k0 + 1 + feats],
                                float(a[0]))
         else:
-            cols = k[:, None] + torch.arange(feats + 1)  # (N, F + 1)
+            cols = k[:, None] + torch.arange(feats + 1, device=x.device)  # (N, F + 1)
             a = a[:, None]
         out, l1 = [], []
         for lv in self._level_groups:
