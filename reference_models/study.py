@@ -1,6 +1,6 @@
 """Validation study: the toolkit against the reference models, reproducible with one command.
 
-    python -m reference_models.study [--preset tiny|small|small-30min] --out STUDY [--scenes ...]
+    python -m reference_models.study [--preset tiny|small|small-30min|seed] --out STUDY [--scenes ...]
         [--models kplanes nerfplayer] [--sampling uniform isg] [--jobs N] [--docs docs/validation.md]
         [--device cpu|cuda|auto]
 
@@ -89,7 +89,15 @@ PRESETS = {
                     "`small` where the motion masks find no moving region: the broadcast and "
                     "stadium views at this size), NeRFPlayer `small` (docs/reference-models.md, "
                     "\"30-minute runs\")"),
+    "seed": StudyPreset(
+        scene_size="small", model_size="seed", iters=None, frames=24,
+        description="each run trains its model's `seed` preset — the seed study's field sizes "
+                    "and shared proposal sampling, 30,000 steps of 4,096 rays at a learning "
+                    "rate of 1e-2 (`reference_models/common/seed.py`) — sized for a GPU "
+                    "(`--device cuda`), on the `small` scenes (320 x 180, 24 frames; the seed "
+                    "trained on 1080p clips)"),
 }
+"""``seed`` reproduces the seed study's training budget and model sizes, not its 1080p data."""
 
 
 def _spec(model: str):
