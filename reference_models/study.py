@@ -1,13 +1,16 @@
 """Validation study: the toolkit against the reference models, reproducible with one command.
 
-    python -m reference_models.study [--preset tiny|small|small-30min] --out STUDY [--scenes ...]
+    python -m reference_models.study [--preset tiny|small|small-30min|seed] --out STUDY [--scenes ...]
         [--models kplanes nerfplayer] [--sampling uniform isg] [--jobs N] [--docs docs/validation.md]
+        [--device cpu|cuda|auto]
 
 For every scene x model x ray sampling it renders the scene (once per scene), trains the model,
 renders the evaluation cameras, scores them with ``dynaeval.score`` against the ground truth
 (focused metrics on the generator's exact boxes, masked metrics on the motion masks, temporal
 terms) and combines the results into a leaderboard. Every step writes its output atomically and
 is skipped when that output exists, so an interrupted study resumes where it stopped.
+``--device`` says where the runs train and render (``auto``: cuda when torch sees a GPU); each
+run's ``train.json`` and ``render.json`` record the device, and so does the report.
 
 ``--docs FILE`` writes the report (tables, crops, times, findings computed from the numbers).
 Layout of STUDY::
@@ -92,7 +95,15 @@ PRESETS = {
                     "`small` where the motion masks find no moving region: the broadcast and "
                     "stadium views at this size), NeRFPlayer `small` (docs/reference-models.md, "
                     "\"30-minute runs\")"),
+    "seed": StudyPreset(
+        scene_size="small", model_size="seed", iters=None, frames=24,
+        description="each run trains its model's `seed` preset — the seed study's field sizes "
+                    "and shared proposal sampling, 30,000 steps of 4,096 rays at a learning "
+                    "rate of 1e-2 (`reference_models/common/seed.py`) — sized for a GPU "
+                    "(`--device cuda`), on the `small` scenes (320 x 180, 24 frames; the seed "
+                    "trained on 1080p clips)"),
 }
+"""``seed`` reproduces the seed study's training budget and model sizes, not its 1080p data."""
 
 
 def _spec(model: str):
@@ -146,7 +157,7 @@ def stadium_data(study: Path, scene: str, preset: StudyPreset) -> Path:
 
 
 def stadium_run(study: Path, scene: str, model: str, preset: StudyPreset, data: Path,
-                progress: bool) -> Path | None:
+                progress: bool, device: str = "cpu") -> Path | None:
     """Pre-train ``model``'s stadium for ``scene`` once (resumable) into
     ``study/runs/<scene>/<model>-stadium``; None when the preset pre-trains none for it."""
     from reference_models.common.stadium import train_stadium
@@ -160,7 +171,7 @@ def stadium_run(study: Path, scene: str, model: str, preset: StudyPreset, data: 
     empty = stadium_data(study, scene, preset)
     spec, t0 = _spec(model), time.perf_counter()
     kwargs = {"iters": preset.iters, "progress": progress, "overrides": preset.stadium,
-              "resume": (run / "checkpoint.pt").is_file()}
+              "resume": (run / "checkpoint.pt").is_file(), "device": device}
     try:
         record = train_stadium(spec, data, empty, run, size=preset.size_of(model), **kwargs)
     except NothingMoves:
@@ -173,9 +184,9 @@ def stadium_run(study: Path, scene: str, model: str, preset: StudyPreset, data: 
 
 
 def train_and_render(study: Path, scene: str, model: str, sampling: str, preset: StudyPreset,
-                     data: Path, progress: bool) -> Path:
-    """Train and render one run unless done; the run folder holds ``train.json`` and
-    ``render.json`` (times) when each step finished."""
+                     data: Path, progress: bool, device: str = "cpu") -> Path:
+    """Train and render one run on ``device`` unless done; the run folder holds ``train.json``
+    and ``render.json`` (times, device) when each step finished."""
     from reference_models.common.train import render_run, train
     from reference_models.kplanes.field import NothingMoves
 
@@ -183,14 +194,14 @@ def train_and_render(study: Path, scene: str, model: str, sampling: str, preset:
     run = study / "runs" / scene / f"{model}-{sampling}"
     if not (run / "train.json").is_file():
         resume = (run / "checkpoint.pt").is_file()
-        stadium = stadium_run(study, scene, model, preset, data, progress)
+        stadium = stadium_run(study, scene, model, preset, data, progress, device)
         size = preset.size_of(model)
         if stadium is not None:  # the stadium's size: its own fallback decided it
             size = json.loads((stadium / "config.json").read_text())["size"]
         t0 = time.perf_counter()
         kwargs = {"iters": preset.iters, "sampling": sampling, "resume": resume,
                   "progress": progress, "overrides": preset.overrides_of(model) or None,
-                  "init": stadium}
+                  "init": stadium, "device": device}
         try:
             record = train(spec, data if not resume else None, run, size=size, **kwargs)
         except NothingMoves:
@@ -211,9 +222,9 @@ def train_and_render(study: Path, scene: str, model: str, sampling: str, preset:
 
         shutil.rmtree(run / "pred", ignore_errors=True)
         t0 = time.perf_counter()
-        files = render_run(spec, run, data, progress=progress)
+        files = render_run(spec, run, data, progress=progress, device=device)
         _write_json(run / "render.json", {"wall_s": time.perf_counter() - t0,
-                                          "views": len(files)})
+                                          "views": len(files), "device": device})
     return run
 
 
@@ -238,7 +249,7 @@ def score_run(study: Path, scene: str, model: str, sampling: str, run: Path, dat
 
 
 def _one_run(study: Path, scene: str, model: str, sampling: str, preset: str, progress: bool,
-             threads: int | None = None) -> Path:
+             threads: int | None = None, device: str = "cpu") -> Path:
     """Train, render and score one run (resumable); in a worker process when ``threads`` is set."""
     if threads is not None:
         import torch
@@ -246,23 +257,41 @@ def _one_run(study: Path, scene: str, model: str, sampling: str, preset: str, pr
         torch.set_num_threads(threads)
     p = PRESETS[preset]
     data = scene_data(study, scene, p)
-    run = train_and_render(study, scene, model, sampling, p, data, progress)
+    run = train_and_render(study, scene, model, sampling, p, data, progress, device)
     return score_run(study, scene, model, sampling, run, data, progress)
 
 
-def _one_stadium(study: Path, scene: str, model: str, preset: str, threads: int) -> Path | None:
+def _one_stadium(study: Path, scene: str, model: str, preset: str, threads: int,
+                 device: str) -> Path | None:
     """Pre-train one stadium in a worker process (``threads`` torch threads, no progress bar)."""
     import torch
 
     torch.set_num_threads(threads)
     p = PRESETS[preset]
-    return stadium_run(study, scene, model, p, scene_data(study, scene, p), False)
+    return stadium_run(study, scene, model, p, scene_data(study, scene, p), False, device)
+
+
+def _check_device(device: str, preset: StudyPreset, models) -> str:
+    """The device a study trains on (``auto`` resolved), checked against every model's budget."""
+    from dataclasses import asdict
+
+    from reference_models.common.device import check_clock, resolve_device
+
+    device = resolve_device(device)
+    for model in models:
+        cfg = {**asdict(_spec(model).presets[preset.size_of(model)][2]), **preset.overrides_of(model)}
+        check_clock(device, cfg["clock"], cfg["minutes"])
+        if preset.stadium is not None and model in preset.stadium_models:
+            check_clock(device, {**cfg, **preset.stadium}["clock"], preset.stadium.get("minutes"))
+    return device
 
 
 def run_study(study: Path, preset: str = "tiny", scenes=SCENES, models=MODELS,
               samplings=SAMPLINGS, progress: bool = True, jobs: int = 1,
-              threads: int = 1) -> dict[str, Any]:
-    """Run (or resume) the whole study; returns the leaderboard document.
+              threads: int = 1, device: str = "cpu") -> dict[str, Any]:
+    """Run (or resume) the whole study on ``device`` (``cpu``, ``cuda`` or ``auto``); returns the
+    leaderboard document. A device the machine lacks, or a preset's CPU-seconds budget on
+    CUDA, is an InputError before any scene is rendered.
 
     ``jobs`` > 1 renders the scenes and then trains the runs in that many worker processes
     (``threads`` torch threads each, no progress bars); each run's numbers are those of a
@@ -275,13 +304,15 @@ def run_study(study: Path, preset: str = "tiny", scenes=SCENES, models=MODELS,
     if jobs < 1:
         raise InputError(f"jobs must be >= 1, got {jobs}")
     p = PRESETS[preset]
+    device = _check_device(device, p, models)
     study.mkdir(parents=True, exist_ok=True)
     todo = [(s, m, x) for s in scenes for m in models for x in samplings]
     if jobs == 1:
         result_files = []
         for k, (scene, model, sampling) in enumerate(todo, 1):
             print(f"[{k}/{len(todo)}] {scene} {model} {sampling}", file=sys.stderr)
-            result_files.append(_one_run(study, scene, model, sampling, preset, progress))
+            result_files.append(_one_run(study, scene, model, sampling, preset, progress,
+                                         device=device))
     else:
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
@@ -294,10 +325,11 @@ def run_study(study: Path, preset: str = "tiny", scenes=SCENES, models=MODELS,
             stadiums = [(s, m) for s in scenes for m in models
                         if p.stadium is not None and m in p.stadium_models]
             for (scene, model), future in [(job, pool.submit(_one_stadium, study, *job, preset,
-                                                             threads)) for job in stadiums]:
+                                                             threads, device)) for job in stadiums]:
                 future.result()
                 print(f"stadium ready: {scene} {model}", file=sys.stderr)
-            futures = [pool.submit(_one_run, study, *job, preset, False, threads) for job in todo]
+            futures = [pool.submit(_one_run, study, *job, preset, False, threads, device)
+                       for job in todo]
             for k, (job, future) in enumerate(zip(todo, futures, strict=True), 1):
                 future.result()
                 print(f"[{k}/{len(todo)}] done: {' '.join(job)}", file=sys.stderr)
@@ -322,6 +354,8 @@ def copy_results(study: Path, dest: Path) -> list[Path]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from reference_models.common.device import DEVICES
+
     parser = argparse.ArgumentParser(prog="python -m reference_models.study",
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("--preset", choices=sorted(PRESETS), default="tiny")
@@ -339,6 +373,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--jobs", type=int, default=1,
                         help="runs trained at once, each in its own process (default 1; 2 on a "
                              "2-core machine halves the wall time)")
+    parser.add_argument("--device", choices=DEVICES, default="cpu",
+                        help="where the runs train and render: cpu (default), cuda (an error "
+                             "without a GPU) or auto (cuda when torch sees one)")
     parser.add_argument("-q", "--quiet", action="store_true")
     args = parser.parse_args(argv)
     import torch
@@ -347,7 +384,8 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.perf_counter()
     try:
         run_study(args.out, args.preset, args.scenes, args.models, args.sampling,
-                  progress=not args.quiet, jobs=args.jobs, threads=args.threads)
+                  progress=not args.quiet, jobs=args.jobs, threads=args.threads,
+                  device=args.device)
         if args.results_to:
             copy_results(args.out, args.results_to)
         if args.docs:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import os
+from collections import Counter
 from itertools import combinations
 from pathlib import Path
 from typing import Any
@@ -57,16 +58,31 @@ def _train_cpu_min(train: dict) -> float:
     return train.get("train_cpu_seconds", train["wall_s"]) / 60
 
 
+def train_device(train: dict) -> str:
+    """What trained a run, from its ``train.json``: the GPU's name, ``cpu``; a run recorded before
+    the device option trained on the CPU."""
+    return train.get("device_name") or train.get("device") or "cpu"
+
+
+def _train_min_cell(train: dict) -> str:
+    """The table's training minutes: CPU minutes on the CPU, wall minutes (marked) on a GPU,
+    where process CPU time counts only the kernel launches."""
+    if train.get("device", "cpu") != "cpu":
+        return f"{train['train_seconds'] / 60:.1f} wall"
+    return f"{_train_cpu_min(train):.1f}"
+
+
 def scene_table(docs: list[dict]) -> str:
     cols = [(k, label) for k, label in TABLE_METRICS if any(k in d["summary"] for d in docs)]
-    head = "| run | " + " | ".join(label for _, label in cols) + " | train CPU min | steps | render s |"
-    sep = "|---" * (len(cols) + 4) + "|"
+    head = ("| run | " + " | ".join(label for _, label in cols)
+            + " | train min | steps | render s | device |")
+    sep = "|---" * (len(cols) + 5) + "|"
     rows = []
     for d in docs:
         cells = [_fmt(k, d["summary"].get(k)) for k, _ in cols]
         rows.append(f"| {d['method']} | " + " | ".join(cells)
-                    + f" | {_train_cpu_min(d['_train']):.1f} | {d['_train'].get('step', 'n/a')} "
-                    f"| {d['_render']['wall_s']:.1f} |")
+                    + f" | {_train_min_cell(d['_train'])} | {d['_train'].get('step', 'n/a')} "
+                    f"| {d['_render']['wall_s']:.1f} | {train_device(d['_train'])} |")
     return "\n".join([head, sep, *rows])
 
 
@@ -264,6 +280,10 @@ def write_report(study: Path, path: Path, *, preset: str, command: str,
         f"{total_score / 60:.1f} min over {len(docs)} runs (summed over runs; with `--jobs 2` "
         f"two run at once). From the first scene render to the last result "
         f"{elapsed / 60:.1f} min elapsed (including any pause before a resume).",
+        "",
+        "Trained on: " + ", ".join(f"{name} ({n} run{'s' * (n != 1)})" for name, n in sorted(
+            Counter(train_device(d["_train"]) for d in docs).items())) + "; `train min` is "
+        "CPU minutes on the CPU, wall minutes (marked) on a GPU.",
         "",
         *([f"Training: {PRESETS[preset].description}.", ""]
           if preset in PRESETS and PRESETS[preset].description else []),

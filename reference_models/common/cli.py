@@ -3,10 +3,10 @@
     python -m reference_models.<model> train DATA --out RUN [--size tiny|small] [--iters N]
         [--minutes M] [--sampling uniform|isg|ist] [--importance-fraction F]
         [--static-warmup F] [--batch-rays N] [--clock wall|cpu] [--resume] [--init STADIUM]
-        [--threads 1]
+        [--threads 1] [--device cpu|cuda|auto]
     python -m reference_models.<model> stadium CLIP_DATA STADIUM_DATA --out STADIUM [--size ...]
-        [--iters N] [--minutes M] [--clock wall|cpu] [--batch-rays N]
-    python -m reference_models.<model> render RUN [--data DATA] [--every N]
+        [--iters N] [--minutes M] [--clock wall|cpu] [--batch-rays N] [--device cpu|cuda|auto]
+    python -m reference_models.<model> render RUN [--data DATA] [--every N] [--device cpu|cuda|auto]
 """
 
 from __future__ import annotations
@@ -15,9 +15,14 @@ import argparse
 import sys
 
 from dynaeval.errors import InputError
+from reference_models.common.device import DEVICES
 from reference_models.common.importance import SAMPLING
 from reference_models.common.stadium import train_stadium
 from reference_models.common.train import ModelSpec, render_run, train
+
+
+_DEVICE_HELP = ("where the model runs: cpu (default), cuda (an error without a GPU) or auto (cuda "
+                "when torch sees one, else cpu); a run trained on one renders on any")
 
 
 def _parser(spec: ModelSpec) -> argparse.ArgumentParser:
@@ -45,6 +50,7 @@ def _parser(spec: ModelSpec) -> argparse.ArgumentParser:
                    help="start from the weights of a pre-trained stadium run (see `stadium`)")
     t.add_argument("--threads", type=int, default=1, help="torch CPU threads (default 1: faster than 2 on a shared machine)")
     t.add_argument("--quiet", action="store_true", help="no progress bar")
+    t.add_argument("--device", choices=DEVICES, default="cpu", help=_DEVICE_HELP)
     st = sub.add_parser("stadium", help="pre-train the static field on the empty stadium, the "
                                         "start of every run on the clip (train --init)")
     st.add_argument("clip", help="the clip's dataset folder (the model is built for its scene)")
@@ -58,6 +64,7 @@ def _parser(spec: ModelSpec) -> argparse.ArgumentParser:
     st.add_argument("--batch-rays", type=int, help="rays per step (default: the preset's)")
     st.add_argument("--threads", type=int, default=1, help="torch CPU threads (default 1)")
     st.add_argument("--quiet", action="store_true", help="no progress bar")
+    st.add_argument("--device", choices=DEVICES, default="cpu", help=_DEVICE_HELP)
     r = sub.add_parser("render", help="render the eval cameras to RUN/pred/<camera>/<frame>.png")
     r.add_argument("run", help="run folder written by train")
     r.add_argument("--data", help="dataset folder (default: the one the run was trained on)")
@@ -65,6 +72,7 @@ def _parser(spec: ModelSpec) -> argparse.ArgumentParser:
                    help="render every N-th eval frame only (score with --allow-missing)")
     r.add_argument("--threads", type=int, default=1, help="torch CPU threads (default 1: faster than 2 on a shared machine)")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
+    r.add_argument("--device", choices=DEVICES, default="cpu", help=_DEVICE_HELP)
     return p
 
 
@@ -87,17 +95,18 @@ def main(spec: ModelSpec, argv: list[str] | None = None) -> int:
             over = {k: v for k, v in given.items() if v is not None}
             rec = train(spec, args.data, args.out, size=args.size, iters=args.iters,
                         sampling=args.sampling, resume=args.resume, progress=not args.quiet,
-                        overrides=over, init=args.init)
+                        overrides=over, init=args.init, device=args.device)
             print(f"trained {spec.name}: {_summary(rec)}; checkpoint in {args.out}", file=sys.stderr)
         elif args.command == "stadium":
             given = {"minutes": args.minutes, "batch_rays": args.batch_rays, "clock": args.clock}
             rec = train_stadium(spec, args.clip, args.stadium, args.out, size=args.size,
-                                iters=args.iters, progress=not args.quiet,
+                                iters=args.iters, progress=not args.quiet, device=args.device,
                                 overrides={k: v for k, v in given.items() if v is not None})
             print(f"pre-trained the {spec.name} stadium: {_summary(rec)}; checkpoint in {args.out}",
                   file=sys.stderr)
         else:
-            files = render_run(spec, args.run, args.data, progress=not args.quiet, every=args.every)
+            files = render_run(spec, args.run, args.data, progress=not args.quiet, every=args.every,
+                               device=args.device)
             print(f"rendered {len(files)} views to {args.run}/pred", file=sys.stderr)
     except InputError as err:
         print(f"error: {err}", file=sys.stderr)

@@ -40,7 +40,7 @@ def run_summary(run: Path) -> dict:
     log = read_log(run)
     evals = [r for r in log if "eval_psnr" in r]
     ckpt = Path(run) / "checkpoint.pt"
-    state = torch.load(ckpt, weights_only=False)["model"] if ckpt.is_file() else {}
+    state = torch.load(ckpt, map_location="cpu", weights_only=False)["model"] if ckpt.is_file() else {}
     row = {
         "run": Path(run).name,
         "steps": log[-1]["step"],

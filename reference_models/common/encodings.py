@@ -32,7 +32,7 @@ class _SquaredDifferenceMean(torch.autograd.Function):
     def backward(ctx, g):  # noqa: ANN001
         (d,) = ctx.saved_tensors
         n = ctx.shape[ctx.dim]
-        grad = torch.zeros(ctx.shape, dtype=d.dtype)
+        grad = torch.zeros(ctx.shape, dtype=d.dtype, device=d.device)
         grad.narrow(ctx.dim, 1, n - 1).add_(d)
         grad.narrow(ctx.dim, 0, n - 1).sub_(d)
         return grad.mul_(2.0 * g / d.numel()), None
@@ -109,7 +109,7 @@ class PlaneEncoding(nn.Module):
                                   align_corners=True)[0, :, 0].t()
                 prod = f if prod is None else prod * f
                 k += 1
-            out.append(prod if prod is not None else torch.ones(x.shape[0], self.features))
+            out.append(prod if prod is not None else torch.ones(x.shape[0], self.features, device=x.device))
         return torch.cat(out, dim=-1)
 
     def _time_planes(self) -> list[torch.Tensor]:
@@ -120,7 +120,7 @@ class PlaneEncoding(nn.Module):
         every space axis of every plane), ``time_smooth`` (squared second differences along time)
         and ``time_l1`` (``|1 - plane|`` of the planes with a time axis: stay static unless the
         images say otherwise)."""
-        tv = torch.zeros(())
+        tv = torch.zeros((), device=self.planes[0].device)
         for p, (_, b) in zip(self.planes, self.plane_pairs, strict=True):
             if b != 3:  # rows run along axis b
                 tv = tv + squared_difference_mean(p, -2)
@@ -131,7 +131,7 @@ class PlaneEncoding(nn.Module):
         smooth = sum((p[..., 2:, :] - 2 * p[..., 1:-1, :] + p[..., :-2, :]).square().mean()
                      for p in times if p.shape[-2] > 2)
         l1 = sum((1.0 - p).abs().mean() for p in times)
-        return {"tv": tv, "time_smooth": torch.as_tensor(smooth, dtype=torch.float32), "time_l1": l1}
+        return {"tv": tv, "time_smooth": torch.as_tensor(smooth, dtype=torch.float32, device=tv.device), "time_l1": l1}
 
 
 def spherical_harmonics(d: torch.Tensor) -> torch.Tensor:

@@ -151,7 +151,7 @@ class DynamicRadianceModel(nn.Module):
         """Render ``rays``; with ``training`` the samples are jittered and the proposal losses
         (``interlevel``, ``distortion``) are returned in ``losses``."""
         cfg, r = self.config, rays.origins.shape[0]
-        edges = stratified_edges(r, cfg.proposal_samples[0], training, generator)
+        edges = stratified_edges(r, cfg.proposal_samples[0], training, generator, rays.origins.device)
         history = []
         for level, (enc, head) in enumerate(zip(self.proposals, self.proposal_heads, strict=True)):
             coords, deltas = self._points(rays, edges)
@@ -198,16 +198,19 @@ class DynamicRadianceModel(nn.Module):
     def render_image(self, c2w: torch.Tensor, intrinsics: torch.Tensor, time: float, height: int,
                      width: int, chunk: int = 1024, stride: int = 1) -> torch.Tensor:
         """Render one view: ``c2w`` (4, 4), ``intrinsics`` (4,) -> (H, W, 3) float32 in [0, 1];
-        with ``stride`` only every stride-th row and column: (ceil(H / s), ceil(W / s), 3)."""
+        with ``stride`` only every stride-th row and column: (ceil(H / s), ceil(W / s), 3).
+        Computed and returned on the model's device (``c2w`` and ``intrinsics`` are moved)."""
         from reference_models.common.rays import pixel_rays
 
-        rows, cols = torch.meshgrid(torch.arange(0, height, stride), torch.arange(0, width, stride),
-                                    indexing="ij")
+        dev = self.box.device
+        c2w, intrinsics = c2w.to(dev), intrinsics.to(dev)
+        rows, cols = torch.meshgrid(torch.arange(0, height, stride, device=dev),
+                                    torch.arange(0, width, stride, device=dev), indexing="ij")
         height, width = rows.shape
         rows, cols = rows.reshape(-1), cols.reshape(-1)
         out = []
         for i in range(0, rows.numel(), chunk):
             n = min(chunk, rows.numel() - i)
             o, d = pixel_rays(c2w.expand(n, 4, 4), intrinsics.expand(n, 4), rows[i:i + n], cols[i:i + n])
-            out.append(self.render(RayBatch(o, d, torch.full((n,), float(time)))).rgb)
+            out.append(self.render(RayBatch(o, d, torch.full((n,), float(time), device=dev))).rgb)
         return torch.cat(out).view(height, width, 3).clamp(0.0, 1.0)

@@ -9,14 +9,16 @@ from __future__ import annotations
 import torch
 
 
-def stratified_edges(n_rays: int, n_bins: int, jitter: bool, generator: torch.Generator | None = None
-                     ) -> torch.Tensor:
-    """(R, n_bins + 1) float32 edges in [0, 1]: uniform, shifted by one random offset per ray
-    when ``jitter`` (training), so every distance gets sampled over time."""
-    base = torch.linspace(0.0, 1.0, n_bins + 1).expand(n_rays, n_bins + 1)
+def stratified_edges(n_rays: int, n_bins: int, jitter: bool, generator: torch.Generator | None = None,
+                     device: torch.device | str = "cpu") -> torch.Tensor:
+    """(R, n_bins + 1) float32 edges in [0, 1] on ``device``: uniform, shifted by one random
+    offset per ray when ``jitter`` (training), so every distance gets sampled over time. The
+    offsets are drawn by ``generator`` (default: torch's CPU one) and moved: the same numbers on
+    every device."""
+    base = torch.linspace(0.0, 1.0, n_bins + 1, device=device).expand(n_rays, n_bins + 1)
     if not jitter:
         return base.contiguous()
-    off = (torch.rand(n_rays, 1, generator=generator) - 0.5) / n_bins
+    off = (torch.rand(n_rays, 1, generator=generator).to(device) - 0.5) / n_bins
     return (base + off).clamp(0.0, 1.0)
 
 
@@ -38,7 +40,8 @@ def resample_edges(edges: torch.Tensor, weights: torch.Tensor, n_bins: int, jitt
         edges: (R, S + 1) sorted edges in [0, 1].
         weights: (R, S) non-negative weights of the bins (detached by the caller).
         n_bins: bins in the output.
-        jitter: one random offset per ray (training) instead of evenly spaced quantiles.
+        jitter: one random offset per ray (training) instead of evenly spaced quantiles
+            (drawn like ``stratified_edges``'), moved to ``edges``' device.
         pad: added to every normalised weight, so empty space still gets a few samples.
 
     Returns:
@@ -50,9 +53,9 @@ def resample_edges(edges: torch.Tensor, weights: torch.Tensor, n_bins: int, jitt
     cdf = torch.cat([torch.zeros_like(w[:, :1]), torch.cumsum(w, -1).clamp(max=1.0)], -1)
     cdf[:, -1] = 1.0
     r = edges.shape[0]
-    u = torch.linspace(0.0, 1.0, n_bins + 1).expand(r, n_bins + 1)
+    u = torch.linspace(0.0, 1.0, n_bins + 1, device=edges.device).expand(r, n_bins + 1)
     if jitter:
-        u = (u + (torch.rand(r, 1, generator=generator) - 0.5) / n_bins).clamp(0.0, 1.0)
+        u = (u + (torch.rand(r, 1, generator=generator).to(edges.device) - 0.5) / n_bins).clamp(0.0, 1.0)
     u = u.contiguous()
     idx = torch.searchsorted(cdf, u, right=True).clamp(1, cdf.shape[1] - 1)
     c0, c1 = cdf.gather(1, idx - 1), cdf.gather(1, idx)

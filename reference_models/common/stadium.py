@@ -53,17 +53,19 @@ def check_same_rig(clip: Views, stadium: Views, where: Path) -> None:
 def train_stadium(spec: ModelSpec, clip_data: str | Path, stadium_data: str | Path,
                   out: str | Path, size: str = "small", iters: int | None = None,
                   progress: bool = True, overrides: dict | None = None,
-                  resume: bool = False) -> dict:
+                  resume: bool = False, device: str = "cpu") -> dict:
     """Pre-train the static part of ``spec``'s ``size`` model for the clip at ``clip_data`` on the
     empty stadium at ``stadium_data`` into the run folder ``out`` (``overrides``: TrainConfig
     fields, e.g. a ``minutes`` budget; the sampling is uniform and the whole run static;
-    ``resume`` continues an interrupted pre-training from its checkpoint).
+    ``resume`` continues an interrupted pre-training from its checkpoint; ``device`` as
+    ``train``'s).
     Returns the last log record. Raises InputError when the two datasets' cameras differ or the
     model has no static part."""
     clip, stadium = load_dataset(clip_data), load_dataset(stadium_data)
     check_same_rig(clip.train, stadium.train, Path(stadium_data))
     over = {**(overrides or {}), "static_warmup": 1.0}
     if resume:
-        return train(spec, None, out, iters=iters, resume=True, progress=progress, overrides=over)
+        return train(spec, None, out, iters=iters, resume=True, progress=progress, overrides=over,
+                     device=device)
     return train(spec, stadium_data, out, size=size, iters=iters, sampling="uniform",
-                 progress=progress, overrides=over, scene_data=clip_data)
+                 progress=progress, overrides=over, scene_data=clip_data, device=device)

@@ -5,6 +5,8 @@ A run folder holds ``config.json`` (model name and every setting), ``checkpoint.
 optimiser, step, training seconds, sampler state: training resumes where it stopped),
 ``log.jsonl`` (one JSON object per logged step: loss, batch PSNR, iterations/s, training
 seconds, and the eval-camera PSNR at evaluation steps) and, after rendering, ``pred/``.
+``config.json`` also says which device trained the run (``device``, ``device_name``; see
+``reference_models.common.device``); a checkpoint loads on any device.
 
 Time is *training* time, wall (``train_seconds``) and process CPU (``train_cpu_seconds``):
 evaluation and checkpointing are excluded, so PSNR-vs-time curves measure the model, not how
@@ -27,6 +29,7 @@ import torch
 
 from dynaeval.errors import InputError
 from reference_models.common.data import Dataset, Views, load_dataset
+from reference_models.common.device import check_clock, device_name, resolve_device
 from reference_models.common.importance import SAMPLING, RaySampler
 from reference_models.common.model import DynamicRadianceModel, RayBatch, RenderConfig
 from reference_models.common.rays import pixel_rays
@@ -157,7 +160,7 @@ def _lr_factor(step: int, progress: float, cfg: TrainConfig) -> float:
 
 
 def _to_uint8(img: torch.Tensor) -> np.ndarray:
-    return np.round(img.numpy() * 255.0).astype(np.uint8)
+    return np.round(img.cpu().numpy() * 255.0).astype(np.uint8)
 
 
 def eval_psnr(model: DynamicRadianceModel, views: Views, n_views: int, stride: int = 1) -> float:
@@ -192,8 +195,10 @@ def _from_dict(cls: type, d: dict) -> Any:
     return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in d.items() if k in names})
 
 
-def load_run(run: str | Path, spec: ModelSpec) -> tuple[dict, DynamicRadianceModel, dict]:
-    """``config.json`` dict, the model with its checkpointed weights, and the checkpoint."""
+def load_run(run: str | Path, spec: ModelSpec, device: str = "cpu"
+             ) -> tuple[dict, DynamicRadianceModel, dict]:
+    """``config.json`` dict, the model with its checkpointed weights on ``device`` (``cpu`` or
+    ``cuda``, whichever device saved it), and the checkpoint (its tensors on the CPU)."""
     run = Path(run)
     cfg_file, ckpt_file = run / "config.json", run / "checkpoint.pt"
     if not cfg_file.is_file() or not ckpt_file.is_file():
@@ -205,9 +210,10 @@ def load_run(run: str | Path, spec: ModelSpec) -> tuple[dict, DynamicRadianceMod
                          f"`python -m reference_models.{cfg.get('model')} render`", path=run)
     model = build_model(spec, _from_dict(spec.config_class, cfg["model_config"]),
                         _from_dict(RenderConfig, cfg["render_config"]), cfg["scene"])
-    ckpt = torch.load(ckpt_file, weights_only=False)
+    # the CPU: the RNG states must be CPU tensors; the optimiser's state follows its parameters
+    ckpt = torch.load(ckpt_file, map_location="cpu", weights_only=False)
     model.load_state_dict(ckpt["model"])
-    return cfg, model, ckpt
+    return cfg, model.to(device), ckpt
 
 
 def load_init(model: DynamicRadianceModel, cfg: dict, init: str | Path, spec: ModelSpec) -> dict:
@@ -222,7 +228,7 @@ def load_init(model: DynamicRadianceModel, cfg: dict, init: str | Path, spec: Mo
         raise InputError("not a training run: config.json or checkpoint.pt is missing; pre-train "
                          f"it with `python -m reference_models.{spec.name} stadium`", path=init)
     init_cfg = json.loads((init / "config.json").read_text())  # no model built: the RNG is kept
-    ckpt = torch.load(init / "checkpoint.pt", weights_only=False)
+    ckpt = torch.load(init / "checkpoint.pt", map_location="cpu", weights_only=False)
     for key in ("model", "size", "model_config", "render_config", "scene"):
         if init_cfg.get(key) != json.loads(json.dumps(cfg.get(key))):  # tuples as JSON lists
             raise InputError(f"cannot start from this run: its {key} differs from the new run's "
@@ -238,7 +244,7 @@ def load_init(model: DynamicRadianceModel, cfg: dict, init: str | Path, spec: Mo
 def train(spec: ModelSpec, data_path: str | Path, out: str | Path, size: str = "small",
           iters: int | None = None, sampling: str | None = None, resume: bool = False,
           progress: bool = True, overrides: dict | None = None, init: str | Path | None = None,
-          scene_data: str | Path | None = None) -> dict:
+          scene_data: str | Path | None = None, device: str = "cpu") -> dict:
     """Train ``spec``'s model on the dataset at ``data_path`` into the run folder ``out``.
 
     ``size`` picks the preset; ``iters``, ``sampling`` and ``overrides`` (TrainConfig field ->
@@ -247,13 +253,16 @@ def train(spec: ModelSpec, data_path: str | Path, out: str | Path, size: str = "
     another run of the same model, size and scene (a pre-trained stadium,
     ``common.stadium``); ``scene_data`` builds the model for that dataset's scene (box, frames,
     moving box, footprint planes) instead of the training data's (the stadium is trained on the
-    empty stadium for the clip's model). Returns the last log record. Raises InputError for a
-    bad preset or sampling, a missing dataset, an ``init`` run that does not match, or an
-    existing run without ``resume``.
+    empty stadium for the clip's model). ``device``: ``cpu``, ``cuda`` or ``auto`` (a resumed
+    run may continue on another device). Returns the last log record, with the ``device`` it
+    trained on. Raises InputError for a bad preset, sampling or device, a missing dataset, an
+    ``init`` run that does not match, an existing run without ``resume``, or a ``clock="cpu"``
+    budget on CUDA.
     """
     out = Path(out)
+    device = resolve_device(device)
     if resume:
-        cfg, model, ckpt = load_run(out, spec)
+        cfg, model, ckpt = load_run(out, spec, device)
         train_cfg = _from_dict(TrainConfig, {**cfg["train_config"], **(overrides or {})})
         size = cfg["size"]
         data_path = cfg["data"] if data_path is None else data_path
@@ -276,6 +285,7 @@ def train(spec: ModelSpec, data_path: str | Path, out: str | Path, size: str = "
         raise InputError(f"iters must be >= 1, got {train_cfg.iters}")
     if train_cfg.clock not in ("wall", "cpu"):
         raise InputError(f"clock must be 'wall' or 'cpu', got {train_cfg.clock!r}")
+    check_clock(device, train_cfg.clock, train_cfg.minutes)
     if not 0.0 <= train_cfg.static_warmup <= 1.0:
         raise InputError(f"static_warmup must be in [0, 1], got {train_cfg.static_warmup}")
     if train_cfg.batch_rays < 1:
@@ -291,15 +301,17 @@ def train(spec: ModelSpec, data_path: str | Path, out: str | Path, size: str = "
             cfg["scene"], cfg["scene_data"] = scene_info(built_for), str(Path(scene_data).resolve())
         if spec.scene_extras is not None:
             cfg["scene"].update(spec.scene_extras(model_cfg, built_for))
-        model = build_model(spec, model_cfg, render_cfg, cfg["scene"])
+        model = build_model(spec, model_cfg, render_cfg, cfg["scene"]).to(device)  # CPU init
         if init is not None:
             cfg["init"] = load_init(model, cfg, init, spec)
+    cfg["device"], cfg["device_name"] = device, device_name(device)  # a resume: its own device
     if train_cfg.static_warmup and not hasattr(model.encoding, "static_only"):
         raise InputError(f"static_warmup needs a field with a static part (K-Planes' space "
                          f"planes); {spec.name}'s {type(model.encoding).__name__} has none")
     out.mkdir(parents=True, exist_ok=True)
     (out / "config.json").write_text(json.dumps(cfg, indent=1) + "\n")
-    return _loop(model, data, train_cfg, out, ckpt, progress)
+    return {**_loop(model, data, train_cfg, out, ckpt, progress), "device": device,
+            "device_name": cfg["device_name"]}
 
 
 def _loop(model: DynamicRadianceModel, data: Dataset, cfg: TrainConfig, out: Path,
@@ -307,6 +319,7 @@ def _loop(model: DynamicRadianceModel, data: Dataset, cfg: TrainConfig, out: Pat
     from tqdm import tqdm
 
     views = data.train
+    device = model.box.device  # the sampler, its generator and the uint8 images stay on the CPU
     sampler = RaySampler(views, cfg.sampling, cfg.importance_fraction, cfg.ist_from, cfg.seed)
     optim = make_optimizer(model, cfg)
     step, seconds, cpu_seconds = 0, 0.0, 0.0
@@ -344,8 +357,8 @@ def _loop(model: DynamicRadianceModel, data: Dataset, cfg: TrainConfig, out: Pat
         model.set_static_only(static)
         v, r, c = sampler.sample(cfg.batch_rays, progress_now, importance=not static)
         o, d = pixel_rays(c2w[v], intr[v], r, c)
-        target = images[v, r, c].to(torch.float32) / 255.0
-        res = model.render(RayBatch(o, d, times[v]), training=True)
+        target = images[v, r, c].to(device=device, dtype=torch.float32) / 255.0
+        res = model.render(RayBatch(o.to(device), d.to(device), times[v].to(device)), training=True)
         mse = torch.mean((res.rgb - target) ** 2)
         terms = {**res.losses, **model.regularizers()}
         loss = mse + sum(weights[k] * val for k, val in terms.items())  # a new term needs a weight
@@ -384,16 +397,18 @@ def _loop(model: DynamicRadianceModel, data: Dataset, cfg: TrainConfig, out: Pat
 
 
 def render_run(spec: ModelSpec, run: str | Path, data_path: str | Path | None = None,
-               progress: bool = True, every: int = 1) -> list[Path]:
+               progress: bool = True, every: int = 1, device: str = "cpu") -> list[Path]:
     """Render the eval views of the run's dataset to ``RUN/pred/<camera>/<frame>.png`` (8-bit
     sRGB); returns the written files. ``data_path`` overrides the dataset recorded in the run;
     ``every`` > 1 renders only every ``every``-th frame of each camera (score those with
-    ``dynaeval score --allow-missing``)."""
+    ``dynaeval score --allow-missing``). ``device``: ``cpu``, ``cuda`` or ``auto`` (any run
+    renders on any device)."""
     import cv2
     from tqdm import tqdm
 
     run = Path(run)
-    cfg, model, _ = load_run(run, spec)
+    device = resolve_device(device)
+    cfg, model, _ = load_run(run, spec, device)
     data = load_dataset(data_path or cfg["data"])
     if data.eval is None:
         raise InputError("the dataset names no evaluation views (eval_cameras / val_filenames / "

@@ -25,6 +25,7 @@ from reference_models.common.encodings import PlaneEncoding
 from reference_models.common.footprint import footprint_resolution
 from reference_models.common.importance import moving_box
 from reference_models.common.rays import contract
+from reference_models.common.seed import seed_preset
 from reference_models.common.train import ModelSpec, standard_presets
 
 
@@ -170,6 +171,14 @@ for _name in ("tiny", "small"):
 ``-dynbox``: the same with ``dynamic_box``; ``-dynbox-fine``: with the six-plane factor over the
 moving box (``dynamic_planes="space-time"``); ``-fp``: world planes sized per axis by the cameras'
 pixel footprint (``footprint=True``; ``-dynbox-fine-fp`` both)."""
+
+SEED = KPlanesConfig(resolution=64, scales=(1, 2, 4, 8, 16, 32), features=16, max_resolution=2048)
+"""The seed study's K-Planes (for a GPU): K-Planes' DyNeRF planes (64 cells at the coarsest
+scale, 16 features) with the seed's "two additional scales ... multiscale resolutions from 2^6 to
+2^11" (scales 1 to 32: 64 to 2,048 cells, so the cap is 2,048); time cells on the frames (the
+seed does not state its own; K-Planes' DyNeRF has 150 for 300 frames). 273M field parameters at
+24 frames (1.1 GB of float32; ~4.4 GB with the gradients and Adam's two moments)."""
+PRESETS["seed"] = seed_preset(SEED)
 
 SPEC = ModelSpec("kplanes", KPlanesConfig, PRESETS, build_encoding, scene_extras)
 """What the shared CLI and training loop need to run K-Planes."""

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import torch
 from torch import nn
 
+from reference_models.common.seed import seed_preset
 from reference_models.common.train import ModelSpec, standard_presets
 
 _PRIMES = (1, 2654435761, 805459861)
@@ -114,7 +115,7 @@ class TemporalHashEncoding(nn.Module):
             table = torch.lerp(self.table[:, k0:k0 + feats], self.table[:, k0 + 1:k0 + 1 + feats],
                                float(a[0]))
         else:
-            cols = k[:, None] + torch.arange(feats + 1)  # (N, F + 1)
+            cols = k[:, None] + torch.arange(feats + 1, device=x.device)  # (N, F + 1)
             a = a[:, None]
         out, l1 = [], []
         for lv in self._level_groups:
@@ -146,6 +147,15 @@ PRESETS = standard_presets(
     tiny=NeRFPlayerConfig(levels=4, log2_table=12, base_resolution=8, max_resolution=64),
     small=NeRFPlayerConfig())
 """``tiny``: tests (seconds); ``small``: the documented runs (see ``standard_presets``)."""
+
+SEED = NeRFPlayerConfig(levels=16, features=2, log2_table=20, base_resolution=16,
+                        max_resolution=2048, knots=63)
+"""The seed study's NeRFPlayer (for a GPU): nerfacto's hash grid (16 levels of 2 features from 16
+to 2,048 cells), the table raised to 2^20 rows per level and "a temporal dimension of 64" (the
+seed paper): 64 channels per row, i.e. ``features + knots - 1 = 64``, 63 window positions.
+726M field parameters (2.9 GB of float32; ~11.6 GB with the gradients and Adam's two moments,
+within a 24 GB RTX 3090)."""
+PRESETS["seed"] = seed_preset(SEED)
 
 SPEC = ModelSpec("nerfplayer", NeRFPlayerConfig, PRESETS, build_encoding)
 """What the shared CLI and training loop need to run NeRFPlayer."""

@@ -136,5 +136,5 @@ def test_static_warmup_keeps_time_planes_at_one_then_uses_them(tiny_data, tmp_pa
     assert times and all(bool((p == 1.0).all()) for p in times)  # untouched: exactly one
     with pytest.raises(InputError, match="static_warmup needs a field with a static part"):
         train(NERFPLAYER, tiny_data, tmp_path / "n", size="tiny", iters=1, overrides=warm)
-    with pytest.raises(InputError, match=r"static_warmup must be in \[0, 1\)"):
-        train(SPEC, tiny_data, tmp_path / "n", size="tiny", iters=1, overrides={"static_warmup": 1.0})
+    with pytest.raises(InputError, match=r"static_warmup must be in \[0, 1\]"):
+        train(SPEC, tiny_data, tmp_path / "n", size="tiny", iters=1, overrides={"static_warmup": 1.5})

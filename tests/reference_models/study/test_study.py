@@ -77,14 +77,15 @@ def test_a_preset_trains_each_model_with_its_own_size_and_settings(tmp_path, mon
 
     calls = []
 
-    def fake_train(spec, data, out, size, iters, sampling, resume, progress, overrides):
+    def fake_train(spec, data, out, size, iters, sampling, resume, progress, overrides,
+                   device):
         calls.append((spec.name, size, iters, overrides))
         out.mkdir(parents=True, exist_ok=True)
         (out / "config.json").write_text(json.dumps({"size": size}))  # as train() writes it
         return {"step": 0}
 
     monkeypatch.setattr(train_mod, "train", fake_train)
-    monkeypatch.setattr(train_mod, "render_run", lambda spec, run, data, progress: [])
+    monkeypatch.setattr(train_mod, "render_run", lambda spec, run, data, progress, device: [])
     for model in MODELS:
         train_and_render(tmp_path, "single-player-closeup", model, "isg", PRESETS["small-30min"],
                          tmp_path / "data", progress=False)
@@ -104,7 +105,8 @@ def test_a_scene_without_a_moving_region_trains_the_fallback_size(tmp_path, monk
 
     sizes = []
 
-    def fake_train(spec, data, out, size, iters, sampling, resume, progress, overrides):
+    def fake_train(spec, data, out, size, iters, sampling, resume, progress, overrides,
+                   device):
         sizes.append(size)
         if resume:  # train() continues the checkpoint's own config, whatever size is passed
             return {"step": 1}
@@ -115,7 +117,7 @@ def test_a_scene_without_a_moving_region_trains_the_fallback_size(tmp_path, monk
         return {"step": 0}
 
     monkeypatch.setattr(train_mod, "train", fake_train)
-    monkeypatch.setattr(train_mod, "render_run", lambda spec, run, data, progress: [])
+    monkeypatch.setattr(train_mod, "render_run", lambda spec, run, data, progress, device: [])
     run = train_and_render(tmp_path, "players-stadium", "kplanes", "isg", PRESETS["small-30min"],
                            tmp_path / "data", progress=False)
     assert sizes == ["small-dynbox-fine", "small"]
