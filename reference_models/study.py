@@ -85,16 +85,19 @@ PRESETS = {
                                      "1,500 steps of 512 rays"),
     "small-30min": StudyPreset(
         scene_size="small", model_size="small", iters=100_000, frames=24,
-        model_sizes={"kplanes": "small-dynbox-fine"},
+        model_sizes={"kplanes": "small-dynbox-fine-fp"},
         train={"minutes": 30.0, "clock": "cpu", "batch_rays": 1024, "importance_fraction": 0.5},
-        model_train={"kplanes": {"static_warmup": 0.15}},
-        fallback_sizes={"kplanes": "small"},
+        fallback_sizes={"kplanes": "small-fp"},
+        stadium={"minutes": 15.0, "clock": "cpu", "batch_rays": 1024},
         description="each run trains for 30 minutes of one core's CPU time (`--clock cpu`), "
                     "1,024 rays per step, half of each batch by importance under ISG; K-Planes "
-                    "is `small-dynbox-fine` with the first 15 % on the static scene (plain "
-                    "`small` where the motion masks find no moving region: the broadcast and "
-                    "stadium views at this size), NeRFPlayer `small` (docs/reference-models.md, "
-                    "\"30-minute runs\")"),
+                    "is `small-dynbox-fine-fp` (world planes sized per axis by the cameras' "
+                    "pixel footprint, fine planes over the moving box; plain `small-fp` where "
+                    "the motion masks find no moving region: the broadcast and stadium views "
+                    "at this size) and starts from its scene's pre-trained empty stadium "
+                    "(15 CPU minutes, once per scene, shared by its uniform and ISG runs: "
+                    "\"30 clip minutes + 15 stadium minutes\"), NeRFPlayer `small` from scratch "
+                    "(docs/reference-models.md)"),
     "seed": StudyPreset(
         scene_size="small", model_size="seed", iters=None, frames=24,
         description="each run trains its model's `seed` preset — the seed study's field sizes "
@@ -170,7 +173,8 @@ def stadium_run(study: Path, scene: str, model: str, preset: StudyPreset, data: 
         return run
     empty = stadium_data(study, scene, preset)
     spec, t0 = _spec(model), time.perf_counter()
-    kwargs = {"iters": preset.iters, "progress": progress, "overrides": preset.stadium,
+    kwargs = {"iters": preset.stadium.get("iters", preset.iters), "progress": progress,
+              "overrides": preset.stadium,
               "resume": (run / "checkpoint.pt").is_file(), "device": device}
     try:
         record = train_stadium(spec, data, empty, run, size=preset.size_of(model), **kwargs)
@@ -178,8 +182,9 @@ def stadium_run(study: Path, scene: str, model: str, preset: StudyPreset, data: 
         if model not in preset.fallback_sizes:
             raise
         record = train_stadium(spec, data, empty, run, size=preset.fallback_sizes[model], **kwargs)
-    size = json.loads((run / "config.json").read_text())["size"]
-    _write_json(run / "train.json", {"wall_s": time.perf_counter() - t0, "size": size, **record})
+    cfg = json.loads((run / "config.json").read_text())
+    _write_json(run / "train.json", {"wall_s": time.perf_counter() - t0, "size": cfg["size"],
+                                     "batch_rays": cfg["train_config"]["batch_rays"], **record})
     return run
 
 

@@ -72,18 +72,39 @@ def _train_min_cell(train: dict) -> str:
     return f"{_train_cpu_min(train):.1f}"
 
 
+def _stadium_cell(train: dict) -> str:
+    """The CPU minutes of the pre-trained stadium a run started from ("—" for none)."""
+    stadium = train.get("stadium")
+    return "—" if not stadium else f"{stadium['train_cpu_seconds'] / 60:.1f}"
+
+
 def scene_table(docs: list[dict]) -> str:
     cols = [(k, label) for k, label in TABLE_METRICS if any(k in d["summary"] for d in docs)]
     head = ("| run | " + " | ".join(label for _, label in cols)
-            + " | train min | steps | render s | device |")
-    sep = "|---" * (len(cols) + 5) + "|"
+            + " | train min | + stadium min | steps | render s | device |")
+    sep = "|---" * (len(cols) + 6) + "|"
     rows = []
     for d in docs:
         cells = [_fmt(k, d["summary"].get(k)) for k, _ in cols]
         rows.append(f"| {d['method']} | " + " | ".join(cells)
-                    + f" | {_train_min_cell(d['_train'])} | {d['_train'].get('step', 'n/a')} "
+                    + f" | {_train_min_cell(d['_train'])} | {_stadium_cell(d['_train'])} "
+                    f"| {d['_train'].get('step', 'n/a')} "
                     f"| {d['_render']['wall_s']:.1f} | {train_device(d['_train'])} |")
     return "\n".join([head, sep, *rows])
+
+
+def stadium_lines(study: Path, scene: str) -> list[str]:
+    """What each pre-trained stadium of ``scene`` cost and how well it shows the empty stadium
+    (its last logged eval PSNR, on the eval cameras' empty-stadium views)."""
+    out = []
+    for f in sorted((study / "runs" / scene).glob("*-stadium/train.json")):
+        t = json.loads(f.read_text())
+        psnr = t.get("eval_psnr")
+        out.append(f"- `{f.parent.name}` ({t['size']}): {_train_min_cell(t)} min, "
+                   f"{t.get('step', 'n/a')} steps of {t.get('batch_rays', 'n/a')} rays"
+                   + (f", eval PSNR {psnr:.2f} dB on the empty stadium" if psnr is not None else "")
+                   + "; every run of its model on this scene starts from it.")
+    return ["Pre-trained stadium:", "", *out, ""] if out else []
 
 
 def _crop(img: np.ndarray, box: list[int], size: int = 96, pad: float = 0.6) -> np.ndarray:
@@ -300,7 +321,7 @@ def write_report(study: Path, path: Path, *, preset: str, command: str,
         lines += [f"Every run's results JSON (`dynaeval/results/v1`) and the leaderboard are in "
                   f"[{rel_results}/]({rel_results}/).", ""]
     for scene, sdocs in by_scene.items():
-        lines += [f"## {scene}", "", scene_table(sdocs), ""]
+        lines += [f"## {scene}", "", scene_table(sdocs), "", *stadium_lines(study, scene)]
         fig = crops_figure(sdocs, study / "data" / scene, img_dir / f"{scene}-crops.png")
         if fig:
             key, order = fig

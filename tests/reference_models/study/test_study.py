@@ -70,15 +70,15 @@ def test_unknown_preset_and_bad_jobs():
 
 
 def test_a_preset_trains_each_model_with_its_own_size_and_settings(tmp_path, monkeypatch):
-    """small-30min: K-Planes at small-dynbox-fine with the static warm-up, NeRFPlayer at small
-    without it (it has no static-only look-up), both on the 30-minute CPU budget."""
+    """small-30min without its stadium: K-Planes at small-dynbox-fine-fp, NeRFPlayer at small,
+    both on the 30-minute CPU budget."""
     import reference_models.common.train as train_mod
     from reference_models.study import PRESETS, train_and_render
 
     calls = []
 
     def fake_train(spec, data, out, size, iters, sampling, resume, progress, overrides,
-                   device):
+                   device, init):
         calls.append((spec.name, size, iters, overrides))
         out.mkdir(parents=True, exist_ok=True)
         (out / "config.json").write_text(json.dumps({"size": size}))  # as train() writes it
@@ -87,10 +87,11 @@ def test_a_preset_trains_each_model_with_its_own_size_and_settings(tmp_path, mon
     monkeypatch.setattr(train_mod, "train", fake_train)
     monkeypatch.setattr(train_mod, "render_run", lambda spec, run, data, progress, device: [])
     for model in MODELS:
-        train_and_render(tmp_path, "single-player-closeup", model, "isg", PRESETS["small-30min"],
-                         tmp_path / "data", progress=False)
+        train_and_render(tmp_path, "single-player-closeup", model, "isg",
+                         replace(PRESETS["small-30min"], stadium=None), tmp_path / "data",
+                         progress=False)
     budget = {"minutes": 30.0, "clock": "cpu", "batch_rays": 1024, "importance_fraction": 0.5}
-    assert calls == [("kplanes", "small-dynbox-fine", 100_000, {**budget, "static_warmup": 0.15}),
+    assert calls == [("kplanes", "small-dynbox-fine-fp", 100_000, budget),
                      ("nerfplayer", "small", 100_000, budget)]
     assert PRESETS["small"].overrides_of("kplanes") == {}
 
@@ -104,13 +105,14 @@ def test_a_scene_without_a_moving_region_trains_the_fallback_size(tmp_path, monk
     from reference_models.study import PRESETS, train_and_render
 
     sizes = []
+    NO_STADIUM = replace(PRESETS["small-30min"], stadium=None)
 
     def fake_train(spec, data, out, size, iters, sampling, resume, progress, overrides,
-                   device):
+                   device, init):
         sizes.append(size)
         if resume:  # train() continues the checkpoint's own config, whatever size is passed
             return {"step": 1}
-        if size == "small-dynbox-fine":
+        if size == "small-dynbox-fine-fp":
             raise NothingMoves("the motion masks of the training cameras found nothing that moves")
         out.mkdir(parents=True, exist_ok=True)
         (out / "config.json").write_text(json.dumps({"size": size}))  # as train() writes it
@@ -118,22 +120,22 @@ def test_a_scene_without_a_moving_region_trains_the_fallback_size(tmp_path, monk
 
     monkeypatch.setattr(train_mod, "train", fake_train)
     monkeypatch.setattr(train_mod, "render_run", lambda spec, run, data, progress, device: [])
-    run = train_and_render(tmp_path, "players-stadium", "kplanes", "isg", PRESETS["small-30min"],
+    run = train_and_render(tmp_path, "players-stadium", "kplanes", "isg", NO_STADIUM,
                            tmp_path / "data", progress=False)
-    assert sizes == ["small-dynbox-fine", "small"]
+    assert sizes == ["small-dynbox-fine-fp", "small-fp"]
     record = json.loads((run / "train.json").read_text())
-    assert record["size"] == "small" and "nothing that moves" in record["fallback"]
+    assert record["size"] == "small-fp" and "nothing that moves" in record["fallback"]
     # resumed after an interruption: the run's own size is recorded, not the preset's first choice
     (run / "train.json").unlink()
     (run / "checkpoint.pt").write_bytes(b"")
     record = json.loads((train_and_render(tmp_path, "players-stadium", "kplanes", "isg",
-                                          PRESETS["small-30min"], tmp_path / "data",
+                                          NO_STADIUM, tmp_path / "data",
                                           progress=False) / "train.json").read_text())
-    assert record["step"] == 1 and record["size"] == "small" and "nothing that moves" in record["fallback"]
+    assert record["step"] == 1 and record["size"] == "small-fp" and "nothing that moves" in record["fallback"]
     with pytest.raises(NothingMoves):  # a preset without a fallback does not hide the error
         sizes.clear()
         train_and_render(tmp_path, "players-stadium", "nerfplayer", "isg",
-                         replace(PRESETS["small-30min"], model_sizes={"nerfplayer": "small-dynbox-fine"}),
+                         replace(NO_STADIUM, model_sizes={"nerfplayer": "small-dynbox-fine-fp"}),
                          tmp_path / "data", progress=False)
 
 
@@ -158,3 +160,35 @@ def test_findings_say_on_how_many_frames_importance_sampling_is_better():
     line = findings({"single-player-closeup": [uniform, isg]})[0]
     assert "player holds (IS better on 3 of 4 frames)" in line
     assert "ball does not hold (IS better on 0 of 3 frames)" in line
+
+
+def test_a_stadium_is_pre_trained_once_per_scene_and_every_run_starts_from_it(tmp_path,
+                                                                             monkeypatch):
+    """A preset with a stadium: one pre-training per scene and model (K-Planes), shared by the
+    uniform and ISG runs, which record it; NeRFPlayer (no static part) starts from scratch;
+    the report shows the stadium's minutes beside each run."""
+    import reference_models.study as study_mod
+    from reference_models.study import PRESETS
+
+    preset = replace(PRESETS["tiny"], stadium={"iters": 8}, model_sizes={"kplanes": "tiny-dynbox-fine-fp"})
+    monkeypatch.setitem(study_mod.PRESETS, "tiny-stadium", preset)
+    out = tmp_path / "s"
+    run_study(out, "tiny-stadium", scenes=["single-player-closeup"], progress=False)
+    runs = out / "runs" / "single-player-closeup"
+    assert sorted(p.name for p in runs.iterdir()) == [
+        "kplanes-isg", "kplanes-stadium", "kplanes-uniform", "nerfplayer-isg", "nerfplayer-uniform"]
+    stadium_cfg = json.loads((runs / "kplanes-stadium" / "config.json").read_text())
+    assert stadium_cfg["train_config"]["static_warmup"] == 1.0
+    assert stadium_cfg["data"].endswith("single-player-closeup-stadium")
+    for sampling in ("uniform", "isg"):
+        record = json.loads((runs / f"kplanes-{sampling}" / "train.json").read_text())
+        assert record["stadium"]["run"] == str((runs / "kplanes-stadium").resolve())
+        assert record["stadium"]["step"] == 8
+        assert "stadium" not in json.loads((runs / f"nerfplayer-{sampling}" / "train.json").read_text())
+    stamp = (runs / "kplanes-stadium" / "checkpoint.pt").stat().st_mtime_ns
+    run_study(out, "tiny-stadium", scenes=["single-player-closeup"], progress=False)
+    assert (runs / "kplanes-stadium" / "checkpoint.pt").stat().st_mtime_ns == stamp
+    from reference_models.study_report import write_report
+
+    text = write_report(out, tmp_path / "v.md", preset="tiny-stadium", command="x").read_text()
+    assert "+ stadium min" in text and "`kplanes-stadium` (tiny-dynbox-fine-fp)" in text
