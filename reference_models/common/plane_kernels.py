@@ -40,64 +40,83 @@ def _texel(u, size):  # noqa: ANN001, ANN202
 
 
 @compiled
-def _corner_weights(wx, wy):  # noqa: ANN001, ANN202
-    """float32 bilinear weights of the corners (y0, x0), (y0, x1), (y1, x0), (y1, x1)."""
+def _bilinear(u, v, h, w):  # noqa: ANN001, ANN202
+    """The 4 corners and float32 weights of grid_sample's bilinear look-up at column ``u``, row
+    ``v`` (in [-1, 1]) of an (h, w) plane: ``y0, x0, y1, x1, w00, w01, w10, w11`` for the
+    texels (y0, x0), (y0, x1), (y1, x0), (y1, x1)."""
+    x0, x1, wx = _texel(u, w)
+    y0, y1, wy = _texel(v, h)
     one = np.float32(1.0)
-    return (one - wy) * (one - wx), (one - wy) * wx, wy * (one - wx), wy * wx
+    return (y0, x0, y1, x1, (one - wy) * (one - wx), (one - wy) * wx, wy * (one - wx), wy * wx)
 
 
 @compiled
 def _product_forward(x, planes, axes, out, feats):  # noqa: ANN001, ANN202
     """``out[n] = prod_p bilinear(planes[p], x[n, axes[p, 0]], x[n, axes[p, 1]])`` and every
     factor in ``feats[p, n]``. x (N, 4) float32; planes: tuple of (H_p, W_p, F) float32 (columns
-    along axis ``axes[p, 0]``, rows along ``axes[p, 1]``); out (N, F), feats (P, N, F) float32."""
+    along axis ``axes[p, 0]``, rows along ``axes[p, 1]``); out (N, F), feats (P, N, F) float32.
+    Each loop over the features touches one row per array (no two rows of one array), so it
+    compiles to vector instructions."""
     n_pts, n_feat = out.shape
     out[:, :] = 1.0
     for p in range(len(planes)):
         pl = planes[p]
         h, w = pl.shape[0], pl.shape[1]
         a, b = axes[p, 0], axes[p, 1]
+        fp = feats[p]
         for n in range(n_pts):
-            x0, x1, wx = _texel(x[n, a], w)
-            y0, y1, wy = _texel(x[n, b], h)
-            w00, w01, w10, w11 = _corner_weights(wx, wy)
+            y0, x0, y1, x1, w00, w01, w10, w11 = _bilinear(x[n, a], x[n, b], h, w)
+            r00, r01, r10, r11 = pl[y0, x0], pl[y0, x1], pl[y1, x0], pl[y1, x1]
+            v = fp[n]
             for f in range(n_feat):
-                v = (w00 * pl[y0, x0, f] + w01 * pl[y0, x1, f]
-                     + w10 * pl[y1, x0, f] + w11 * pl[y1, x1, f])
-                feats[p, n, f] = v
-                out[n, f] *= v
+                v[f] = w00 * r00[f] + w01 * r01[f] + w10 * r10[f] + w11 * r11[f]
+            o = out[n]
+            for f in range(n_feat):
+                o[f] *= v[f]
 
 
 @compiled
-def _product_backward(x, axes, feats, grad, grads):  # noqa: ANN001, ANN202
+def _product_backward(x, axes, feats, grad, scaled, grads):  # noqa: ANN001, ANN202
     """Adds each plane's gradient into ``grads`` (a tuple of (H_p, W_p, F) float32, zeros on
     entry) from ``grad`` (N, F), the gradient of ``_product_forward``'s ``out``: the corners of
-    plane p get ``w * grad * prod_{q != p} feats[q]``."""
+    plane p get ``w * grad * prod_{q != p} feats[q]``, that product first written to ``scaled``
+    (P, N, F) float32 (prefix and suffix products, no division), then scattered plane by plane,
+    one corner row at a time."""
     n_planes = len(grads)
     n_pts, n_feat = grad.shape
     suffix = np.empty((n_planes, n_feat), np.float32)
     prefix = np.empty(n_feat, np.float32)
-    g = np.empty(n_feat, np.float32)
     for n in range(n_pts):
         suffix[n_planes - 1, :] = 1.0
         for p in range(n_planes - 2, -1, -1):
             for f in range(n_feat):
                 suffix[p, f] = suffix[p + 1, f] * feats[p + 1, n, f]
-        prefix[:] = 1.0
+        for f in range(n_feat):
+            prefix[f] = grad[n, f]
         for p in range(n_planes):
-            gp = grads[p]
-            h, w = gp.shape[0], gp.shape[1]
-            x0, x1, wx = _texel(x[n, axes[p, 0]], w)
-            y0, y1, wy = _texel(x[n, axes[p, 1]], h)
-            w00, w01, w10, w11 = _corner_weights(wx, wy)
             for f in range(n_feat):
-                g[f] = grad[n, f] * prefix[f] * suffix[p, f]
+                scaled[p, n, f] = prefix[f] * suffix[p, f]
                 prefix[f] *= feats[p, n, f]
+    for p in range(n_planes):
+        gp = grads[p]
+        h, w = gp.shape[0], gp.shape[1]
+        a, b = axes[p, 0], axes[p, 1]
+        sp = scaled[p]
+        for n in range(n_pts):
+            y0, x0, y1, x1, w00, w01, w10, w11 = _bilinear(x[n, a], x[n, b], h, w)
+            g = sp[n]
+            r = gp[y0, x0]
             for f in range(n_feat):
-                gp[y0, x0, f] += w00 * g[f]
-                gp[y0, x1, f] += w01 * g[f]
-                gp[y1, x0, f] += w10 * g[f]
-                gp[y1, x1, f] += w11 * g[f]
+                r[f] += w00 * g[f]
+            r = gp[y0, x1]
+            for f in range(n_feat):
+                r[f] += w01 * g[f]
+            r = gp[y1, x0]
+            for f in range(n_feat):
+                r[f] += w10 * g[f]
+            r = gp[y1, x1]
+            for f in range(n_feat):
+                r[f] += w11 * g[f]
 
 
 def _texel_rows(plane: torch.Tensor) -> torch.Tensor:
@@ -120,11 +139,12 @@ class _PlaneProduct(torch.autograd.Function):
     @staticmethod
     def backward(ctx, grad):  # noqa: ANN001
         x, feats = ctx.saved_tensors
-        grads = [torch.zeros(1, h, w, f) for _, f, h, w in ctx.shapes]
+        # the planes' own layout (channels_last), so autograd takes these as the gradients
+        # instead of copying them into it
+        grads = [torch.empty(shape, memory_format=torch.channels_last).zero_() for shape in ctx.shapes]
         _product_backward(x.numpy(), ctx.axes, feats.numpy(), grad.contiguous().numpy(),
-                          tuple(g[0].numpy() for g in grads))
-        # (1, H, W, F) -> (1, F, H, W) in channels_last memory format, the planes' own layout
-        return (None, None, *(g.permute(0, 3, 1, 2) for g in grads))
+                          np.empty(feats.shape, np.float32), tuple(_texel_rows(g).numpy() for g in grads))
+        return (None, None, *grads)
 
 
 def uses_fused_lookup(x: torch.Tensor, planes: list[torch.Tensor]) -> bool:

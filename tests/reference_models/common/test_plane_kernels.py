@@ -85,3 +85,16 @@ def test_encoding_uses_the_fused_path_and_matches_grid_sample():
     torch.testing.assert_close(fast, ref, rtol=RTOL, atol=ATOL)
     for g, w in zip(fast_g, ref_g, strict=True):
         torch.testing.assert_close(g, w, rtol=RTOL, atol=ATOL * float(w.abs().max()))
+
+
+def test_a_state_dict_of_plain_planes_loads_into_channels_last_ones():
+    """Checkpoints written before the planes were channels_last hold plain (1, F, H, W) tensors:
+    same keys and shapes; loading copies them into the channels_last parameters."""
+    torch.manual_seed(0)
+    old = {k: v.contiguous() for k, v in PlaneEncoding(8, 5, (1, 2), 4).state_dict().items()}
+    assert not all(v.is_contiguous(memory_format=torch.channels_last) for v in old.values())
+    enc = PlaneEncoding(8, 5, (1, 2), 4)
+    enc.load_state_dict(old)
+    assert all(p.is_contiguous(memory_format=torch.channels_last) for p in enc.planes)
+    for k, v in enc.state_dict().items():
+        torch.testing.assert_close(v, old[k], rtol=0, atol=0)
