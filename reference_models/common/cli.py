@@ -2,7 +2,8 @@
 
     python -m reference_models.<model> train DATA --out RUN [--size tiny|small] [--iters N]
         [--minutes M] [--sampling uniform|isg|ist] [--importance-fraction F]
-        [--static-warmup F] [--batch-rays N] [--clock wall|cpu] [--resume] [--threads 1]
+        [--static-warmup F] [--batch-rays N] [--clock wall|cpu] [--regularize-every K]
+        [--proposal-rays-every K] [--resume] [--threads 1]
     python -m reference_models.<model> render RUN [--data DATA] [--every N]
 """
 
@@ -36,6 +37,10 @@ def _parser(spec: ModelSpec) -> argparse.ArgumentParser:
     t.add_argument("--batch-rays", type=int, help="rays per step (default: the preset's)")
     t.add_argument("--clock", choices=("wall", "cpu"),
                    help="what --minutes counts: elapsed (wall, default) or process CPU time")
+    t.add_argument("--regularize-every", type=int,
+                   help="steps between the plane regularisers, at that many times their weights (default: the preset's)")
+    t.add_argument("--proposal-rays-every", type=int,
+                   help="every k-th ray of a batch trains the proposals (default: the preset's)")
     t.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
     t.add_argument("--threads", type=int, default=1, help="torch CPU threads (default 1: faster than 2 on a shared machine)")
     t.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -59,7 +64,8 @@ def main(spec: ModelSpec, argv: list[str] | None = None) -> int:
         if args.command == "train":
             given = {"minutes": args.minutes, "importance_fraction": args.importance_fraction,
                      "static_warmup": args.static_warmup, "batch_rays": args.batch_rays,
-                     "clock": args.clock}
+                     "clock": args.clock, "regularize_every": args.regularize_every,
+                     "proposal_rays_every": args.proposal_rays_every}
             over = {k: v for k, v in given.items() if v is not None}
             rec = train(spec, args.data, args.out, size=args.size, iters=args.iters,
                         sampling=args.sampling, resume=args.resume, progress=not args.quiet,
