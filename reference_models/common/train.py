@@ -79,10 +79,11 @@ class TrainConfig:
     """Steps between the plane regularisers (TV, time smoothness, time L1; field and
     proposals), applied at ``regularize_every`` times their weights: the same pull per step on
     average at a fraction of their cost. 1: every step, as K-Planes."""
-    proposal_rays_every: int = 2
+    proposal_rays_every: int = 1
     """Every k-th ray of each batch trains the proposal networks (their look-ups with autograd
     and the interlevel loss over those rays); the other rays' proposal look-ups run without
-    autograd and only place the samples. 1: every ray, as K-Planes."""
+    autograd and only place the samples. 1: every ray, as K-Planes (the default: 2 saves ~5 %
+    of a step but cost 0.1-0.2 dB at 400 steps on the close-up, docs/reference-models.md)."""
     bfloat16_mlps: bool = True
     """Training steps run the decoder MLPs' layers in bfloat16 (CPU autocast, on CPUs with
     native bfloat16 only; weights, planes, rendering and losses stay float32), as GPU NeRF codes
