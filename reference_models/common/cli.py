@@ -2,8 +2,8 @@
 
     python -m reference_models.<model> train DATA --out RUN [--size tiny|small] [--iters N]
         [--minutes M] [--sampling uniform|isg|ist] [--importance-fraction F]
-        [--static-warmup F] [--batch-rays N] [--clock wall|cpu] [--resume] [--init STADIUM]
-        [--threads 1] [--device cpu|cuda|auto]
+        [--static-warmup F] [--batch-rays N] [--clock wall|cpu] [--regularize-every K]
+        [--proposal-rays-every K] [--resume] [--init STADIUM] [--threads 1] [--device cpu|cuda|auto]
     python -m reference_models.<model> stadium CLIP_DATA STADIUM_DATA --out STADIUM [--size ...]
         [--iters N] [--minutes M] [--clock wall|cpu] [--batch-rays N] [--device cpu|cuda|auto]
     python -m reference_models.<model> render RUN [--data DATA] [--every N] [--device cpu|cuda|auto]
@@ -45,6 +45,10 @@ def _parser(spec: ModelSpec) -> argparse.ArgumentParser:
     t.add_argument("--batch-rays", type=int, help="rays per step (default: the preset's)")
     t.add_argument("--clock", choices=("wall", "cpu"),
                    help="what --minutes counts: elapsed (wall, default) or process CPU time")
+    t.add_argument("--regularize-every", type=int,
+                   help="steps between the plane regularisers, at that many times their weights (default: the preset's)")
+    t.add_argument("--proposal-rays-every", type=int,
+                   help="every k-th ray of a batch trains the proposals (default: the preset's)")
     t.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
     t.add_argument("--init", metavar="STADIUM",
                    help="start from the weights of a pre-trained stadium run (see `stadium`)")
@@ -91,7 +95,8 @@ def main(spec: ModelSpec, argv: list[str] | None = None) -> int:
         if args.command == "train":
             given = {"minutes": args.minutes, "importance_fraction": args.importance_fraction,
                      "static_warmup": args.static_warmup, "batch_rays": args.batch_rays,
-                     "clock": args.clock}
+                     "clock": args.clock, "regularize_every": args.regularize_every,
+                     "proposal_rays_every": args.proposal_rays_every}
             over = {k: v for k, v in given.items() if v is not None}
             rec = train(spec, args.data, args.out, size=args.size, iters=args.iters,
                         sampling=args.sampling, resume=args.resume, progress=not args.quiet,

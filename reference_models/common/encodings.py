@@ -15,6 +15,8 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
+from reference_models.common.plane_kernels import plane_product, uses_fused_lookup
+
 
 class _SquaredDifferenceMean(torch.autograd.Function):
     """``mean(diff(p, dim)^2)`` with a hand-written backward: one pass for the gradient
@@ -24,15 +26,15 @@ class _SquaredDifferenceMean(torch.autograd.Function):
     @staticmethod
     def forward(ctx, p, dim):  # noqa: ANN001
         d = p.diff(dim=dim)
-        ctx.save_for_backward(d)
-        ctx.dim, ctx.shape = dim, p.shape
+        ctx.save_for_backward(d, p)
+        ctx.dim = dim
         return d.square().mean()
 
     @staticmethod
     def backward(ctx, g):  # noqa: ANN001
-        (d,) = ctx.saved_tensors
-        n = ctx.shape[ctx.dim]
-        grad = torch.zeros(ctx.shape, dtype=d.dtype, device=d.device)
+        d, p = ctx.saved_tensors
+        n = p.shape[ctx.dim]
+        grad = torch.zeros_like(p)  # p's memory format (channels_last planes): no layout copies
         grad.narrow(ctx.dim, 1, n - 1).add_(d)
         grad.narrow(ctx.dim, 0, n - 1).sub_(d)
         return grad.mul_(2.0 * g / d.numel()), None
@@ -91,25 +93,29 @@ class PlaneEncoding(nn.Module):
                 self.plane_pairs.append((a, b))
                 size = [res[b], res[a]]
                 if 3 in (a, b) or factor:
-                    self.planes.append(nn.Parameter(torch.ones(1, features, *size)))
+                    plane = torch.ones(1, features, *size)
                 else:
-                    self.planes.append(nn.Parameter(torch.empty(1, features, *size).uniform_(0.1, 0.5)))
+                    plane = torch.empty(1, features, *size).uniform_(0.1, 0.5)
+                # channels_last: features contiguous per texel for the CPU look-up
+                # (plane_kernels); shapes and state-dict keys as before
+                self.planes.append(nn.Parameter(plane.contiguous(memory_format=torch.channels_last)))
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        """(N, 4) coordinates in [-1, 1] -> (N, out_dim) features."""
-        out, k = [], 0
-        for _ in self.scales:
-            prod = None
-            for a, b in self.pairs:
-                if self.static_only and b == 3:
-                    k += 1
-                    continue
-                grid = x[:, [a, b]].view(1, 1, -1, 2)  # grid_sample: (x, y) = (width, height) axes
-                f = F.grid_sample(self.planes[k], grid, mode="bilinear", padding_mode="border",
-                                  align_corners=True)[0, :, 0].t()
-                prod = f if prod is None else prod * f
-                k += 1
-            out.append(prod if prod is not None else torch.ones(x.shape[0], self.features, device=x.device))
+        """(N, 4) coordinates in [-1, 1] -> (N, out_dim) features. On the CPU (coordinates
+        without a gradient) each scale is one compiled look-up of all its planes
+        (``plane_kernels.plane_product``); elsewhere ``grid_sample``, the same values."""
+        out, n_pairs = [], len(self.pairs)
+        for s in range(len(self.scales)):
+            used = [(k, pair) for k, pair in enumerate(self.plane_pairs[s * n_pairs:(s + 1) * n_pairs],
+                                                       start=s * n_pairs)
+                    if not (self.static_only and pair[1] == 3)]
+            planes = [self.planes[k] for k, _ in used]
+            if not used:
+                out.append(x.new_ones(x.shape[0], self.features))
+            elif uses_fused_lookup(x, planes):
+                out.append(plane_product(x, planes, [pair for _, pair in used]))
+            else:
+                out.append(grid_sample_product(x, planes, [pair for _, pair in used]))
         return torch.cat(out, dim=-1)
 
     def _time_planes(self) -> list[torch.Tensor]:
@@ -132,6 +138,22 @@ class PlaneEncoding(nn.Module):
                      for p in times if p.shape[-2] > 2)
         l1 = sum((1.0 - p).abs().mean() for p in times)
         return {"tv": tv, "time_smooth": torch.as_tensor(smooth, dtype=torch.float32, device=tv.device), "time_l1": l1}
+
+
+def grid_sample_product(x: torch.Tensor, planes: list[torch.Tensor], pairs: list[tuple[int, int]]
+                        ) -> torch.Tensor:
+    """The product of ``F.grid_sample`` bilinear look-ups (``align_corners=True``: -1 and 1 are
+    the first and last texels; border padding) of ``planes`` (each (1, F, H_p, W_p)) at (N, D)
+    coordinates in [-1, 1], plane p read at column ``x[:, a]``, row ``x[:, b]`` for ``(a, b) =
+    pairs[p]``: (N, F), on any device, differentiable in the planes and the coordinates. The
+    reference of ``plane_kernels.plane_product``."""
+    prod = None
+    for plane, (a, b) in zip(planes, pairs, strict=True):
+        grid = x[:, [a, b]].view(1, 1, -1, 2)  # grid_sample: (x, y) = (width, height) axes
+        f = F.grid_sample(plane, grid, mode="bilinear", padding_mode="border",
+                          align_corners=True)[0, :, 0].t()
+        prod = f if prod is None else prod * f
+    return prod
 
 
 def spherical_harmonics(d: torch.Tensor) -> torch.Tensor:

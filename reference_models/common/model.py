@@ -43,6 +43,19 @@ def trunc_exp(x: torch.Tensor) -> torch.Tensor:
     return _TruncExp.apply(x)
 
 
+def cpu_has_bfloat16() -> bool:
+    """Whether this CPU multiplies bfloat16 matrices natively (oneDNN's check: AVX-512 BF16 or
+    AMX); emulated bfloat16 would be slower than float32."""
+    return bool(torch.ops.mkldnn._is_mkldnn_bf16_supported())
+
+
+def cpu_bfloat16(enabled: bool) -> torch.autocast:
+    """CPU autocast to bfloat16 (linear layers and matrix products in bfloat16, their inputs cast,
+    float32 accumulation inside oneDNN), on only when ``enabled`` and ``cpu_has_bfloat16()``.
+    The callers cast the results back to float32 (``.float()``) so nothing else changes."""
+    return torch.autocast("cpu", dtype=torch.bfloat16, enabled=enabled and cpu_has_bfloat16())
+
+
 @dataclass
 class RenderConfig:
     """Ray sampling and the shared decoder (sizes for 2 CPU cores)."""
@@ -137,34 +150,49 @@ class DynamicRadianceModel(nn.Module):
         coords = torch.cat([contract(xyz, self.box), t], dim=-1).reshape(-1, 4)
         return coords, (dist[:, 1:] - dist[:, :-1]) / self.unit
 
-    def density_and_color(self, coords: torch.Tensor, dirs: torch.Tensor
-                          ) -> tuple[torch.Tensor, torch.Tensor]:
+    def density_and_color(self, coords: torch.Tensor, dirs: torch.Tensor,
+                          bfloat16_mlps: bool = False) -> tuple[torch.Tensor, torch.Tensor]:
         """The radiance field at (N, 4) grid coordinates seen along (N, 3) unit directions:
-        density (N,) per ``unit`` of length and colour (N, 3) in [0, 1]."""
-        h = self.density_net(self.encoding(coords))
-        density = trunc_exp(h[:, 0] - 1.0)
-        color = torch.sigmoid(self.color_net(torch.cat([h[:, 1:], spherical_harmonics(dirs)], -1)))
-        return density, color
+        density (N,) per ``unit`` of length and colour (N, 3) in [0, 1], float32.
+        ``bfloat16_mlps``: the decoder MLPs' layers run in bfloat16 (``cpu_bfloat16``; weights
+        and every other operation stay float32)."""
+        with cpu_bfloat16(bfloat16_mlps and coords.device.type == "cpu"):
+            h = self.density_net(self.encoding(coords)).float()
+            color = self.color_net(torch.cat([h[:, 1:], spherical_harmonics(dirs)], -1)).float()
+        return trunc_exp(h[:, 0] - 1.0), torch.sigmoid(color)
 
     def render(self, rays: RayBatch, training: bool = False,
-               generator: torch.Generator | None = None) -> RenderOutput:
-        """Render ``rays``; with ``training`` the samples are jittered and the proposal losses
-        (``interlevel``, ``distortion``) are returned in ``losses``."""
+               generator: torch.Generator | None = None, proposal_rays: int | None = None,
+               bfloat16_mlps: bool = False) -> RenderOutput:
+        """Render ``rays``; with ``training`` the samples are jittered and the losses
+        ``interlevel`` and ``distortion`` are returned in ``losses``. ``proposal_rays``: only the
+        first that many rays train the proposals (their look-ups with autograd, the interlevel
+        loss over them; None: all, 0: none and no ``interlevel``); the others' proposal
+        look-ups run without autograd and still place their samples. ``bfloat16_mlps``: see
+        ``density_and_color``."""
         cfg, r = self.config, rays.origins.shape[0]
-        edges = stratified_edges(r, cfg.proposal_samples[0], training, generator, rays.origins.device)
+        grad = training and torch.is_grad_enabled()
+        n_grad = r if proposal_rays is None or not grad else min(max(int(proposal_rays), 0), r)
+        edges = stratified_edges(r, cfg.proposal_samples[0], training, generator,
+                                 rays.origins.device)
         history = []
         for level, (enc, head) in enumerate(zip(self.proposals, self.proposal_heads, strict=True)):
             coords, deltas = self._points(rays, edges)
-            with torch.set_grad_enabled(training and torch.is_grad_enabled()):
-                dens = trunc_exp(head(enc(coords))[:, 0] - 1.0).view(r, -1)
-                w = render_weights(dens, deltas)
+            split = n_grad * (edges.shape[1] - 1)
+            dens = []
+            for part, with_grad in ((coords[:split], grad), (coords[split:], False)):
+                if part.shape[0]:
+                    with torch.set_grad_enabled(with_grad):
+                        dens.append(trunc_exp(head(enc(part))[:, 0] - 1.0))
+            dens = dens[0] if len(dens) == 1 else torch.cat(dens)
+            w = render_weights(dens.view(r, -1), deltas)
             history.append((edges, w))
             n_next = (cfg.proposal_samples[level + 1] if level + 1 < len(cfg.proposal_samples)
                       else cfg.final_samples)
             edges = resample_edges(edges, w.detach(), n_next, training, generator=generator)
         coords, deltas = self._points(rays, edges)
         dirs = rays.directions[:, None, :].expand(-1, edges.shape[1] - 1, -1).reshape(-1, 3)
-        density, color = self.density_and_color(coords, dirs)
+        density, color = self.density_and_color(coords, dirs, bfloat16_mlps)
         weights = render_weights(density.view(r, -1), deltas)
         sky = torch.sigmoid(self.sky_net(spherical_harmonics(rays.directions)))
         acc = weights.sum(-1, keepdim=True)
@@ -173,7 +201,9 @@ class DynamicRadianceModel(nn.Module):
         depth = (weights * 0.5 * (dist[:, 1:] + dist[:, :-1])).sum(-1)
         losses = {}
         if training:
-            losses["interlevel"] = sum(interlevel_loss(edges, weights, e, w) for e, w in history)
+            if n_grad:
+                losses["interlevel"] = sum(interlevel_loss(edges[:n_grad], weights[:n_grad],
+                                                           e[:n_grad], w[:n_grad]) for e, w in history)
             losses["distortion"] = distortion_loss(edges, weights)
         return RenderOutput(rgb, depth, losses)
 

@@ -62,6 +62,29 @@ class KPlanesConfig:
     planes, so a player keeps detail finer than the world planes' cells)."""
 
 
+class _ScaleRows(torch.autograd.Function):
+    @staticmethod
+    def forward(ctx, f, idx, factor):  # noqa: ANN001
+        rows = f.index_select(0, idx)
+        ctx.save_for_backward(idx, rows, factor)
+        ctx.mark_dirty(f)
+        return f.index_copy_(0, idx, rows * factor)
+
+    @staticmethod
+    def backward(ctx, g):  # noqa: ANN001
+        idx, rows, factor = ctx.saved_tensors
+        g_rows = g.index_select(0, idx)
+        return g.clone().index_copy_(0, idx, g_rows * factor), None, g_rows * rows
+
+
+def scale_rows(f: torch.Tensor, idx: torch.Tensor, factor: torch.Tensor) -> torch.Tensor:
+    """``f`` (N, C) with its rows ``idx`` (M,) int64 multiplied by ``factor`` (M, C), *in place*
+    (``f`` must be a fresh result that nothing else needs, e.g. an encoding's output);
+    differentiable in ``f`` and ``factor``. One gather and one scatter each way, where
+    ``f[sel] = f[sel] * factor`` on a copy costs autograd a clone, masks and their backward."""
+    return _ScaleRows.apply(f, idx, factor)
+
+
 class DynamicBoxEncoding(nn.Module):
     """Static planes everywhere, times a time factor inside the moving box (see module doc)."""
 
@@ -88,14 +111,14 @@ class DynamicBoxEncoding(nn.Module):
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         """(N, 4) grid coordinates in [-1, 1] -> (N, out_dim) features."""
         local = (x[:, :3] - self.centre) / self.half_size
-        inside = (local.abs() <= 1.0).all(-1, keepdim=True)
         f = self.static(x)
-        if not self.static_only and bool(inside.any()):
-            sel = inside[:, 0]
-            factor = self.time(torch.cat([local[sel], x[sel, 3:]], -1))
-            f = f.clone()
-            f[sel] = f[sel] * factor
-        return f
+        if self.static_only:
+            return f
+        idx = (local.abs() <= 1.0).all(-1).nonzero()[:, 0]
+        if idx.numel() == 0:
+            return f
+        factor = self.time(torch.cat([local.index_select(0, idx), x[:, 3:].index_select(0, idx)], -1))
+        return scale_rows(f, idx, factor)
 
     def regularizers(self) -> dict[str, torch.Tensor]:
         """The static planes' TV plus the time planes' TV, smoothness and L1."""

@@ -38,6 +38,16 @@ ALLOWED = {
         "the footprint rule runs once when a run starts, on the CPU's numpy views; it returns ints",
     ("common/footprint.py", "pixel_steps", "arange"):
         "the footprint rule's pixel grid, on the CPU like its views (once per run, not per step)",
+    ("common/encodings.py", "PlaneEncoding.__init__", "ones"):
+        "a plane's initial values, made an nn.Parameter (moved with the model)",
+    ("common/encodings.py", "PlaneEncoding.__init__", "empty"):
+        "a plane's initial values, made an nn.Parameter (moved with the model)",
+    ("common/plane_kernels.py", "_PlaneProduct.forward", "empty"):
+        "the compiled look-up runs for CPU tensors only (uses_fused_lookup); its outputs are CPU",
+    ("common/plane_kernels.py", "_PlaneProduct.backward", "empty"):
+        "the compiled look-up's plane gradients, CPU like the planes it runs for",
+    ("common/train.py", "_loop", "arange"):
+        "reorders the CPU sampler's indices; the batch moves to the device after",
     ("common/train.py", "build_model", "tensor"):
         "the scene box, registered as the model's buffer (moved with the model)",
     ("kplanes/field.py", "DynamicBoxEncoding.__init__", "as_tensor"):

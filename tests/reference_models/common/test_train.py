@@ -138,3 +138,72 @@ def test_static_warmup_keeps_time_planes_at_one_then_uses_them(tiny_data, tmp_pa
         train(NERFPLAYER, tiny_data, tmp_path / "n", size="tiny", iters=1, overrides=warm)
     with pytest.raises(InputError, match=r"static_warmup must be in \[0, 1\]"):
         train(SPEC, tiny_data, tmp_path / "n", size="tiny", iters=1, overrides={"static_warmup": 1.5})
+
+
+def test_proposals_train_on_the_first_rays_only_and_place_every_ray_s_samples(tiny_data):
+    from reference_models.common.model import RayBatch
+
+    torch.manual_seed(0)
+    model = _tiny_model(tiny_data)
+    rays = RayBatch(torch.zeros(8, 3), torch.nn.functional.normalize(torch.randn(8, 3), dim=-1),
+                    torch.rand(8))
+    rgb = {}
+    for n in (None, 3, 0):
+        model.zero_grad(set_to_none=True)
+        out = model.render(rays, training=True, generator=torch.Generator().manual_seed(1),
+                           proposal_rays=n)
+        assert ("interlevel" in out.losses) == (n != 0) and "distortion" in out.losses
+        (out.rgb.sum() + sum(out.losses.values())).backward()
+        got = [p.grad is not None and bool(p.grad.abs().sum() > 0) for p in model.proposals.parameters()]
+        assert got and all(g == (n != 0) for g in got)
+        assert all(p.grad is not None for p in model.density_net.parameters())
+        rgb[n] = out.rgb.detach()
+    # the same samples: the proposals' forward does not depend on autograd
+    torch.testing.assert_close(rgb[3], rgb[None], rtol=0, atol=1e-6)
+    torch.testing.assert_close(rgb[0], rgb[None], rtol=0, atol=1e-6)
+
+
+def _tiny_model(tiny_data):
+    from reference_models.common.data import load_dataset
+    from reference_models.common.train import build_model, scene_info
+
+    model_cfg, render_cfg, _ = SPEC.presets["tiny"]
+    return build_model(SPEC, model_cfg, render_cfg, scene_info(load_dataset(tiny_data)))
+
+
+def test_regularisers_every_k_steps_at_k_times_the_weight(tiny_data, tmp_path, monkeypatch):
+    from reference_models.common.model import DynamicRadianceModel
+
+    seen = []
+    tv = torch.tensor(1.0, requires_grad=True)
+
+    def fake(self):
+        seen.append(True)
+        return {"tv": tv}
+
+    monkeypatch.setattr(DynamicRadianceModel, "regularizers", fake)
+    over = {**FAST, "log_every": 1, "regularize_every": 3, "tv": 0.5}
+    train(SPEC, tiny_data, tmp_path / "r", size="tiny", iters=7, progress=False, overrides=over)
+    assert len(seen) == 3  # steps 0, 3, 6
+    assert tv.grad is not None and float(tv.grad) == pytest.approx(3 * 3 * 0.5)  # 3 steps x 3 x weight
+    with pytest.raises(InputError, match="regularize_every and proposal_rays_every must be >= 1"):
+        train(SPEC, tiny_data, tmp_path / "x", size="tiny", iters=1, overrides={"proposal_rays_every": 0})
+
+
+def test_bfloat16_mlps_stay_close_to_float32(tiny_data):
+    from reference_models.common.model import cpu_has_bfloat16
+
+    torch.manual_seed(0)
+    model = _tiny_model(tiny_data)
+    coords = torch.rand(500, 4) * 2 - 1
+    dirs = torch.nn.functional.normalize(torch.randn(500, 3), dim=-1)
+    d32, c32 = model.density_and_color(coords, dirs)
+    d16, c16 = model.density_and_color(coords, dirs, bfloat16_mlps=True)
+    assert d16.dtype == c16.dtype == torch.float32
+    # bfloat16 keeps 8 bits of mantissa: ~0.4 % per rounding, a few roundings deep
+    torch.testing.assert_close(d16, d32, rtol=0.03, atol=1e-3)
+    torch.testing.assert_close(c16, c32, rtol=0.0, atol=0.01)
+    if cpu_has_bfloat16():
+        assert not torch.equal(c16, c32)  # the bfloat16 path really ran
+    else:
+        assert torch.equal(c16, c32)  # no native bfloat16: float32

@@ -91,3 +91,16 @@ def test_fine_dynamic_box_adds_its_own_space_planes_starting_at_one():
     with pytest.raises(InputError, match="dynamic_planes must be"):
         build_encoding(KPlanesConfig(dynamic_box=True, dynamic_planes="space"), scene)
     assert "small-dynbox-fine" in SPEC.presets and "tiny-dynbox-fine" in SPEC.presets
+
+
+def test_scale_rows_multiplies_only_the_chosen_rows_and_has_autograd_s_gradient():
+    from reference_models.kplanes.field import scale_rows
+
+    torch.manual_seed(0)
+    f = torch.rand(40, 6, dtype=torch.float64, requires_grad=True)
+    factor = torch.rand(5, 6, dtype=torch.float64, requires_grad=True)
+    idx = torch.tensor([0, 7, 8, 21, 39])
+    want = f.detach().clone()
+    want[idx] *= factor.detach()
+    torch.testing.assert_close(scale_rows(f * 1.0, idx, factor), want, rtol=0, atol=0)
+    assert torch.autograd.gradcheck(lambda a, b: scale_rows(a * 1.0, idx, b), (f, factor))
