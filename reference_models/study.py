@@ -86,11 +86,11 @@ PRESETS = {
     "small-30min": StudyPreset(
         scene_size="small", model_size="small", iters=100_000, frames=24,
         model_sizes={"kplanes": "small-dynbox-fine-fp"},
-        train={"minutes": 30.0, "clock": "cpu", "batch_rays": 1024, "importance_fraction": 0.5},
+        train={"minutes": 30.0, "clock": "cpu", "batch_rays": 2048, "importance_fraction": 0.5},
         fallback_sizes={"kplanes": "small-fp"},
-        stadium={"minutes": 15.0, "clock": "cpu", "batch_rays": 1024},
+        stadium={"minutes": 15.0, "clock": "cpu", "batch_rays": 2048},
         description="each run trains for 30 minutes of one core's CPU time (`--clock cpu`), "
-                    "1,024 rays per step, half of each batch by importance under ISG; K-Planes "
+                    "2,048 rays per step, half of each batch by importance under ISG; K-Planes "
                     "is `small-dynbox-fine-fp` (world planes sized per axis by the cameras' "
                     "pixel footprint, fine planes over the moving box; plain `small-fp` where "
                     "the motion masks find no moving region: the broadcast and stadium views "

@@ -90,7 +90,7 @@ def test_a_preset_trains_each_model_with_its_own_size_and_settings(tmp_path, mon
         train_and_render(tmp_path, "single-player-closeup", model, "isg",
                          replace(PRESETS["small-30min"], stadium=None), tmp_path / "data",
                          progress=False)
-    budget = {"minutes": 30.0, "clock": "cpu", "batch_rays": 1024, "importance_fraction": 0.5}
+    budget = {"minutes": 30.0, "clock": "cpu", "batch_rays": 2048, "importance_fraction": 0.5}
     assert calls == [("kplanes", "small-dynbox-fine-fp", 100_000, budget),
                      ("nerfplayer", "small", 100_000, budget)]
     assert PRESETS["small"].overrides_of("kplanes") == {}
