@@ -10,7 +10,7 @@ a *ratio* of two paths timed in the same process, alternating (A, B, A, B, ...),
 * ``pairs``: one camera's temporal pass (``dynaeval.metrics.temporal.temporal_metrics``, no tLP,
   a fresh flow cache; the process's allocator set as the ``dynaeval`` command sets it,
   ``dynaeval.runtime.keep_freed_memory``) per frame pair, divided by one DIS-medium optical flow of a pair of the
-  same frames (``dynaeval.metrics.flow._flow_from_gray``, the estimator call alone): the pass
+  same frames (``dynaeval.metrics.flow.flow_from_gray``, the estimator call alone): the pass
   needs 3 flows per pair (ground truth both ways, prediction), so 3.0 is its floor and the
   issue's target is <= 4.5. Also timed: the same terms from the pure per-term functions
   (``warping_error`` x4, ``tof`` x2, ``valid_warp_mask``, ``optical_flow`` x3: what the engine
@@ -151,7 +151,7 @@ def _reference_pass(preds, gts, static, regions, flow_cfg) -> None:  # noqa: ANN
 
 def bench_pairs(job: Path, rounds: int) -> str:
     """Markdown: the temporal pass per pair in DIS flows, and where its time goes."""
-    from dynaeval.metrics.flow import FlowCache, FlowConfig, _flow_from_gray, to_gray_u8
+    from dynaeval.metrics.flow import FlowCache, FlowConfig, flow_from_gray, to_gray_u8
     from dynaeval.metrics.temporal import TemporalConfig, temporal_metrics
 
     preds, gts = load_camera(job, "cam07")
@@ -163,7 +163,7 @@ def bench_pairs(job: Path, rounds: int) -> str:
     def flows() -> None:  # the floor: the 3 flows of every pair, nothing else
         for (p0, g0), (p1, g1) in zip(grays, grays[1:], strict=False):
             for a, b in ((g0, g1), (g1, g0), (p0, p1)):
-                _flow_from_gray(a, b, flow_cfg)
+                flow_from_gray(a, b, flow_cfg)
 
     def engine() -> dict:
         return temporal_metrics(preds, gts, static_mask=static, region_masks=regions, config=cfg,

@@ -73,8 +73,8 @@ from dynaeval.io.prepared import (
 from dynaeval.metrics.flow import (
     FlowCache,
     FlowConfig,
-    _flow_from_gray,
     check_flow_size,
+    flow_from_gray,
     gray_digest,
     gray_of_checked,
 )
@@ -326,7 +326,7 @@ def _save_flows(pairs: list[FramePair], regions: list[FrameRegions], plan: RunPl
         keys, flows = [], []
         for x, y, digests in ((ga, gb, (da, db)), (gb, ga, (db, da))):
             key = FlowCache.key(x, y, flow_cfg, digests)
-            flows.append(_flow_from_gray(x, y, flow_cfg))
+            flows.append(flow_from_gray(x, y, flow_cfg))
             writer.save(f"flows/{key}.npy", flows[-1])
             keys.append(key)
         progress.advance("pairs")

@@ -80,8 +80,8 @@ def test_prepared_flows_are_read_not_computed(prepared_motion, monkeypatch):
     from dynaeval.metrics import flow
 
     calls = []
-    real = flow._flow_from_gray
-    monkeypatch.setattr(flow, "_flow_from_gray", lambda *a: calls.append(1) or real(*a))
+    real = flow.flow_from_gray
+    monkeypatch.setattr(flow, "flow_from_gray", lambda *a: calls.append(1) or real(*a))
     score(SAMPLE / "pred", SAMPLE / "gt", focus=FocusConfig(source="motion"),
           prepared=str(prepared_motion), **FAST)
     assert len(calls) == 14  # 2 cameras x 7 pairs, one prediction flow each (GT: 2 x 14 read)
