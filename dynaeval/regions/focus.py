@@ -21,12 +21,16 @@ from dynaeval.io import find_frames
 from dynaeval.io.cache import FrameCache
 from dynaeval.outcome import Status, note
 from dynaeval.regions.boxes_file import frame_key, read_boxes_file, records_to_boxes
-from dynaeval.regions.detector import DEFAULT_DETECTOR, Detector, DetectorConfig
+from dynaeval.regions.detector import (
+    DEFAULT_DETECTOR,
+    Detector,
+    DetectorConfig,
+    detector_warnings,
+)
 from dynaeval.regions.expand import ExpandConfig, expand_boxes
 from dynaeval.regions.motion import LazyFrames, MotionConfig, iter_motion_masks, mask_boxes
 from dynaeval.regions.packed import PackedMask
 from dynaeval.regions.static_camera import camera_motion, moving_camera_reason
-from dynaeval.regions.summary import detector_warnings
 from dynaeval.runtime import file_sha256
 
 FOCUS_SOURCES = ("detector", "motion", "boxes", "none")

@@ -350,7 +350,7 @@ def _photo_sequence(root, name="chelsea", n=3, noise=3):
 
 
 def test_bundled_detector_on_a_real_photo_says_once_what_it_is(tmp_path):
-    from dynaeval.regions.summary import SYNTHETIC_DETECTOR
+    from dynaeval.regions.detector import SYNTHETIC_DETECTOR
 
     pred, gt = _photo_sequence(tmp_path)
     with pytest.warns(dynaeval.DynaevalWarning, match="bundled synthetic-scene detector"):
