@@ -48,7 +48,7 @@ from dynaeval.metrics.protocols import get_protocol
 from dynaeval.metrics.registry import SPECS
 from dynaeval.outcome import Status, note, warning, warning_line
 from dynaeval.plan import RunPlan, Scope, build_plan
-from dynaeval.prepare import open_prepared
+from dynaeval.prepared_gt import open_prepared
 from dynaeval.progress import Progress
 from dynaeval.regions.focus import FrameRegions
 from dynaeval.report.results import build_results

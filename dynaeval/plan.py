@@ -42,7 +42,7 @@ if TYPE_CHECKING:
     from dynaeval.io.masks import MaskSet
     from dynaeval.metrics.protocols import Protocol
     from dynaeval.metrics.temporal import TemporalConfig
-    from dynaeval.prepare import PreparedGT
+    from dynaeval.prepared_gt import PreparedGT
 
 PresenceStep = Callable[[FramePair, np.ndarray, np.ndarray, FrameRegions],
                         tuple[dict[str, float | None], dict[str, str], list[dict]]]
@@ -160,7 +160,7 @@ def build_plan(config: ScoreConfig, *, scope: Scope | None = None, masks: MaskSe
             (``Protocol.masks``) gets their weights.
         prepared: ``(sources, temporal) -> PreparedGT``: opens the ``--prepared`` ground truth
             and checks it against the run's region sources and whether it has temporal terms
-            (``dynaeval.prepare.open_prepared``), or None.
+            (``dynaeval.prepared_gt.open_prepared``), or None.
 
     Raises:
         InputError: an unusable detector or boxes file; a prepared ground truth that does not

@@ -15,7 +15,7 @@ SETTINGS = ("focus.source", "focus.detector_model", "focus.classes", "focus.expa
             "focus.masked", "temporal", "flow", "background", "quantize", "protocol", "workers",
             "cache_mb", "progress")
 """The table's options ``prepare`` has: those that change what the ground truth gives (its
-regions, its decoded frames and flows: ``dynaeval.prepare.prepared_settings``), and how fast."""
+regions, its decoded frames and flows: ``dynaeval.prepared_gt.prepared_settings``), and how fast."""
 
 
 def add(sub: Any) -> None:

@@ -25,7 +25,7 @@ LAYERS = {
     "metrics": ("dynaeval.metrics",),
     "evaluate": ("dynaeval.config", "dynaeval.plan", "dynaeval.executor", "dynaeval.stages",
                  "dynaeval.scoring", "dynaeval.evaluate", "dynaeval.distributed",
-                 "dynaeval.prepare", "dynaeval.suite"),
+                 "dynaeval.prepare", "dynaeval.prepared_gt", "dynaeval.suite"),
     "report": ("dynaeval.report",),
     "cli": ("dynaeval.cli", "dynaeval.__main__"),
 }
