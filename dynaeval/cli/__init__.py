@@ -17,8 +17,8 @@ import sys
 import traceback
 
 from dynaeval import __version__
-from dynaeval.errors import InputError
-from dynaeval.runtime import check_opencv, keep_freed_memory
+from dynaeval.core.errors import InputError
+from dynaeval.core.runtime import check_opencv, keep_freed_memory
 
 from . import demo, detect, detector, leaderboard, merge, prepare, score, suite
 from .common import EXIT_BUG, EXIT_INPUT, EXIT_OK, FOLDERS_RULE, sample_dir

@@ -8,7 +8,7 @@ Conventions used throughout (and by ``dynaeval.metrics.temporal``):
 * **Backward warping** brings ``b`` onto ``a``'s grid with the flow ``a -> b``:
   ``warp(b, flow_ab)(p) = b(p + flow_ab(p))`` (bilinear).
 * Images are ``(H, W, 3)`` RGB or ``(H, W)`` gray, float in ``[0, 1]`` or uint8 in ``[0, 255]``
-  (checked by ``dynaeval.validation.as_image``: uint8 / 255, uint16 / 65535, float32 out).
+  (checked by ``dynaeval.core.validation.as_image``: uint8 / 255, uint16 / 65535, float32 out).
 
 OpenCV (``cv2``, opencv-contrib for TV-L1) is imported lazily inside the functions that use it.
 """
@@ -24,9 +24,9 @@ from pathlib import Path
 
 import numpy as np
 
-from dynaeval.errors import InputError, UndefinedMetricError
-from dynaeval.runtime import check_opencv, has_tvl1
-from dynaeval.validation import as_image
+from dynaeval.core.errors import InputError, UndefinedMetricError
+from dynaeval.core.runtime import check_opencv, has_tvl1
+from dynaeval.core.validation import as_image
 
 FLOW_METHODS = ("dis", "farneback", "tvl1")
 DIS_PRESETS = ("ultrafast", "fast", "medium")

@@ -33,15 +33,15 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.boxes import batched_nms
-from dynaeval.errors import InputError
-from dynaeval.outcome import note
+from dynaeval.core.boxes import batched_nms
+from dynaeval.core.errors import InputError
+from dynaeval.core.outcome import note
+from dynaeval.core.runtime import file_sha256, load_session, onnx_providers
+from dynaeval.core.validation import as_image, grey_to_rgb
 from dynaeval.regions import torchvision_onnx, yolo
 from dynaeval.regions.coco import COCO80_NAMES, COCO91_NAMES  # noqa: F401  (re-export)
 from dynaeval.regions.fetch import provenance, resolve_name
 from dynaeval.regions.yolo import letterbox  # noqa: F401  (re-export: reference_models, tests)
-from dynaeval.runtime import file_sha256, load_session, onnx_providers
-from dynaeval.validation import as_image, grey_to_rgb
 
 DEFAULT_DETECTOR = Path(__file__).resolve().parents[1] / "models" / "detector.onnx"
 """Where the packaged default detector (person + ball, trained on the synthetic scenes) lives."""

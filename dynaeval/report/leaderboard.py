@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
 from dynaeval.metrics.registry import METRICS, SPECS
 from dynaeval.report.results import load_results, strict
 

@@ -15,17 +15,14 @@ import pytest
 
 PACKAGE = Path(__file__).resolve().parents[2] / "dynaeval"
 
-FLOOR = ("dynaeval.errors", "dynaeval.boxes", "dynaeval.runtime", "dynaeval.validation",
-         "dynaeval.progress", "dynaeval.deps", "dynaeval.outcome")
+FLOOR = ("dynaeval.core",)
 """The ground floor: every layer may import it; it imports nothing of dynaeval above it."""
 
 LAYERS = {
     "io": ("dynaeval.io",),
     "regions": ("dynaeval.regions",),
     "metrics": ("dynaeval.metrics",),
-    "evaluate": ("dynaeval.config", "dynaeval.plan", "dynaeval.executor", "dynaeval.stages",
-                 "dynaeval.scoring", "dynaeval.evaluate", "dynaeval.distributed",
-                 "dynaeval.prepare", "dynaeval.prepared_gt", "dynaeval.suite"),
+    "evaluate": ("dynaeval.run",),
     "report": ("dynaeval.report",),
     "cli": ("dynaeval.cli", "dynaeval.__main__"),
 }
@@ -50,8 +47,8 @@ def _module_name(path: Path) -> str:
 
 
 def _layer(module: str) -> str | None:
-    if module in ("dynaeval", "dynaeval.__init__"):
-        return None  # the package itself: lazy re-exports only
+    if module in ("dynaeval", "dynaeval.__init__", "dynaeval.errors"):
+        return None  # the package itself and its errors: re-exports only
     if any(module == f or module.startswith(f + ".") for f in FLOOR):
         return "floor"
     for layer, prefixes in LAYERS.items():
@@ -196,8 +193,8 @@ def test_score_works_without_torch():
 
 
 @pytest.mark.parametrize("module", ["dynaeval", "dynaeval.cli", "dynaeval.metrics",
-                                    "dynaeval.regions", "dynaeval.report", "dynaeval.runtime",
-                                    "dynaeval.boxes", "dynaeval.validation"])
+                                    "dynaeval.regions", "dynaeval.report", "dynaeval.core.runtime",
+                                    "dynaeval.core.boxes", "dynaeval.core.validation"])
 def test_importing_the_toolkit_stays_light(module):
     """Heavy dependencies load inside the functions that use them, never at import."""
     heavy = ("torch", "onnxruntime", "onnx", "cv2", "scipy", "pandas", "matplotlib",
@@ -317,14 +314,14 @@ def test_internal_imports_are_at_module_level():
 
 def test_optional_packages_are_imported_only_by_deps():
     """Whether an optional package (torch, lpips, flip_evaluator, ...) is installed is found once,
-    at import, by ``dynaeval.deps``; no other module imports one itself (``deps.load`` does, and
+    at import, by ``dynaeval.core.deps``; no other module imports one itself (``deps.load`` does, and
     turns a missing install into ``MissingDependency`` with its install line), and none probes
     for one with ``find_spec`` or ``try: import``."""
-    from dynaeval.deps import DEPENDENCIES
+    from dynaeval.core.deps import DEPENDENCIES
 
     found = []
     for path in _sources():
-        if path.name == "deps.py" and path.parent == PACKAGE:
+        if path.name == "deps.py" and path.parent == PACKAGE / "core":
             continue
         rel = path.relative_to(PACKAGE.parent)
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
@@ -341,7 +338,7 @@ def test_optional_packages_are_imported_only_by_deps():
                 names = [str(node.args[0].value)]
             found += [f"{rel}:{node.lineno} import {n}" for n in names
                       if n.split(".")[0] in DEPENDENCIES]
-    assert not found, f"optional packages imported outside dynaeval.deps: {found}"
+    assert not found, f"optional packages imported outside dynaeval.core.deps: {found}"
 
 
 PROTOCOL_MODULES = ("dynaeval/metrics/protocols.py", "dynaeval/metrics/protocol_*.py")
@@ -486,7 +483,7 @@ def _text_matches(path: Path) -> list[tuple[str, int, str]]:
 
 
 def test_no_code_decides_by_reading_a_warning_or_an_error_message():
-    """Issue 31: meaning travels as a status (``dynaeval.outcome.Status``) or an exception type,
+    """Issue 31: meaning travels as a status (``dynaeval.core.outcome.Status``) or an exception type,
     never in words: no ``"pip install" not in str(err)``, no ``w["reason"].startswith(...)``
     outside the v1 reader (``READS_OLD_TEXT``)."""
     bad = [f"{_module_name(p)}:{line} ({fn}): {code}" for p in _sources()

@@ -1,4 +1,4 @@
-"""dynaeval.deps: optional packages found once at import, imported in one place."""
+"""dynaeval.core.deps: optional packages found once at import, imported in one place."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ import textwrap
 
 import pytest
 
-from dynaeval import deps
-from dynaeval.deps import DEPENDENCIES, MissingDependency, available, load, missing
+from dynaeval.core import deps
+from dynaeval.core.deps import DEPENDENCIES, MissingDependency, available, load, missing
 
 _BLOCKED = textwrap.dedent("""
     import importlib.abc, sys
@@ -21,7 +21,7 @@ _BLOCKED = textwrap.dedent("""
             return None
 
     sys.meta_path.insert(0, Blocked())
-    from dynaeval import deps
+    from dynaeval.core import deps
     print(deps.AVAILABLE["flip_evaluator"], deps.AVAILABLE["torch"])
     try:
         deps.load("flip_evaluator")

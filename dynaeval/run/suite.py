@@ -3,7 +3,7 @@
 A suite is a set of (method, scene) pairs, each a ``dynaeval score PRED GT``, with one set of
 settings (``ScoreConfig`` fields) and one output folder ``OUT``. :func:`run_suite`:
 
-1. prepares each scene's ground truth once (``dynaeval.prepare.prepare``) into
+1. prepares each scene's ground truth once (``dynaeval.run.prepare.prepare``) into
    ``OUT/prepared/<scene>`` (kept for the next run while the scene's files and the settings are
    the same: ``OUT/prepared/<scene>.key``);
 2. scores every pair with ``prepared=`` (same numbers as a plain ``score``, faster) into
@@ -55,19 +55,19 @@ from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
-from dynaeval.config import ScoreConfig
-from dynaeval.deps import DEPENDENCIES, MissingDependency, load
-from dynaeval.distributed import ScoreJob, score_shard
-from dynaeval.errors import InputError
-from dynaeval.evaluate import DynaevalWarning
+from dynaeval.core.deps import DEPENDENCIES, MissingDependency, load
+from dynaeval.core.errors import InputError
+from dynaeval.core.progress import Progress
 from dynaeval.io.atomic import check_writable, write_text_atomic
 from dynaeval.io.lock import hold_folder
 from dynaeval.io.prepared import FORMAT_VERSION, file_digest, folder_digests, json_digest
-from dynaeval.prepare import prepare
-from dynaeval.progress import Progress
 from dynaeval.report.leaderboard import build_leaderboard, render
 from dynaeval.report.results import load_results, results_text
 from dynaeval.report.suite_page import render_suite_page
+from dynaeval.run.config import ScoreConfig
+from dynaeval.run.distributed import ScoreJob, score_shard
+from dynaeval.run.evaluate import DynaevalWarning
+from dynaeval.run.prepare import prepare
 
 __all__ = ["Suite", "SuiteOutcome", "SuitePair", "folder_suite", "load_suite", "read_toml",
            "run_suite", "settings_config"]

@@ -1,4 +1,4 @@
-"""A prepared ground truth read back: ``score ... --prepared PREP`` (``dynaeval.prepare`` writes it).
+"""A prepared ground truth read back: ``score ... --prepared PREP`` (``dynaeval.run.prepare`` writes it).
 
 :func:`open_prepared` checks a prepared folder (``dynaeval.io.prepared``: its files and digests)
 against a run before any frame is scored: other settings, another dynaeval version or format, a
@@ -27,17 +27,17 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.config import ScoreConfig
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
+from dynaeval.core.outcome import Status, note
 from dynaeval.io import FramePair
 from dynaeval.io.frames import FrameRef, pairs_by_camera
 from dynaeval.io.prepared import MANIFEST, PreparedFiles, file_digest, read_manifest
 from dynaeval.metrics.flow import FlowCache, FlowConfig
 from dynaeval.metrics.protocols import get_protocol
 from dynaeval.metrics.temporal_pairs import GroundTruthPair
-from dynaeval.outcome import Status, note
 from dynaeval.regions.focus import FrameRegions
 from dynaeval.regions.packed import PackedMask
+from dynaeval.run.config import ScoreConfig
 
 __all__ = ["REGION_FIELDS", "PreparedGT", "frame_rel", "manifest_value", "open_prepared",
            "prepared_settings", "static_digest"]

@@ -31,7 +31,7 @@ The files are written and hashed in one background thread (``io.prepared.FolderW
 the next ones are computed, and each ground-truth image is decoded once: the decoding saved is
 the one the regions and flows read.
 
-``dynaeval.prepared_gt`` reads the folder back (``open_prepared``: checked against the run) and
+``dynaeval.run.prepared_gt`` reads the folder back (``open_prepared``: checked against the run) and
 defines its layout, which this writer follows. The numbers are those of a run without
 ``--prepared``, bit for bit (tests/dynaeval/test_prepare.py).
 """
@@ -48,9 +48,10 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.config import ScoreConfig
-from dynaeval.errors import InputError, UndefinedMetricError
-from dynaeval.executor import Executor
+from dynaeval.core.errors import InputError, UndefinedMetricError
+from dynaeval.core.progress import Progress
+from dynaeval.core.runtime import worker_opencv_threads
+from dynaeval.core.validation import as_image, values_known_in
 from dynaeval.io import FramePair, pair_frames
 from dynaeval.io.atomic import check_writable
 from dynaeval.io.frames import pairs_by_camera
@@ -75,22 +76,21 @@ from dynaeval.metrics.flow import (
 from dynaeval.metrics.static_flicker import TemporalStd, check_static, static_mean
 from dynaeval.metrics.temporal import region_mask
 from dynaeval.metrics.temporal_pairs import GroundTruthPair, ground_truth_pair, pair_region
-from dynaeval.plan import RunPlan, ground_truth_plan
-from dynaeval.prepared_gt import (
+from dynaeval.regions.focus import FrameRegions, open_sources
+from dynaeval.regions.packed import PackedMask
+from dynaeval.run.config import ScoreConfig
+from dynaeval.run.executor import Executor
+from dynaeval.run.plan import RunPlan, ground_truth_plan
+from dynaeval.run.prepared_gt import (
     REGION_FIELDS,
     frame_rel,
     manifest_value,
     prepared_settings,
     static_digest,
 )
-from dynaeval.progress import Progress
-from dynaeval.regions.focus import FrameRegions, open_sources
-from dynaeval.regions.packed import PackedMask
-from dynaeval.runtime import worker_opencv_threads
-from dynaeval.scoring import camera_regions_of
-from dynaeval.stages import consecutive
-from dynaeval.stages.temporal import region_items, static_pixels
-from dynaeval.validation import as_image, values_known_in
+from dynaeval.run.scoring import camera_regions_of
+from dynaeval.run.stages import consecutive
+from dynaeval.run.stages.temporal import region_items, static_pixels
 
 __all__ = ["KeptDecodings", "prepare"]
 
