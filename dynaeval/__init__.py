@@ -13,7 +13,7 @@ done in the layer packages: ``core`` (the ground floor), ``io``, ``regions``, ``
 ``import dynaeval`` stays light (no torch, onnxruntime, pandas nor matplotlib).
 """
 
-__version__ = "0.1.0"
+from dynaeval.core.version import VERSION as __version__
 
 __all__ = ["DynaevalWarning", "FocusConfig", "ImageMetrics", "Results", "ScoreConfig",
            "__version__", "score"]

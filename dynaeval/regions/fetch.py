@@ -26,6 +26,7 @@ from typing import Any
 from dynaeval.core.deps import DEPENDENCIES, MissingDependency, load
 from dynaeval.core.errors import InputError
 from dynaeval.core.runtime import file_sha256
+from dynaeval.core.version import VERSION
 from dynaeval.io.atomic import write_text_atomic
 from dynaeval.regions.coco import COCO80_NAMES, COCO91_NAMES
 
@@ -204,11 +205,9 @@ def fetch(name: str, *, folder: Path | None = None, overwrite: bool = False,
 
 
 def _common_record(spec: KnownDetector, onnx: Path, pretrained: bool) -> dict[str, Any]:
-    from dynaeval import __version__
-
     return {
         "schema": "dynaeval/detector/v1", "name": spec.name, "pretrained": pretrained,
-        "onnx_sha256": file_sha256(onnx), "dynaeval": __version__,
+        "onnx_sha256": file_sha256(onnx), "dynaeval": VERSION,
         "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
     }
 

@@ -31,6 +31,7 @@ from typing import Any
 from dynaeval.core.errors import InputError
 from dynaeval.core.outcome import Status, note, warning, warning_line
 from dynaeval.core.progress import Progress
+from dynaeval.core.version import VERSION
 from dynaeval.io import FramePair, pair_frames
 from dynaeval.io.dycheck import pair_dycheck, pair_renders
 from dynaeval.io.frames import (
@@ -341,8 +342,6 @@ def _assemble(layout: Any, run_name: str | None, pairing: Any, plan: RunPlan, ro
               warnings: list, temporal: dict, timing: dict, regions: dict) -> Results:
     """The results document; method and scene default to the folders' names (the render
     folder's, ``run_name``, for a known layout)."""
-    from dynaeval import __version__
-
     config = plan.config
     method = config.method or run_name or layout.pred.resolve().name
     scene = config.scene or run_name or layout.gt.resolve().name
@@ -355,7 +354,7 @@ def _assemble(layout: Any, run_name: str | None, pairing: Any, plan: RunPlan, ro
         pred_dir=str(layout.pred), gt_dir=str(layout.gt), settings=dict(plan.settings),
         unscored_cameras=pairing.unscored_cameras, shard=config.shard,
         skipped=pairing.skipped, warnings=warnings, timing=timing,
-        version=__version__, temporal=temporal, inputs_extra=inputs_extra,
+        version=VERSION, temporal=temporal, inputs_extra=inputs_extra,
         regions=_regions_doc(plan, regions),
     ))
 

@@ -52,6 +52,7 @@ from dynaeval.core.errors import InputError, UndefinedMetricError
 from dynaeval.core.progress import Progress
 from dynaeval.core.runtime import worker_opencv_threads
 from dynaeval.core.validation import as_image, values_known_in
+from dynaeval.core.version import VERSION
 from dynaeval.io import FramePair, pair_frames
 from dynaeval.io.atomic import check_writable
 from dynaeval.io.frames import pairs_by_camera
@@ -125,10 +126,8 @@ def prepare(gt_dir: str | Path, out: str | Path, config: ScoreConfig | None = No
     progress = Progress({"regions": len(pairing.pairs),
                          "pairs": sum(len(c) - 1 for c in cams.values()) if config.temporal else 0},
                         enabled=config.progress)
-    from dynaeval import __version__
-
     manifest: dict[str, Any] = {
-        "format_version": FORMAT_VERSION, "dynaeval_version": __version__,
+        "format_version": FORMAT_VERSION, "dynaeval_version": VERSION,
         "gt": str(gt_dir.resolve()), "settings": prepared_settings(config, sources),
         "files": {}, "decoded": {}, "cameras": {},
     }

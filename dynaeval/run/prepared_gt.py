@@ -29,6 +29,7 @@ import numpy as np
 
 from dynaeval.core.errors import InputError
 from dynaeval.core.outcome import Status, note
+from dynaeval.core.version import VERSION
 from dynaeval.io import FramePair
 from dynaeval.io.frames import FrameRef, pairs_by_camera
 from dynaeval.io.prepared import MANIFEST, PreparedFiles, file_digest, read_manifest
@@ -191,14 +192,12 @@ def open_prepared(path: str | Path, gt_root: Path, pairs: list[FramePair],
             differs (named, with both values); a ground-truth file that is not in it or changed
             since (named).
     """
-    from dynaeval import __version__
-
     path = Path(path)
     manifest = read_manifest(path)
     where = path / MANIFEST
-    if manifest.get("dynaeval_version") != __version__:
+    if manifest.get("dynaeval_version") != VERSION:
         raise InputError(f"prepared with dynaeval {manifest.get('dynaeval_version')}, this is "
-                         f"{__version__}: prepare it again", path=where)
+                         f"{VERSION}: prepare it again", path=where)
     _check_settings(manifest["settings"], prepared_settings(config, sources, temporal), where)
     digests: dict[str, str] = {}
     for p in pairs:

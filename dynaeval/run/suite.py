@@ -58,6 +58,7 @@ from typing import Any
 from dynaeval.core.deps import DEPENDENCIES, MissingDependency, load
 from dynaeval.core.errors import InputError
 from dynaeval.core.progress import Progress
+from dynaeval.core.version import VERSION
 from dynaeval.io.atomic import check_writable, write_text_atomic
 from dynaeval.io.lock import hold_folder
 from dynaeval.io.prepared import FORMAT_VERSION, file_digest, folder_digests, json_digest
@@ -355,9 +356,7 @@ def config_key(config: ScoreConfig) -> dict[str, Any]:
 def pair_key(pair: SuitePair, settings: dict[str, Any], gt_digests: dict[str, str]) -> str:
     """The key of one pair's results: version, settings (``config_key``), names and the digest
     of every prediction and ground-truth file."""
-    from dynaeval import __version__
-
-    return json_digest({"dynaeval": __version__, "settings": settings, "method": pair.method,
+    return json_digest({"dynaeval": VERSION, "settings": settings, "method": pair.method,
                         "scene": pair.scene, "pred": folder_digests(pair.pred), "gt": gt_digests},
                        16)
 
@@ -365,9 +364,7 @@ def pair_key(pair: SuitePair, settings: dict[str, Any], gt_digests: dict[str, st
 def prepare_key(settings: dict[str, Any], gt_digests: dict[str, str]) -> str:
     """The key of a scene's prepared folder (dynaeval and prepared-format versions, settings,
     ground-truth files): a folder of an older format is prepared again, not refused."""
-    from dynaeval import __version__
-
-    return json_digest({"dynaeval": __version__, "format": FORMAT_VERSION, "settings": settings,
+    return json_digest({"dynaeval": VERSION, "format": FORMAT_VERSION, "settings": settings,
                         "gt": gt_digests}, 16)
 
 

@@ -46,7 +46,7 @@ FACE = {
     "dynaeval.errors": "the exceptions a caller catches (reference_models imports InputError here)",
 }
 """The modules of the package root, and why each is there: its public face, nothing else. No
-module of a layer imports them (``from dynaeval import __version__`` aside)."""
+module of a layer imports them (the version too is the ground floor's: ``core.version``)."""
 
 ROOT_DATA = {"data", "models", "schemas", "py.typed"}
 """Package data beside the face: the sample, the bundled detector, the JSON schemas."""
@@ -136,7 +136,7 @@ def test_layers_import_only_what_they_may():
             if not target.startswith("dynaeval.") and target != "dynaeval":
                 continue
             other = _layer(target)
-            if other is None and target != "dynaeval":
+            if other is None:
                 bad.append(f"{path.relative_to(PACKAGE.parent)}:{line} ({me}) imports the face "
                            f"{target}")
             elif other is not None and other not in MAY_IMPORT[me]:
@@ -261,7 +261,7 @@ def _internal_graph(package: Path = PACKAGE) -> tuple[dict[str, set[str]],
 
     ``from P import a`` is an edge to ``P.a`` where that is a module, else to ``P``; the
     package's own lazy re-exports (``dynaeval/__init__.py``, which keeps ``import dynaeval``
-    light) and ``from dynaeval import __version__`` are not edges. A type-only import is an
+    light) are not edges. A type-only import is an
     edge: it does not run, but it ties the two modules as much as a real one (issue 41: one
     closed a 9-module circle, plan -> prepare -> scoring -> plan).
     """
@@ -280,8 +280,7 @@ def _internal_graph(package: Path = PACKAGE) -> tuple[dict[str, set[str]],
             elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
                 subs = [f"{node.module}.{a.name}" for a in node.names]
                 found = [s for s in subs if s in modules]
-                if len(found) < len(subs) and not (node.module == root and all(
-                        a.name == "__version__" for a in node.names)):
+                if len(found) < len(subs):
                     found.append(node.module)
             else:
                 continue
