@@ -45,7 +45,7 @@ def test_the_flags_are_found_at_import_without_importing_anything():
 def test_every_flag_agrees_with_find_spec():
     """In a fresh interpreter (in this one, other tests change ``sys.path`` after the flags
     were found: setuptools puts its vendored tomli on it)."""
-    code = ("import importlib.util\nfrom dynaeval import deps\n"
+    code = ("import importlib.util\nfrom dynaeval.core import deps\n"
             "print([n for n in deps.DEPENDENCIES\n"
             "       if deps.AVAILABLE[n] != (importlib.util.find_spec(n) is not None)])")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
