@@ -129,7 +129,7 @@ def bench_size(
 ) -> list[dict[str, Any]]:
     """Rows ``{metric, impl, size, ms, dev}`` for one frame size."""
     from dynaeval import metrics as M
-    from dynaeval.boxes import boxes_to_mask
+    from dynaeval.core.boxes import boxes_to_mask
 
     pred, gt, boxes = sample_pair(height, width)
     p64, g64 = pred.astype(np.float64), gt.astype(np.float64)

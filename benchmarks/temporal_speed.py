@@ -9,8 +9,8 @@ a *ratio* of two paths timed in the same process, alternating (A, B, A, B, ...),
 
 * ``pairs``: one camera's temporal pass (``dynaeval.metrics.temporal.temporal_metrics``, no tLP,
   a fresh flow cache; the process's allocator set as the ``dynaeval`` command sets it,
-  ``dynaeval.runtime.keep_freed_memory``) per frame pair, divided by one DIS-medium optical flow of a pair of the
-  same frames (``dynaeval.metrics.flow._flow_from_gray``, the estimator call alone): the pass
+  ``dynaeval.core.runtime.keep_freed_memory``) per frame pair, divided by one DIS-medium optical flow of a pair of the
+  same frames (``dynaeval.metrics.flow.flow_from_gray``, the estimator call alone): the pass
   needs 3 flows per pair (ground truth both ways, prediction), so 3.0 is its floor and the
   issue's target is <= 4.5. Also timed: the same terms from the pure per-term functions
   (``warping_error`` x4, ``tof`` x2, ``valid_warp_mask``, ``optical_flow`` x3: what the engine
@@ -151,7 +151,7 @@ def _reference_pass(preds, gts, static, regions, flow_cfg) -> None:  # noqa: ANN
 
 def bench_pairs(job: Path, rounds: int) -> str:
     """Markdown: the temporal pass per pair in DIS flows, and where its time goes."""
-    from dynaeval.metrics.flow import FlowCache, FlowConfig, _flow_from_gray, to_gray_u8
+    from dynaeval.metrics.flow import FlowCache, FlowConfig, flow_from_gray, to_gray_u8
     from dynaeval.metrics.temporal import TemporalConfig, temporal_metrics
 
     preds, gts = load_camera(job, "cam07")
@@ -163,7 +163,7 @@ def bench_pairs(job: Path, rounds: int) -> str:
     def flows() -> None:  # the floor: the 3 flows of every pair, nothing else
         for (p0, g0), (p1, g1) in zip(grays, grays[1:], strict=False):
             for a, b in ((g0, g1), (g1, g0), (p0, p1)):
-                _flow_from_gray(a, b, flow_cfg)
+                flow_from_gray(a, b, flow_cfg)
 
     def engine() -> dict:
         return temporal_metrics(preds, gts, static_mask=static, region_masks=regions, config=cfg,
@@ -323,7 +323,7 @@ def bench_workers(job: Path, rounds: int, counts: tuple[int, ...] = (1, 2),
               f"{np.median(per):.2f}, {per.min():.2f} to {per.max():.2f}.", "",
               f"**The ceiling.** 1 worker keeps {cpu[str(counts[0])] / base:.2f} cores busy "
               "(OpenCV's DIS runs on its 2 threads). With more workers OpenCV runs on one thread "
-              "in each (`dynaeval.runtime.opencv_threads`), so their work is the one-core run's, "
+              "in each (`dynaeval.core.runtime.opencv_threads`), so their work is the one-core run's, "
               f"and its CPU seconds over {top_n}, **{floor:.1f} s**, are the {top_n} cores' floor: "
               f"{top_n} workers are {100 * (top / floor - 1):+.0f} % above it (below 0 when the "
               "floor's best round fell in a slower spell of the machine than theirs). So no "
@@ -347,8 +347,8 @@ def _ssim_floor(planes: list[np.ndarray], outs: list[np.ndarray], threads: int |
     OpenCV's thread count for them (None: as it is)."""
     import cv2
 
+    from dynaeval.core.runtime import opencv_threads
     from dynaeval.metrics.structural import _kernel
-    from dynaeval.runtime import opencv_threads
 
     k = _kernel()
     with opencv_threads(threads):
@@ -374,7 +374,7 @@ def bench_ssim(rounds: int, before: Path | None = None) -> str:
     import dynaeval.metrics as M
     from benchmarks.bench import sample_pair
     from benchmarks.sections import checkout_commit
-    from dynaeval.runtime import opencv_threads
+    from dynaeval.core.runtime import opencv_threads
 
     pred, gt, _ = sample_pair(*SIZE)
     planes = [pred, gt, pred * pred, gt * gt, pred * gt]
@@ -446,7 +446,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     command = command_line(COMMAND, argv)
     started = utc_stamp()
-    from dynaeval.runtime import keep_freed_memory
+    from dynaeval.core.runtime import keep_freed_memory
 
     keep_freed_memory()  # the in-process parts run with the allocator of the dynaeval command
     job = make_job(args.job)

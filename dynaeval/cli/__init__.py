@@ -16,9 +16,9 @@ import os
 import sys
 import traceback
 
-from dynaeval import __version__
-from dynaeval.errors import InputError
-from dynaeval.runtime import check_opencv, keep_freed_memory
+from dynaeval.core.errors import InputError
+from dynaeval.core.runtime import check_opencv, keep_freed_memory
+from dynaeval.core.version import VERSION
 
 from . import demo, detect, detector, leaderboard, merge, prepare, score, suite
 from .common import EXIT_BUG, EXIT_INPUT, EXIT_OK, FOLDERS_RULE, sample_dir
@@ -39,7 +39,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Score novel views of dynamic scenes: whole-frame, focused, masked and "
                     "temporal metrics.",
     )
-    parser.add_argument("--version", action="version", version=f"dynaeval {__version__}")
+    parser.add_argument("--version", action="version", version=f"dynaeval {VERSION}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for command in COMMANDS:
         command.add(sub)

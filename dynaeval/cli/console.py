@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 from collections import Counter
 
-from dynaeval.outcome import warning_line
+from dynaeval.core.outcome import warning_line
 from dynaeval.regions.summary import describe_regions
 
 

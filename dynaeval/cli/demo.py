@@ -6,7 +6,7 @@ import argparse
 from dataclasses import replace
 from typing import Any
 
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
 
 from .common import sample_dir
 from .options import add_options, config_from_args

@@ -6,7 +6,7 @@ import argparse
 import sys
 from typing import Any
 
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
 from dynaeval.io.atomic import check_writable
 from dynaeval.regions import write_boxes_file
 from dynaeval.regions.focus import BOXES_SOURCES, detect_ground_truth

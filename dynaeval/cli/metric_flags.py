@@ -7,7 +7,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
 from dynaeval.metrics.registry import SPECS, MetricSpec, selectable_specs
 
 

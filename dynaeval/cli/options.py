@@ -16,13 +16,13 @@ import functools
 from dataclasses import fields
 from typing import Any
 
-from dynaeval.config import BACKGROUNDS, DEVICES, QUANTIZE_MODES, ScoreConfig
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
 from dynaeval.metrics.flow import FLOW_METHODS
 from dynaeval.metrics.perceptual import LPIPS_BACKENDS, LPIPS_NETS
 from dynaeval.metrics.protocols import PROTOCOL_NAMES
 from dynaeval.regions.expand import EXPAND_RULES
 from dynaeval.regions.focus import FocusConfig
+from dynaeval.run.config import BACKGROUNDS, DEVICES, QUANTIZE_MODES, ScoreConfig
 
 from .fields import Cli, Option, option_of
 from .metric_flags import add_metric_flags, metric_values

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from dynaeval.prepare import prepare
+from dynaeval.run.prepare import prepare
 
 from .common import EXIT_OK, FOLDERS_RULE, add_overwrite
 from .options import add_options, config_from_args
@@ -15,7 +15,7 @@ SETTINGS = ("focus.source", "focus.detector_model", "focus.classes", "focus.expa
             "focus.masked", "temporal", "flow", "background", "quantize", "protocol", "workers",
             "cache_mb", "progress")
 """The table's options ``prepare`` has: those that change what the ground truth gives (its
-regions, its decoded frames and flows: ``dynaeval.prepare.prepared_settings``), and how fast."""
+regions, its decoded frames and flows: ``dynaeval.run.prepared_gt.prepared_settings``), and how fast."""
 
 
 def add(sub: Any) -> None:

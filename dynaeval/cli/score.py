@@ -9,14 +9,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from dynaeval.config import ScoreConfig
-from dynaeval.errors import InputError
-from dynaeval.evaluate import DynaevalWarning, score
+from dynaeval.core.errors import InputError
 from dynaeval.io.atomic import check_writable, write_files_atomic
 from dynaeval.report import summary_table
 from dynaeval.report.gaussian_splatting import gs_files, gs_paths
 from dynaeval.report.html import RegionRecorder, render_report, report_index
 from dynaeval.report.results import results_text
+from dynaeval.run.config import ScoreConfig
+from dynaeval.run.evaluate import DynaevalWarning, score
 
 from .common import EXIT_OK, FOLDERS_RULE, add_overwrite
 from .console import print_warnings

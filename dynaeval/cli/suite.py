@@ -1,4 +1,4 @@
-"""``dynaeval suite SUITE.toml|ROOT``: many methods on many scenes, over ``dynaeval.suite``.
+"""``dynaeval suite SUITE.toml|ROOT``: many methods on many scenes, over ``dynaeval.run.suite``.
 
 Exit codes: 0 every pair scored (now or before); 1 a pair (or a scene's prepare) failed, the
 others finished (the summary lists each failure; run again to finish what is missing); 2 bad
@@ -13,9 +13,9 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from dynaeval.deps import MissingDependency, load
-from dynaeval.errors import InputError
-from dynaeval.suite import (
+from dynaeval.core.deps import MissingDependency, load
+from dynaeval.core.errors import InputError
+from dynaeval.run.suite import (
     folder_suite,
     load_suite,
     read_toml,

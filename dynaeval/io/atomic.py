@@ -21,7 +21,7 @@ from collections.abc import Iterable, Iterator, Sequence
 from contextlib import ExitStack, contextmanager
 from pathlib import Path
 
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
 from dynaeval.io.images import IMAGE_EXTENSIONS
 from dynaeval.io.video import VIDEO_EXTENSIONS
 

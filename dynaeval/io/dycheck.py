@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
 from dynaeval.io.frames import FramePair, FrameRef, Pairing, natural_key, pair_frames
 from dynaeval.io.images import decode_file, read_image
 from dynaeval.io.masks import image_size

@@ -41,7 +41,8 @@ from pathlib import Path
 
 import numpy as np
 
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
+from dynaeval.core.outcome import Status, note, warning
 from dynaeval.io.images import (
     IMAGE_EXTENSIONS,
     TYPED_HEADERS,
@@ -51,7 +52,6 @@ from dynaeval.io.images import (
     to_float,
 )
 from dynaeval.io.video import VIDEO_EXTENSIONS, read_video_frame, scan_video
-from dynaeval.outcome import Status, note, warning
 
 ROOT_CAMERA = "."
 

@@ -28,7 +28,7 @@ OpenCV to uint8 as displayed, so 1-bit black/white reads as 0 and 1); float32 an
 ``.npy.gz``) and float16 (EXR half, ``.npy.gz``) as stored, float64 and float16 rounded to
 float32 (the dtype every float file is scored in), under the float range rule. Refused: int8,
 int16, int32, int64, uint32, uint64 (their range to [0, 1] is not defined: the rule of
-``dynaeval.validation``), bool arrays, complex samples, untyped TIFF samples, OpenEXR UINT
+``dynaeval.core.validation``), bool arrays, complex samples, untyped TIFF samples, OpenEXR UINT
 channels, and half-float TIFFs (OpenCV cannot decode them). A TIFF's header (a ``.npy.gz``
 file's too) is read for its type when ``find_frames`` lists it (``check_pixel_type``), so a run
 stops before the work; a TIFF under another name is checked when decoded, and so is an EXR's
@@ -44,8 +44,8 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.errors import InputError
-from dynaeval.validation import FLOAT_TOLERANCE, as_image
+from dynaeval.core.errors import InputError
+from dynaeval.core.validation import FLOAT_TOLERANCE, as_image
 
 ARRAY_EXTENSION = ".npy.gz"
 """A gzip'd NumPy array holding one image: nerfstudio's raw renders (``ns-render dataset
@@ -115,7 +115,7 @@ def to_float(image: np.ndarray, path: str | Path | None = None) -> np.ndarray:
 
     Returns:
         float32 array of the same shape; integers mapped to [0, 1] by ``x / iinfo(dtype).max``
-        (the rule of ``dynaeval.validation.as_image``; NaN/Inf are checked by the caller).
+        (the rule of ``dynaeval.core.validation.as_image``; NaN/Inf are checked by the caller).
     """
     return as_image(image, "image", finite=False, path=path)
 

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
 
 MAX_DEPTH = 64
 """Deepest nesting of arrays and objects read (the files dynaeval writes nest 8 levels at most)."""

@@ -31,11 +31,11 @@ from pathlib import Path
 
 import numpy as np
 
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
+from dynaeval.core.outcome import note
 from dynaeval.io.frames import FramePair, FrameRef, Pairing
 from dynaeval.io.images import IMAGE_EXTENSIONS, read_image, to_float
 from dynaeval.io.video import VIDEO_EXTENSIONS, read_video_frame, scan_video
-from dynaeval.outcome import note
 
 STACK_PARTS = ("prediction", "ground truth", "error map")
 """The parts of a K-Planes evaluation frame, top to bottom."""

@@ -33,7 +33,7 @@ import re
 from pathlib import Path
 from typing import Any
 
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
 
 ITERATION_DIR = re.compile(r"ours_(\d+)")
 """Name of one iteration's folder: ``ours_<iteration>``."""

@@ -45,7 +45,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
 from dynaeval.io.dycheck import RENDER_PANELS, PanelFrameRef, find_renders, render_panels
 from dynaeval.io.kplanes import (
     STACK_PARTS,

@@ -19,7 +19,7 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
 
 LOCK_NAME = ".dynaeval.lock"
 

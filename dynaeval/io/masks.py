@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
 from dynaeval.io.images import _PNG_MAGIC, IMAGE_EXTENSIONS, _read_bytes, check_complete, read_image
 
 THRESHOLD = 0.5

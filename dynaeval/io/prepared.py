@@ -4,7 +4,7 @@ compressed ``.npz`` region files and uncompressed ``.npy`` flows, written atomic
 This module knows the folder, not what is in it: content hashes of the ground-truth files, the
 manifest's format version, and the atomic write of a whole folder (built under a temporary name
 beside the target, then renamed into place: a failed run leaves nothing behind, and an existing
-folder is replaced only with ``overwrite``). ``dynaeval.prepare`` fills it.
+folder is replaced only with ``overwrite``). ``dynaeval.run.prepare`` fills it.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
 from dynaeval.io.atomic import _UMASK, parent_folders, write_failure
 from dynaeval.io.jsonfile import read_json
 

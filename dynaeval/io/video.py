@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
 
 VIDEO_EXTENSIONS = frozenset({".mp4", ".avi", ".mov", ".mkv", ".webm"})
 

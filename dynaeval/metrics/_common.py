@@ -1,7 +1,7 @@
 """The region a metric scores: a mask or boxes -> one boolean mask, or clipped boxes.
 
-Numpy only. The image checks live in the ground floor's ``dynaeval.validation``, the box
-geometry in ``dynaeval.boxes``.
+Numpy only. The image checks live in the ground floor's ``dynaeval.core.validation``, the box
+geometry in ``dynaeval.core.boxes``.
 """
 
 from __future__ import annotations
@@ -10,9 +10,9 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.boxes import boxes_to_mask, clip_boxes
-from dynaeval.errors import EmptyRegionError, InputError
-from dynaeval.validation import is_torch_tensor
+from dynaeval.core.boxes import boxes_to_mask, clip_boxes
+from dynaeval.core.errors import EmptyRegionError, InputError
+from dynaeval.core.validation import is_torch_tensor
 
 
 def region_mask(mask: object, boxes: object, height: int, width: int) -> np.ndarray | None:

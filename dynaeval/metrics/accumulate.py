@@ -24,7 +24,18 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.errors import EmptyRegionError, InputError, UndefinedMetricError
+from dynaeval.core.errors import EmptyRegionError, InputError, UndefinedMetricError
+from dynaeval.core.runtime import resolve_device
+from dynaeval.core.validation import (
+    channel_first_hint,
+    check_data_range,
+    check_finite_image,
+    check_pair,
+    check_unit_range,
+    is_torch_tensor,
+    to_numpy,
+    values_known_in,
+)
 from dynaeval.io.masks import THRESHOLD
 from dynaeval.metrics.protocols import get_protocol
 from dynaeval.metrics.registry import (
@@ -34,17 +45,6 @@ from dynaeval.metrics.registry import (
     frame_specs,
     region_argument,
     spec,
-)
-from dynaeval.runtime import resolve_device
-from dynaeval.validation import (
-    channel_first_hint,
-    check_data_range,
-    check_finite_image,
-    check_pair,
-    check_unit_range,
-    is_torch_tensor,
-    to_numpy,
-    values_known_in,
 )
 
 SUPPORTED = tuple(s.name for s in frame_specs())

@@ -24,7 +24,7 @@ Pixels per degree: FLIP's default, a 0.7 m wide 3840-px display seen from 0.7 m,
 ``0.7 * 3840 / 0.7 * pi / 180 = 67.02`` (``PIXELS_PER_DEGREE``; the package rounds it to float32,
 67.020645), recorded in the results' settings.
 
-Inputs: the unit of a pixel is stated by its dtype, never guessed (``dynaeval.validation``,
+Inputs: the unit of a pixel is stated by its dtype, never guessed (``dynaeval.core.validation``,
 ``to_unit=True``): uint8 / 255, uint16 / 65535, floats as they are and checked in [0, 1] (LDR-FLIP
 is defined on display-referred sRGB; values outside are refused, never clipped). Grayscale
 ``(H, W)`` or ``(H, W, 1)`` is replicated to three equal channels (a grey level v is the sRGB
@@ -41,10 +41,10 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.deps import MissingDependency, load, missing
-from dynaeval.errors import InputError
+from dynaeval.core.deps import MissingDependency, load, missing
+from dynaeval.core.errors import InputError
+from dynaeval.core.validation import as_image, grey_to_rgb
 from dynaeval.metrics._common import region_mask
-from dynaeval.validation import as_image, grey_to_rgb
 
 PIXELS_PER_DEGREE = 0.7 * (3840 / 0.7) * math.pi / 180
 """FLIP's default observer: 0.7 m from a 0.7 m wide display of 3840 px (67.0206 px/degree)."""

@@ -8,7 +8,7 @@ Conventions used throughout (and by ``dynaeval.metrics.temporal``):
 * **Backward warping** brings ``b`` onto ``a``'s grid with the flow ``a -> b``:
   ``warp(b, flow_ab)(p) = b(p + flow_ab(p))`` (bilinear).
 * Images are ``(H, W, 3)`` RGB or ``(H, W)`` gray, float in ``[0, 1]`` or uint8 in ``[0, 255]``
-  (checked by ``dynaeval.validation.as_image``: uint8 / 255, uint16 / 65535, float32 out).
+  (checked by ``dynaeval.core.validation.as_image``: uint8 / 255, uint16 / 65535, float32 out).
 
 OpenCV (``cv2``, opencv-contrib for TV-L1) is imported lazily inside the functions that use it.
 """
@@ -24,9 +24,9 @@ from pathlib import Path
 
 import numpy as np
 
-from dynaeval.errors import InputError, UndefinedMetricError
-from dynaeval.runtime import check_opencv, has_tvl1
-from dynaeval.validation import as_image
+from dynaeval.core.errors import InputError, UndefinedMetricError
+from dynaeval.core.runtime import check_opencv, has_tvl1
+from dynaeval.core.validation import as_image
 
 FLOW_METHODS = ("dis", "farneback", "tvl1")
 DIS_PRESETS = ("ultrafast", "fast", "medium")
@@ -140,7 +140,15 @@ def check_flow_size(shape: tuple[int, ...]) -> None:
             f"{shape[1]}x{shape[0]}")
 
 
-def _flow_from_gray(a: np.ndarray, b: np.ndarray, config: FlowConfig) -> np.ndarray:
+def flow_from_gray(a: np.ndarray, b: np.ndarray, config: FlowConfig) -> np.ndarray:
+    """Forward optical flow ``a -> b`` of two gray frames as the estimators take them: ``a``,
+    ``b`` ``(H, W)`` uint8 of one size (``to_gray_u8`` / ``gray_of_checked``); returns ``(H, W,
+    2)`` float32 ``(dx, dy)`` in pixels on ``a``'s grid. The one estimator call of every flow
+    (``optical_flow``, the flow cache, ``dynaeval prepare``).
+
+    Raises:
+        UndefinedMetricError: frames smaller than ``MIN_FLOW_SIZE`` on a side.
+    """
     import cv2
 
     check_flow_size(a.shape)  # every estimator goes through here: never hand OpenCV a tiny frame
@@ -183,7 +191,7 @@ def optical_flow(a: np.ndarray, b: np.ndarray, config: FlowConfig | None = None)
     ga, gb = to_gray_u8(a), to_gray_u8(b)
     if ga.shape != gb.shape:
         raise InputError(f"flow needs two frames of one size, got {ga.shape} and {gb.shape}")
-    return _flow_from_gray(ga, gb, config)
+    return flow_from_gray(ga, gb, config)
 
 
 def gray_digest(gray: np.ndarray) -> bytes:
@@ -268,7 +276,7 @@ class FlowCache:
             flow = np.load(path, mmap_mode="r")
             hit = True
         else:
-            flow = _flow_from_gray(ga, gb, config)
+            flow = flow_from_gray(ga, gb, config)
             hit = False
             if path is not None:
                 tmp = path.with_name(f"{k}.{threading.get_ident()}.tmp.npy")

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from dynaeval.runtime import compiled
+from dynaeval.core.runtime import compiled
 
 
 @compiled

@@ -7,7 +7,7 @@
 * ``masked_*`` score the pixels of a boolean mask: PSNR of those pixels alone, SSIM / LPIPS as the
   mean of the whole-frame map over them.
 
-A region with no pixel raises ``dynaeval.errors.EmptyRegionError`` (recorded as null, never 0).
+A region with no pixel raises ``dynaeval.core.errors.EmptyRegionError`` (recorded as null, never 0).
 """
 
 from __future__ import annotations

@@ -19,13 +19,13 @@ demand, so a camera's clip is never held whole in memory; each frame is the pack
 dim_order="FHWC", frames_per_second=fps)`` gives the same model for the stacked frames (a test
 holds the two equal). SDR input: the display model maps the sRGB values through its EOTF to
 cd/m^2, so values are display-encoded in [0, 1] (uint8 / 255, uint16 / 65535, floats checked in
-[0, 1], never clipped here; ``dynaeval.validation``'s rule); grayscale is replicated to RGB.
+[0, 1], never clipped here; ``dynaeval.core.validation``'s rule); grayscale is replicated to RGB.
 
 Focused JOD: video metrics need one frame size for the clip, so the focused variant scores a fixed
 window per camera (``focus_window``): the bounding box of the union of every frame's focus boxes
 (already expanded, clipped and merged by the run's focus rule, the same pixels ``focused_psnr``
 scores), grown to at least ``MIN_WINDOW`` pixels per side around its centre and kept inside the
-frame (``dynaeval.boxes.grow_box``). No masked variant: see docs/metrics.md ("JOD", why not).
+frame (``dynaeval.core.boxes.grow_box``). No masked variant: see docs/metrics.md ("JOD", why not).
 
 Importing this module imports neither torch nor the packages: they are imported when a model is
 built.
@@ -40,10 +40,10 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.boxes import as_boxes, clip_boxes, grow_box
-from dynaeval.deps import MissingDependency, load, missing
-from dynaeval.errors import EmptyRegionError, InputError
-from dynaeval.validation import as_image, grey_to_rgb
+from dynaeval.core.boxes import as_boxes, clip_boxes, grow_box
+from dynaeval.core.deps import MissingDependency, load, missing
+from dynaeval.core.errors import EmptyRegionError, InputError
+from dynaeval.core.validation import as_image, grey_to_rgb
 
 MODELS = {"cvvdp": ("cvvdp", "pycvvdp"), "fvvdp": ("pyfvvdp", "pyfvvdp")}
 """JOD model -> (PyPI distribution, module)."""

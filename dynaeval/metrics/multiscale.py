@@ -33,9 +33,9 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.errors import InputError, UndefinedMetricError
+from dynaeval.core.errors import InputError, UndefinedMetricError
+from dynaeval.core.validation import check_data_range, check_pair
 from dynaeval.metrics.structural import RADIUS, gaussian_window
-from dynaeval.validation import check_data_range, check_pair
 
 BETAS = (0.0448, 0.2856, 0.3001, 0.2363, 0.1333)
 """Weights of the 5 scales (Wang et al. 2003, torchmetrics' default)."""

@@ -17,12 +17,12 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.boxes import grow_box
-from dynaeval.deps import load, missing
-from dynaeval.errors import InputError, UndefinedMetricError, WeightsUnavailableError
+from dynaeval.core.boxes import grow_box
+from dynaeval.core.deps import load, missing
+from dynaeval.core.errors import InputError, UndefinedMetricError, WeightsUnavailableError
+from dynaeval.core.runtime import new_session, onnx_providers, resolve_device, torch_device
+from dynaeval.core.validation import check_pair, grey_to_rgb
 from dynaeval.metrics._common import clipped_boxes, region_mask
-from dynaeval.runtime import new_session, onnx_providers, resolve_device, torch_device
-from dynaeval.validation import check_pair, grey_to_rgb
 
 LPIPS_NETS = ("alex", "vgg")
 MIN_SIZE = {"alex": 31, "vgg": 16}
@@ -128,7 +128,7 @@ def load_lpips(
 
     Args:
         net: ``"alex"`` (default, what NeRF papers report) or ``"vgg"``.
-        device: torch device or string (``auto``: see ``dynaeval.runtime``); None means CPU.
+        device: torch device or string (``auto``: see ``dynaeval.core.runtime``); None means CPU.
         spatial: True gives the per-pixel map (the package's ``spatial=True``), False the mean.
         pretrained_backbone: True loads torchvision's ImageNet backbone from its cache
             (WeightsUnavailableError when absent); False keeps a randomly initialised backbone

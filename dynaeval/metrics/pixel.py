@@ -12,9 +12,9 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
+from dynaeval.core.validation import check_data_range, check_finite, check_pair
 from dynaeval.metrics._common import clipped_boxes, region_mask, whole_or_region
-from dynaeval.validation import check_data_range, check_finite, check_pair
 
 # float64 differences are formed in chunks of this many values (32 KB): the buffer stays in L1/L2
 # cache, so the exact float64 accumulation costs little more than reading both images once.
@@ -84,7 +84,7 @@ def squared_error_stats(
         boxes: optional (N, 4) ``[x_min, y_min, x_max, y_max]`` (max exclusive); their union
             counts, each pixel once. Not together with ``mask``.
         data_range: when given, both images must hold values in [0, data_range]
-            (``dynaeval.validation.check_value_range``); None: any values.
+            (``dynaeval.core.validation.check_value_range``); None: any values.
 
     Returns:
         ``SquaredErrorStats(sse, count)``, sse in squared data units (float64), count = pixels x C.

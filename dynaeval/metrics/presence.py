@@ -37,8 +37,8 @@ by ``focused_*``, grown by ``PresenceConfig.margin`` pixels and clipped to the i
 An object is ``present`` when it passes the region test and, if the detector test ran, that too.
 
 Images are ``(H, W)`` or ``(H, W, C)`` float in ``[0, data_range]`` (integers are upcast; values
-outside the range are refused, ``dynaeval.validation``'s range rule); boxes
-``[x_min, y_min, x_max, y_max]`` int pixels, max exclusive (``dynaeval.boxes``).
+outside the range are refused, ``dynaeval.core.validation``'s range rule); boxes
+``[x_min, y_min, x_max, y_max]`` int pixels, max exclusive (``dynaeval.core.boxes``).
 """
 
 from __future__ import annotations
@@ -50,12 +50,12 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.boxes import as_boxes, box_iou_matrix, boxes_to_mask, clip_boxes
-from dynaeval.errors import InputError
+from dynaeval.core.boxes import as_boxes, box_iou_matrix, boxes_to_mask, clip_boxes
+from dynaeval.core.errors import InputError
+from dynaeval.core.validation import check_data_range, check_pair, values_known_in
 from dynaeval.metrics.pixel import SquaredErrorStats, psnr_from_stats
 from dynaeval.metrics.pixel import psnr as _psnr
 from dynaeval.metrics.registry import PRESENCE_CLASSES, keys_of, result_key
-from dynaeval.validation import check_data_range, check_pair, values_known_in
 
 PRESENCE_METRICS = tuple(keys_of("object"))
 """Result keys of the presence check (``presence_<class>``, ``tight_psnr_<class>``), from the

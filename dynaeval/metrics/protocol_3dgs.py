@@ -35,13 +35,13 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.errors import UndefinedMetricError
+from dynaeval.core.errors import UndefinedMetricError
+from dynaeval.core.validation import check_data_range, check_pair
 from dynaeval.metrics.multiscale import BETAS
 from dynaeval.metrics.perceptual import lpips_unit_input  # noqa: F401 (3DGS' LPIPS, named here)
 from dynaeval.metrics.protocol_base import Protocol, Score
 from dynaeval.metrics.protocol_nerfstudio import msssim_window
 from dynaeval.metrics.windows import as_hwc, ssim_variant, window_statistics
-from dynaeval.validation import check_data_range, check_pair
 
 MSSSIM_MIN_SIZE = 161
 """pytorch_msssim's ``ms_ssim`` asserts ``min(H, W) > (11 - 1) * 2 ** 4``."""

@@ -21,7 +21,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
 from dynaeval.metrics import multiscale, pixel, structural
 
 Pair = tuple[Any, Any]

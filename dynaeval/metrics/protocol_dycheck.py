@@ -35,9 +35,9 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
+from dynaeval.core.validation import check_pair
 from dynaeval.metrics.protocol_base import Pair, Protocol, Score
-from dynaeval.validation import check_pair
 
 EPS = 1e-6
 """``masked_mean``'s floor on the mask's sum."""

@@ -32,9 +32,9 @@ from typing import Any
 
 import numpy as np
 
+from dynaeval.core.validation import check_pair
 from dynaeval.metrics.protocol_base import Float32PsnrProtocol
 from dynaeval.metrics.structural import K1, K2, RADIUS, _check_size, gaussian_window
-from dynaeval.validation import check_pair
 
 KPLANES_REFERENCE = (
     "K-Planes plenoxels/ops/image/metrics.py (psnr, ssim, msssim) and "

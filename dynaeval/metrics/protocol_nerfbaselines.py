@@ -21,10 +21,10 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
+from dynaeval.core.validation import check_pair
 from dynaeval.metrics.protocol_base import Float32PsnrProtocol, Pair
 from dynaeval.metrics.windows import ssim_variant
-from dynaeval.validation import check_pair
 
 
 def multiply_mask(pred: object, gt: object, weights: object) -> tuple[np.ndarray, np.ndarray]:

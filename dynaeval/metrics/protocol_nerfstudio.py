@@ -25,10 +25,10 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.errors import UndefinedMetricError
+from dynaeval.core.errors import UndefinedMetricError
+from dynaeval.core.validation import check_pair
 from dynaeval.metrics.protocol_base import Float32PsnrProtocol
 from dynaeval.metrics.windows import ssim_variant
-from dynaeval.validation import check_pair
 
 
 def image_data_range(pred: object, gt: object) -> float:

@@ -53,7 +53,7 @@ All protocols report the mean of per-image values.
 
 from __future__ import annotations
 
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
 from dynaeval.metrics.pixel import psnr_float32
 from dynaeval.metrics.protocol_3dgs import FourDGaussiansProtocol, GaussianSplattingProtocol
 from dynaeval.metrics.protocol_base import Protocol

@@ -36,8 +36,8 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.deps import MissingDependency
-from dynaeval.errors import InputError, WeightsUnavailableError
+from dynaeval.core.deps import MissingDependency
+from dynaeval.core.errors import InputError, WeightsUnavailableError
 from dynaeval.metrics.plugins import plugin_specs
 from dynaeval.metrics.protocols import get_protocol
 

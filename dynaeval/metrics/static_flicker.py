@@ -14,7 +14,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from dynaeval.errors import EmptyRegionError, InputError
+from dynaeval.core.errors import EmptyRegionError, InputError
 from dynaeval.metrics.temporal_pairs import check_region, paired_frames
 
 

@@ -29,10 +29,10 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from dynaeval.boxes import grow_box
-from dynaeval.errors import EmptyRegionError, InputError, UndefinedMetricError
+from dynaeval.core.boxes import grow_box
+from dynaeval.core.errors import EmptyRegionError, InputError, UndefinedMetricError
+from dynaeval.core.validation import check_data_range, check_pair
 from dynaeval.metrics._common import clipped_boxes, region_mask, whole_or_region
-from dynaeval.validation import check_data_range, check_pair
 
 SIGMA = 1.5
 """Standard deviation of the Gaussian window in pixels."""

@@ -40,8 +40,9 @@ from itertools import repeat
 
 import numpy as np
 
-from dynaeval.boxes import as_boxes, boxes_to_mask
-from dynaeval.errors import InputError
+from dynaeval.core.boxes import as_boxes, boxes_to_mask
+from dynaeval.core.errors import InputError
+from dynaeval.core.outcome import Outcome, Status
 from dynaeval.metrics.flow import FlowCache, FlowConfig
 from dynaeval.metrics.pair_kernels import prepare
 from dynaeval.metrics.registry import METRICS, SPECS, keys_of, temporal_keys
@@ -59,7 +60,6 @@ from dynaeval.metrics.temporal_pairs import (
     tof,
     warping_error,
 )
-from dynaeval.outcome import Outcome, Status
 
 __all__ = [
     "TEMPORAL_METRICS",

@@ -23,8 +23,9 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from dynaeval.boxes import grow_box, mask_to_box
-from dynaeval.errors import EmptyRegionError, InputError, WeightsUnavailableError
+from dynaeval.core.boxes import grow_box, mask_to_box
+from dynaeval.core.errors import EmptyRegionError, InputError, WeightsUnavailableError
+from dynaeval.core.validation import as_image
 from dynaeval.metrics.flow import (
     FlowCache,
     FlowConfig,
@@ -43,7 +44,6 @@ from dynaeval.metrics.pair_kernels import (
 )
 from dynaeval.metrics.perceptual import LpipsFeatures, lpips
 from dynaeval.metrics.registry import result_key
-from dynaeval.validation import as_image
 
 LpipsFn = Callable[[np.ndarray, np.ndarray], float]
 """``(a, b) -> float``: LPIPS of two ``(H, W, 3)`` float32 frames in ``[0, 1]``."""

@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
+from dynaeval.core.validation import check_data_range, check_pair
 from dynaeval.metrics.structural import K1, K2, RADIUS, _check_size, gaussian_window
-from dynaeval.validation import check_data_range, check_pair
 
 
 def as_hwc(p: np.ndarray) -> np.ndarray:

@@ -4,7 +4,7 @@ Heavy dependencies (onnxruntime, cv2, scipy) are imported inside the functions t
 importing this package stays light.
 """
 
-from dynaeval.boxes import as_boxes, boxes_to_mask, clip_boxes, mask_to_box
+from dynaeval.core.boxes import as_boxes, boxes_to_mask, clip_boxes, mask_to_box
 from dynaeval.regions.boxes_file import (
     BOXES_SCHEMA,
     BoxesFile,

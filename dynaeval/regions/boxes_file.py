@@ -40,8 +40,8 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.boxes import as_boxes, inverted_box_problem
-from dynaeval.errors import InputError
+from dynaeval.core.boxes import as_boxes, inverted_box_problem
+from dynaeval.core.errors import InputError
 from dynaeval.io.atomic import write_text_atomic
 from dynaeval.io.jsonfile import read_json
 

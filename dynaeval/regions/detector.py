@@ -17,6 +17,8 @@ unclipped boxes in the model's input pixels, top-k, map to the image, clip, and 
 rounded outwards (floor the min, ceil the max; max exclusive, see ``boxes.py``).
 
 Images given to ``detect`` are ``(H, W, 3)`` **RGB**, uint8 in [0, 255] or float in [0, 1].
+``detector_warnings`` are a run's warnings about its detector (the bundled synthetic-scene one on
+footage it was not trained for, output names overruled by their dtypes).
 """
 
 from __future__ import annotations
@@ -31,14 +33,15 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.boxes import batched_nms
-from dynaeval.errors import InputError
+from dynaeval.core.boxes import batched_nms
+from dynaeval.core.errors import InputError
+from dynaeval.core.outcome import note
+from dynaeval.core.runtime import file_sha256, load_session, onnx_providers
+from dynaeval.core.validation import as_image, grey_to_rgb
 from dynaeval.regions import torchvision_onnx, yolo
 from dynaeval.regions.coco import COCO80_NAMES, COCO91_NAMES  # noqa: F401  (re-export)
 from dynaeval.regions.fetch import provenance, resolve_name
 from dynaeval.regions.yolo import letterbox  # noqa: F401  (re-export: reference_models, tests)
-from dynaeval.runtime import file_sha256, load_session, onnx_providers
-from dynaeval.validation import as_image, grey_to_rgb
 
 DEFAULT_DETECTOR = Path(__file__).resolve().parents[1] / "models" / "detector.onnx"
 """Where the packaged default detector (person + ball, trained on the synthetic scenes) lives."""
@@ -500,3 +503,22 @@ def detect_folder(
     """
     det = config if isinstance(config, Detector) else Detector(config)
     return dict(iter_detect(frames, det)), det.source()
+
+
+SYNTHETIC_DETECTOR = (
+    "the boxes come from the bundled synthetic-scene detector (dynaeval/models/detector.onnx, "
+    "trained on renders of dynaeval's procedural soccer scenes): it is not for real footage, "
+    "where it finds 'persons' and 'balls' in anything. For real footage fetch a COCO detector "
+    "(dynaeval detector fetch retinanet, then --detector retinanet) or score with --focus motion")
+"""The one warning of a run whose boxes come from the bundled detector."""
+
+
+def detector_warnings(detector: Detector) -> list[dict]:
+    """Run-level warnings about an opened ``Detector``: the bundled synthetic-scene one, output
+    names overruled by the dtypes (each once per run)."""
+    out = []
+    if detector.bundled:
+        out.append(note(SYNTHETIC_DETECTOR))
+    if detector.outputs_note:
+        out.append(note(f"detector {detector.path}: {detector.outputs_note}"))
+    return out

@@ -19,8 +19,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from dynaeval.boxes import as_boxes, clip_boxes
-from dynaeval.errors import InputError
+from dynaeval.core.boxes import as_boxes, clip_boxes
+from dynaeval.core.errors import InputError
 
 EXPAND_RULES = ("paper", "margin", "none")
 """Names accepted by ``ExpandConfig.rule`` and ``ExpandConfig.preset``."""

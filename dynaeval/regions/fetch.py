@@ -23,11 +23,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from dynaeval.deps import DEPENDENCIES, MissingDependency, load
-from dynaeval.errors import InputError
+from dynaeval.core.deps import DEPENDENCIES, MissingDependency, load
+from dynaeval.core.errors import InputError
+from dynaeval.core.runtime import file_sha256
+from dynaeval.core.version import VERSION
 from dynaeval.io.atomic import write_text_atomic
 from dynaeval.regions.coco import COCO80_NAMES, COCO91_NAMES
-from dynaeval.runtime import file_sha256
 
 CACHE_ENV = "DYNAEVAL_DETECTORS"
 """Environment variable that overrides the cache folder of fetched detectors."""
@@ -39,7 +40,7 @@ dynamic, so any frame size runs."""
 YOLO_RELEASE = "https://github.com/ultralytics/assets/releases/download/v8.4.0"
 """Where Ultralytics' own loader downloads ``NAME.pt`` from (named in the offline message)."""
 ULTRALYTICS_INSTALL = DEPENDENCIES["ultralytics"].install
-"""The install line of the YOLO names (``dynaeval.deps``: not a plain ``pip install
+"""The install line of the YOLO names (``dynaeval.core.deps``: not a plain ``pip install
 ultralytics``, which breaks OpenCV)."""
 TORCHVISION_INSTALL = "pip install torch torchvision onnx"
 """The install line of the torchvision names (onnx writes the class names into the export)."""
@@ -204,11 +205,9 @@ def fetch(name: str, *, folder: Path | None = None, overwrite: bool = False,
 
 
 def _common_record(spec: KnownDetector, onnx: Path, pretrained: bool) -> dict[str, Any]:
-    from dynaeval import __version__
-
     return {
         "schema": "dynaeval/detector/v1", "name": spec.name, "pretrained": pretrained,
-        "onnx_sha256": file_sha256(onnx), "dynaeval": __version__,
+        "onnx_sha256": file_sha256(onnx), "dynaeval": VERSION,
         "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
     }
 

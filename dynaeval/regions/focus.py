@@ -15,19 +15,23 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.boxes import clip_boxes
-from dynaeval.errors import InputError
+from dynaeval.core.boxes import clip_boxes
+from dynaeval.core.errors import InputError
+from dynaeval.core.outcome import Status, note
+from dynaeval.core.runtime import file_sha256
 from dynaeval.io import find_frames
 from dynaeval.io.cache import FrameCache
-from dynaeval.outcome import Status, note
 from dynaeval.regions.boxes_file import frame_key, read_boxes_file, records_to_boxes
-from dynaeval.regions.detector import DEFAULT_DETECTOR, Detector, DetectorConfig
+from dynaeval.regions.detector import (
+    DEFAULT_DETECTOR,
+    Detector,
+    DetectorConfig,
+    detector_warnings,
+)
 from dynaeval.regions.expand import ExpandConfig, expand_boxes
 from dynaeval.regions.motion import LazyFrames, MotionConfig, iter_motion_masks, mask_boxes
 from dynaeval.regions.packed import PackedMask
 from dynaeval.regions.static_camera import camera_motion, moving_camera_reason
-from dynaeval.regions.summary import detector_warnings
-from dynaeval.runtime import file_sha256
 
 FOCUS_SOURCES = ("detector", "motion", "boxes", "none")
 BOXES_SOURCES = ("detector", "motion")
@@ -42,7 +46,7 @@ mask and no temporal term: its per-frame metrics are scored, frame by frame."""
 class FramesDiffer(Exception):
     """Frame ``index`` of a camera has another shape than frame 0: the camera is no video.
 
-    Not an error of the input: ``camera_regions`` and ``dynaeval.scoring`` catch it and score
+    Not an error of the input: ``camera_regions`` and ``dynaeval.run.scoring`` catch it and score
     the frames one by one (motion masks and temporal terms null with ``NOT_A_VIDEO``).
     """
 
@@ -187,7 +191,7 @@ class RegionSources:
     person and ball for a boxes file)."""
     settings: dict[str, Any] = field(default_factory=dict)
     warnings: list[dict] = field(default_factory=list)
-    """Run-level warnings about the sources (``dynaeval.outcome.note``): the bundled detector on
+    """Run-level warnings about the sources (``dynaeval.core.outcome.note``): the bundled detector on
     footage it was not trained for, output names overruled by dtypes."""
     detector_note: str | None = None
     """Why a detector's boxes file does not re-run its detector (its model is not here)."""
@@ -446,7 +450,7 @@ def detect_ground_truth(
         source: ``detector`` (the ONNX detector) or ``motion`` (connected components of the
             motion masks of each camera).
         detector_model: ONNX file; None for the detector shipped with dynaeval.
-        device: onnxruntime device: ``cpu``, ``cuda[:i]`` or ``auto`` (``dynaeval.runtime``).
+        device: onnxruntime device: ``cpu``, ``cuda[:i]`` or ``auto`` (``dynaeval.core.runtime``).
         progress: show a progress bar on stderr.
         classes: the detector's classes to keep (names or ids; None: person and sports ball).
         warnings: if given, the warnings about the detector (``detector_warnings``) and, with

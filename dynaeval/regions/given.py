@@ -11,8 +11,8 @@ from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
 
+from dynaeval.core.outcome import Status
 from dynaeval.io.masks import THRESHOLD, MaskSet, read_mask
-from dynaeval.outcome import Status
 from dynaeval.regions.focus import FrameRegions
 from dynaeval.regions.packed import PackedMask
 

@@ -45,8 +45,8 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.errors import InputError
-from dynaeval.validation import as_image
+from dynaeval.core.errors import InputError
+from dynaeval.core.validation import as_image
 
 MOTION_KINDS = ("isg", "ist")
 _DEFAULT_THRESHOLD = {"isg": 0.5, "ist": 0.15}

@@ -23,7 +23,7 @@ from functools import cache
 
 import numpy as np
 
-from dynaeval.runtime import compiled
+from dynaeval.core.runtime import compiled
 
 BLOCK = 1024
 """Pixels (values) sorted at a time: ``n`` rows of them stay in the CPU's cache."""

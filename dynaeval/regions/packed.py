@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
 
 
 @dataclass(frozen=True, eq=False)

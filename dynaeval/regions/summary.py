@@ -2,9 +2,7 @@
 
 ``regions_summary`` counts one camera's boxes per class and frames with boxes, and its motion
 masks' share of the frame and global motion (the results' ``regions.cameras``);
-``describe_regions`` makes its console line; ``detector_warnings`` are the run-level warnings
-about the detector (the bundled synthetic-scene one on footage it was not trained for, output
-names overruled by their dtypes).
+``describe_regions`` makes its console line.
 """
 
 from __future__ import annotations
@@ -14,28 +12,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from dynaeval.outcome import note
-
 if TYPE_CHECKING:
     from dynaeval.regions.focus import FrameRegions
-
-SYNTHETIC_DETECTOR = (
-    "the boxes come from the bundled synthetic-scene detector (dynaeval/models/detector.onnx, "
-    "trained on renders of dynaeval's procedural soccer scenes): it is not for real footage, "
-    "where it finds 'persons' and 'balls' in anything. For real footage fetch a COCO detector "
-    "(dynaeval detector fetch retinanet, then --detector retinanet) or score with --focus motion")
-"""The one warning of a run whose boxes come from the bundled detector."""
-
-
-def detector_warnings(detector: Any) -> list[dict]:
-    """Run-level warnings about an opened ``Detector``: the bundled synthetic-scene one, output
-    names overruled by the dtypes (each once per run)."""
-    out = []
-    if detector.bundled:
-        out.append(note(SYNTHETIC_DETECTOR))
-    if detector.outputs_note:
-        out.append(note(f"detector {detector.path}: {detector.outputs_note}"))
-    return out
 
 
 def regions_summary(regions: Sequence[FrameRegions], source: str,

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
 from dynaeval.regions.coco import COCO91_NAMES
 
 

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
 from dynaeval.regions.coco import COCO80_NAMES
 
 DEFAULT_SIDE = 640

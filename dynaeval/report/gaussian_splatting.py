@@ -24,7 +24,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
 from dynaeval.io.atomic import write_files_atomic
 
 GS_FILES = ("results.json", "per_view.json")

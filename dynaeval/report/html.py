@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
 from dynaeval.io.atomic import write_files_atomic
 from dynaeval.io.frames import FrameRef
 from dynaeval.io.layouts import part_ref_from_text

@@ -32,7 +32,8 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
+from dynaeval.core.version import VERSION
 from dynaeval.metrics.registry import METRICS, SPECS
 from dynaeval.report.results import load_results, strict
 
@@ -316,8 +317,6 @@ def build_leaderboard(
         InputError: no file, unreadable or old-schema file, a (method, scene) pair twice,
             incompatible settings without ``force``, or an unknown metric asked for.
     """
-    from dynaeval import __version__
-
     if not paths:
         raise InputError("leaderboard needs at least one results file")
     bootstrap = bootstrap or BootstrapConfig()
@@ -343,7 +342,7 @@ def build_leaderboard(
         notes.append("methods cover different scenes: their (all) rows average different scene "
                      "sets and are not comparable")
     return strict({
-        "schema": SCHEMA, "dynaeval_version": __version__, "methods": methods, "scenes": scenes,
+        "schema": SCHEMA, "dynaeval_version": VERSION, "methods": methods, "scenes": scenes,
         "metrics": info, "settings": docs[0]["settings"], "forced": forced,
         "bootstrap": bootstrap.describe(),
         "overall": "mean of per-scene means (every scene weighs the same)",

@@ -16,10 +16,10 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
+from dynaeval.core.outcome import Status, status_of
 from dynaeval.io.frames import missing_frames_warning, natural_key
 from dynaeval.metrics.registry import METRICS
-from dynaeval.outcome import Status, status_of
 from dynaeval.report.results import (
     FRAME_FIELDS,
     build_results,

@@ -20,7 +20,7 @@ Layout (docs/results-format.md documents every field; the JSON Schema ships as
 Summaries are the mean of per-frame values (every frame weighs the same, cameras with more frames
 weigh more), never a metric of the pooled error. A per-frame value that is undefined (empty region)
 or infinite (PSNR of identical images) is ``null`` with a warning whose ``status``
-(``dynaeval.outcome.Status``) says which (``restore_infinite`` reads an ``infinite`` one back); a
+(``dynaeval.core.outcome.Status``) says which (``restore_infinite`` reads an ``infinite`` one back); a
 summary over frames that include an infinite value is ``null`` too (its mean is infinite), over
 undefined ones it is the mean of the defined values with ``counts`` saying how many (infinite ones
 are counted). Every null summary value has its status in ``summary_status``.
@@ -38,12 +38,9 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
-from dynaeval.deps import available, load
-from dynaeval.errors import InputError
-from dynaeval.io.atomic import write_text_atomic
-from dynaeval.io.jsonfile import read_json
-from dynaeval.metrics.registry import METRICS, SPECS
-from dynaeval.outcome import (
+from dynaeval.core.deps import available, load
+from dynaeval.core.errors import InputError
+from dynaeval.core.outcome import (
     NO_REGIONS,
     Status,
     no_box_reason,
@@ -51,6 +48,9 @@ from dynaeval.outcome import (
     summary_reason,
     warning,
 )
+from dynaeval.io.atomic import write_text_atomic
+from dynaeval.io.jsonfile import read_json
+from dynaeval.metrics.registry import METRICS, SPECS
 from dynaeval.report.results_check import FRAME_FIELDS, check_results
 
 SCHEMA = "dynaeval/results/v2"
@@ -116,9 +116,9 @@ def place_temporal(
 
     The value of pair (t-1, t) goes into the row of frame t (the first frame of a camera has
     none); a null value's warning takes the entry's ``pair_reasons[k]`` for pair k when given
-    (a gap of missing frames, ``dynaeval.stages.temporal``: ``Status.NOT_CONSECUTIVE``), else the
+    (a gap of missing frames, ``dynaeval.run.stages.temporal``: ``Status.NOT_CONSECUTIVE``), else the
     entry's ``status`` and ``reason`` (a term null for the whole camera), else its
-    ``pair_status`` and ``pair_reason`` (``dynaeval.scoring.name_regionless_frames``). Terms
+    ``pair_status`` and ``pair_reason`` (``dynaeval.run.scoring.name_regionless_frames``). Terms
     without per-pair values (``flicker``, or a term undefined for the whole camera) are
     camera-level: returned as ``{camera: {name: value}}``, with a warning (the entry's
     ``status``) when null. An entry without a ``status`` is ``Status.UNDEFINED``.
@@ -240,7 +240,7 @@ def _without_disabled_tlp(warnings: list[dict], settings: dict[str, Any]) -> lis
 
 def no_regions_warning(regions: dict[str, Any] | None) -> dict[str, str] | None:
     """The one headline warning of a run whose ``regions`` hold no box in any frame (None
-    otherwise; ``Status.NO_REGION``, its text ``dynaeval.outcome.no_box_reason``): what found
+    otherwise; ``Status.NO_REGION``, its text ``dynaeval.core.outcome.no_box_reason``): what found
     nothing, that every focused (and presence) value is null, the fix."""
     if not regions or regions.get("source") in (None, "none") or not regions.get("cameras"):
         return None
@@ -303,7 +303,7 @@ def build_results(
     unmarked = [w for w in warnings if "status" not in w]
     if unmarked:
         raise ValueError(f"warning without a status: {unmarked[0]} (a bug: make warnings with "
-                         "dynaeval.outcome.warning or note)")
+                         "dynaeval.core.outcome.warning or note)")
     camera_values = {c: dict(v) for c, v in (camera_values or {}).items()}
     if temporal:
         placed, more = place_temporal(rows, temporal)

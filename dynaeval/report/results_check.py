@@ -24,7 +24,7 @@ What is checked is what merge, the leaderboard and the report read:
   ``objects`` an array of objects; ``cameras.<c>.n_frames`` and ``summary.n_frames`` whole numbers;
 * ``counts`` whole numbers, ``timing`` numbers >= 0 (``total_s`` required);
 * ``warnings``: objects with a string ``reason``, optional string ``metric``, ``camera``,
-  ``frame``; in a v2 file also a ``status`` (a ``dynaeval.outcome.Status`` value, not ``ok``),
+  ``frame``; in a v2 file also a ``status`` (a ``dynaeval.core.outcome.Status`` value, not ``ok``),
   and ``summary_status`` an object of statuses (a v1 file has neither: ``load_results`` gives
   them);
 * ``settings`` an object, ``settings.temporal`` (read by merge) an object;
@@ -44,8 +44,8 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any, NoReturn
 
-from dynaeval.errors import InputError
-from dynaeval.outcome import Status
+from dynaeval.core.errors import InputError
+from dynaeval.core.outcome import Status
 
 RESULTS_REQUIRED = {
     "": ("schema", "dynaeval_version", "created", "method", "scene", "inputs", "settings",

@@ -113,7 +113,7 @@ def _calibrate(args) -> int:
 
 
 def _evaluate(args) -> int:
-    from dynaeval.runtime import file_sha256
+    from dynaeval.core.runtime import file_sha256
     from reference_models.detector.evaluate import EVAL_SETS, TINY_SETS, evaluate, to_markdown
 
     sets = TINY_SETS if args.size == "tiny" else EVAL_SETS

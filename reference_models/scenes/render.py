@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dynaeval.boxes import mask_to_box
+from dynaeval.core.boxes import mask_to_box
 from reference_models.scenes.actors import Body
 from reference_models.scenes.camera import Camera
 from reference_models.scenes.geometry import intersect_capsule, intersect_capsules

@@ -51,7 +51,7 @@ def _write(path: Path, rgb: np.ndarray) -> None:
 
 def make_condition(scene, frame: int, condition: str, boxes: np.ndarray) -> np.ndarray:
     """The prediction of ``condition`` for one frame (float32 RGB in [0, 1])."""
-    from dynaeval.boxes import boxes_to_mask
+    from dynaeval.core.boxes import boxes_to_mask
     from reference_models.scenes import render_view
 
     view = render_view(scene, CAMERA, frame)
@@ -78,7 +78,7 @@ def study(preset: str, root: Path, size: str = "small") -> list[dict]:
     import json
 
     import dynaeval
-    from dynaeval.boxes import boxes_to_mask
+    from dynaeval.core.boxes import boxes_to_mask
     from dynaeval.regions import ExpandConfig, expand_boxes, records_to_boxes
     from dynaeval.regions.focus import FocusConfig
     from reference_models.scenes import build_scene, render_view

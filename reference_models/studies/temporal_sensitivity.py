@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dynaeval.boxes import mask_to_box
+from dynaeval.core.boxes import mask_to_box
 from dynaeval.metrics import lpips as lpips_metric
 from dynaeval.metrics import psnr_from_stats, squared_error_stats, ssim
 from dynaeval.metrics.flow import FlowCache, FlowConfig, optical_flow

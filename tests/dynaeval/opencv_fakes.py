@@ -1,4 +1,4 @@
-"""Fake OpenCV installs for the start-up probe's tests (``dynaeval.runtime.check_opencv``)."""
+"""Fake OpenCV installs for the start-up probe's tests (``dynaeval.core.runtime.check_opencv``)."""
 
 from __future__ import annotations
 
@@ -21,9 +21,9 @@ def shadowed_cv2():
 
 
 def install(monkeypatch, dists, cv2_module):
-    """Make ``dynaeval.runtime`` see ``dists`` installed and ``import cv2`` give ``cv2_module``
+    """Make ``dynaeval.core.runtime`` see ``dists`` installed and ``import cv2`` give ``cv2_module``
     (None: the import fails)."""
-    from dynaeval import runtime
+    from dynaeval.core import runtime
 
     monkeypatch.setattr(runtime, "installed_opencv", lambda: dict(dists), raising=False)
     monkeypatch.setitem(sys.modules, "cv2", cv2_module)

@@ -1,7 +1,10 @@
-"""The layers of docs/architecture.md hold: who imports whom, function sizes, no reference models.
+"""The layers of docs/architecture.md hold: the tree is the architecture (each layer one folder,
+the package root its public face only), who imports whom (type-only imports included), no import
+circle, function sizes, no reference models.
 
-Imports are read from the source with ``ast`` (also those inside functions, which run later), so
-a lazy import that crosses a layer is caught too.
+Imports are read from the source with ``ast`` (also those inside functions, which run later, and
+those under ``if TYPE_CHECKING:``), so a lazy or a type-only import that crosses a layer or closes
+a circle is caught too.
 """
 
 from __future__ import annotations
@@ -15,34 +18,42 @@ import pytest
 
 PACKAGE = Path(__file__).resolve().parents[2] / "dynaeval"
 
-FLOOR = ("dynaeval.errors", "dynaeval.boxes", "dynaeval.runtime", "dynaeval.validation",
-         "dynaeval.progress", "dynaeval.deps", "dynaeval.outcome")
-"""The ground floor: every layer may import it; it imports nothing of dynaeval above it."""
-
 LAYERS = {
-    "io": ("dynaeval.io",),
-    "regions": ("dynaeval.regions",),
-    "metrics": ("dynaeval.metrics",),
-    "evaluate": ("dynaeval.config", "dynaeval.plan", "dynaeval.executor", "dynaeval.stages",
-                 "dynaeval.scoring", "dynaeval.evaluate", "dynaeval.distributed",
-                 "dynaeval.prepare", "dynaeval.suite"),
-    "report": ("dynaeval.report",),
-    "cli": ("dynaeval.cli", "dynaeval.__main__"),
+    "core": "dynaeval.core",
+    "io": "dynaeval.io",
+    "regions": "dynaeval.regions",
+    "metrics": "dynaeval.metrics",
+    "run": "dynaeval.run",
+    "report": "dynaeval.report",
+    "cli": "dynaeval.cli",
 }
+"""Each layer of docs/architecture.md and the one package (a folder of ``dynaeval/``) it is."""
+
 MAY_IMPORT = {
-    "floor": {"floor"},
-    "io": {"floor", "io"},
-    "regions": {"floor", "io", "regions"},
-    "metrics": {"floor", "io", "metrics"},  # never regions
-    "evaluate": {"floor", "io", "regions", "metrics", "evaluate", "report"},
-    "report": {"floor", "io", "metrics", "report"},
-    "cli": {"floor", "io", "regions", "metrics", "evaluate", "report", "cli"},
+    "core": {"core"},  # the ground floor: numpy only, nothing of dynaeval above it
+    "io": {"core", "io"},
+    "regions": {"core", "io", "regions"},
+    "metrics": {"core", "io", "metrics"},  # never regions
+    "run": {"core", "io", "regions", "metrics", "run", "report"},  # report.results: the document
+    "report": {"core", "io", "metrics", "report"},
+    "cli": {"core", "io", "regions", "metrics", "run", "report", "cli"},
 }
-"""Which layers each layer may import (evaluate assembles its results with report.results)."""
+"""Which layers each layer may import (design.md's layout table); nothing imports cli."""
+
+FACE = {
+    "dynaeval": "the public names, loaded on first use (score, ScoreConfig, FocusConfig, ...)",
+    "dynaeval.__main__": "python -m dynaeval: the CLI",
+    "dynaeval.errors": "the exceptions a caller catches (reference_models imports InputError here)",
+}
+"""The modules of the package root, and why each is there: its public face, nothing else. No
+module of a layer imports them (the version too is the ground floor's: ``core.version``)."""
+
+ROOT_DATA = {"data", "models", "schemas", "py.typed"}
+"""Package data beside the face: the sample, the bundled detector, the JSON schemas."""
 
 
-def _module_name(path: Path) -> str:
-    rel = path.relative_to(PACKAGE.parent).with_suffix("")
+def _module_name(path: Path, package: Path = PACKAGE) -> str:
+    rel = path.relative_to(package.parent).with_suffix("")
     parts = list(rel.parts)
     if parts[-1] == "__init__":
         parts.pop()
@@ -50,12 +61,11 @@ def _module_name(path: Path) -> str:
 
 
 def _layer(module: str) -> str | None:
-    if module in ("dynaeval", "dynaeval.__init__"):
-        return None  # the package itself: lazy re-exports only
-    if any(module == f or module.startswith(f + ".") for f in FLOOR):
-        return "floor"
-    for layer, prefixes in LAYERS.items():
-        if any(module == p or module.startswith(p + ".") for p in prefixes):
+    """The layer of a dynaeval module, None for the root's face, ``"unknown"`` outside both."""
+    if module in FACE:
+        return None
+    for layer, package in LAYERS.items():
+        if module == package or module.startswith(package + "."):
             return layer
     return "unknown"
 
@@ -75,8 +85,19 @@ def _imports(path: Path) -> list[tuple[int, str]]:
     return found
 
 
-def _sources() -> list[Path]:
-    return sorted(PACKAGE.rglob("*.py"))
+def _sources(package: Path = PACKAGE) -> list[Path]:
+    return sorted(package.rglob("*.py"))
+
+
+def test_every_layer_is_one_folder_and_the_root_holds_only_the_face():
+    """The tree is the architecture: each layer a package folder of ``dynaeval/``, and at the
+    root only the ``FACE`` modules and the package data (issue 41: the orchestration and the
+    ground floor were 16 modules and a folder beside the layers)."""
+    packages = {p.name for p in PACKAGE.iterdir() if (p / "__init__.py").is_file()}
+    assert {f"dynaeval.{n}" for n in packages} == set(LAYERS.values())
+    rest = {p.name for p in PACKAGE.iterdir() if p.name not in packages | {"__pycache__"}}
+    face = {f"{m.removeprefix('dynaeval').lstrip('.') or '__init__'}.py" for m in FACE}
+    assert rest - ROOT_DATA == face, f"at the root beside the face: {sorted(rest - ROOT_DATA - face)}"
 
 
 def test_every_module_belongs_to_a_layer():
@@ -84,17 +105,41 @@ def test_every_module_belongs_to_a_layer():
     assert not unknown, f"modules outside every layer of docs/architecture.md: {unknown}"
 
 
+def test_the_face_defines_nothing():
+    """The root's modules hand names on; what they name is defined in a layer: ``errors`` only
+    imports from ``dynaeval.core``, and every public name of ``dynaeval`` comes from a layer
+    module and is that module's object."""
+    import importlib
+
+    import dynaeval
+
+    tree = ast.parse((PACKAGE / "errors.py").read_text(encoding="utf-8"))
+    kinds = {type(n).__name__ for n in tree.body[1:]}
+    assert kinds <= {"ImportFrom", "Assign"}, kinds
+    assert all(n.module.startswith("dynaeval.core.") for n in tree.body
+               if isinstance(n, ast.ImportFrom))
+    public = [n for n in dynaeval.__all__ if n != "__version__"]
+    assert {"score", "ScoreConfig", "FocusConfig", "ImageMetrics"} <= set(public)
+    for name in public:
+        value = getattr(dynaeval, name)
+        home = importlib.import_module(value.__module__)
+        assert _layer(value.__module__) not in (None, "unknown") and getattr(home, name) is value
+
+
 def test_layers_import_only_what_they_may():
     bad = []
     for path in _sources():
         me = _layer(_module_name(path))
-        if me is None:
+        if me in (None, "unknown"):  # the face; modules of no layer fail the test above
             continue
         for line, target in _imports(path):
             if not target.startswith("dynaeval.") and target != "dynaeval":
                 continue
             other = _layer(target)
-            if other is not None and other not in MAY_IMPORT[me]:
+            if other is None:
+                bad.append(f"{path.relative_to(PACKAGE.parent)}:{line} ({me}) imports the face "
+                           f"{target}")
+            elif other is not None and other not in MAY_IMPORT[me]:
                 bad.append(f"{path.relative_to(PACKAGE.parent)}:{line} ({me}) imports {target} ({other})")
     assert not bad, "imports against the layers:\n" + "\n".join(bad)
 
@@ -196,8 +241,8 @@ def test_score_works_without_torch():
 
 
 @pytest.mark.parametrize("module", ["dynaeval", "dynaeval.cli", "dynaeval.metrics",
-                                    "dynaeval.regions", "dynaeval.report", "dynaeval.runtime",
-                                    "dynaeval.boxes", "dynaeval.validation"])
+                                    "dynaeval.regions", "dynaeval.report", "dynaeval.core.runtime",
+                                    "dynaeval.core.boxes", "dynaeval.core.validation"])
 def test_importing_the_toolkit_stays_light(module):
     """Heavy dependencies load inside the functions that use them, never at import."""
     heavy = ("torch", "onnxruntime", "onnx", "cv2", "scipy", "pandas", "matplotlib",
@@ -208,16 +253,20 @@ def test_importing_the_toolkit_stays_light(module):
     assert out.stdout.strip() == "[]", f"import {module} loads {out.stdout.strip()}"
 
 
-def _internal_graph() -> tuple[dict[str, set[str]], list[tuple[str, int, str]]]:
-    """dynaeval's import graph (every import, module level and inside functions) and the
-    internal imports made inside functions, ``(module, line, target)``.
+def _internal_graph(package: Path = PACKAGE) -> tuple[dict[str, set[str]],
+                                                     list[tuple[str, int, str]]]:
+    """The package's import graph (every import: module level, inside functions and under
+    ``if TYPE_CHECKING:``) and the internal imports made inside functions, ``(module, line,
+    target)``.
 
     ``from P import a`` is an edge to ``P.a`` where that is a module, else to ``P``; the
-    package's own lazy re-export (``dynaeval.score`` in ``dynaeval/__init__.py``, which keeps
-    ``import dynaeval`` light), ``from dynaeval import __version__`` and the imports under
-    ``if TYPE_CHECKING:`` (never run) are not edges.
+    package's own lazy re-exports (``dynaeval/__init__.py``, which keeps ``import dynaeval``
+    light) are not edges. A type-only import is an
+    edge: it does not run, but it ties the two modules as much as a real one (issue 41: one
+    closed a 9-module circle, plan -> prepare -> scoring -> plan).
     """
-    modules = {_module_name(p): p for p in _sources()}
+    root = package.name
+    modules = {_module_name(p, package): p for p in _sources(package)}
     graph: dict[str, set[str]] = {m: set() for m in modules}
     lazy = []
     for module, path in modules.items():
@@ -225,23 +274,18 @@ def _internal_graph() -> tuple[dict[str, set[str]], list[tuple[str, int, str]]]:
         inside = {id(n) for f in ast.walk(tree) if isinstance(f, (ast.FunctionDef,
                                                                   ast.AsyncFunctionDef))
                   for n in ast.walk(f) if n is not f}
-        typing_only = {id(n) for f in ast.walk(tree) if isinstance(f, ast.If)
-                       and "TYPE_CHECKING" in ast.unparse(f.test) for n in ast.walk(f)}
         for node in ast.walk(tree):
-            if id(node) in typing_only:
-                continue
             if isinstance(node, ast.Import):
                 found = [a.name for a in node.names]
             elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
                 subs = [f"{node.module}.{a.name}" for a in node.names]
                 found = [s for s in subs if s in modules]
-                if len(found) < len(subs) and not (node.module == "dynaeval" and all(
-                        a.name == "__version__" for a in node.names)):
+                if len(found) < len(subs):
                     found.append(node.module)
             else:
                 continue
             targets = {t for t in found if t in modules and t != module}
-            if module == "dynaeval" or not targets:
+            if module == root or not targets:
                 continue
             graph[module] |= targets
             if id(node) in inside:
@@ -293,8 +337,24 @@ def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
 
 def test_no_import_cycle():
     """No two dynaeval modules import each other, directly or round a loop, counting the imports
-    inside functions too (issue 31: three lazy cycles hid in them)."""
+    inside functions (issue 31: three lazy cycles hid in them) and under ``TYPE_CHECKING``
+    (issue 41: plan -> prepare -> scoring -> plan, regions.focus <-> regions.summary)."""
     assert _cycles(_internal_graph()[0]) == []
+
+
+def test_the_cycle_rule_counts_type_only_and_lazy_imports(tmp_path):
+    """A circle closed only by a type-only import, or only by one inside a function, is found."""
+    pkg = tmp_path / "pkg"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "plan.py").write_text("from typing import TYPE_CHECKING\n"
+                                 "if TYPE_CHECKING:\n    from pkg.prepare import Prepared\n")
+    (pkg / "prepare.py").write_text("from pkg.plan import RunPlan\n")
+    (pkg / "a.py").write_text("from pkg import b\n")
+    (pkg / "b.py").write_text("def f():\n    import pkg.a\n")
+    (pkg / "c.py").write_text("from pkg.plan import RunPlan\n")
+    assert sorted(_cycles(_internal_graph(pkg)[0])) == [["pkg.a", "pkg.b"],
+                                                        ["pkg.plan", "pkg.prepare"]]
 
 
 LAZY_INTERNAL = {
@@ -317,14 +377,14 @@ def test_internal_imports_are_at_module_level():
 
 def test_optional_packages_are_imported_only_by_deps():
     """Whether an optional package (torch, lpips, flip_evaluator, ...) is installed is found once,
-    at import, by ``dynaeval.deps``; no other module imports one itself (``deps.load`` does, and
+    at import, by ``dynaeval.core.deps``; no other module imports one itself (``deps.load`` does, and
     turns a missing install into ``MissingDependency`` with its install line), and none probes
     for one with ``find_spec`` or ``try: import``."""
-    from dynaeval.deps import DEPENDENCIES
+    from dynaeval.core.deps import DEPENDENCIES
 
     found = []
     for path in _sources():
-        if path.name == "deps.py" and path.parent == PACKAGE:
+        if path.name == "deps.py" and path.parent == PACKAGE / "core":
             continue
         rel = path.relative_to(PACKAGE.parent)
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
@@ -341,7 +401,7 @@ def test_optional_packages_are_imported_only_by_deps():
                 names = [str(node.args[0].value)]
             found += [f"{rel}:{node.lineno} import {n}" for n in names
                       if n.split(".")[0] in DEPENDENCIES]
-    assert not found, f"optional packages imported outside dynaeval.deps: {found}"
+    assert not found, f"optional packages imported outside dynaeval.core.deps: {found}"
 
 
 PROTOCOL_MODULES = ("dynaeval/metrics/protocols.py", "dynaeval/metrics/protocol_*.py")
@@ -486,7 +546,7 @@ def _text_matches(path: Path) -> list[tuple[str, int, str]]:
 
 
 def test_no_code_decides_by_reading_a_warning_or_an_error_message():
-    """Issue 31: meaning travels as a status (``dynaeval.outcome.Status``) or an exception type,
+    """Issue 31: meaning travels as a status (``dynaeval.core.outcome.Status``) or an exception type,
     never in words: no ``"pip install" not in str(err)``, no ``w["reason"].startswith(...)``
     outside the v1 reader (``READS_OLD_TEXT``)."""
     bad = [f"{_module_name(p)}:{line} ({fn}): {code}" for p in _sources()

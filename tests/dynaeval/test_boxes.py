@@ -1,4 +1,4 @@
-"""Box geometry (dynaeval.boxes): format checks, clipping, masks, growing, IoU and NMS."""
+"""Box geometry (dynaeval.core.boxes): format checks, clipping, masks, growing, IoU and NMS."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from dynaeval.boxes import (
+from dynaeval.core.boxes import (
     as_boxes,
     batched_nms,
     box_iou_matrix,

@@ -1,4 +1,4 @@
-"""dynaeval.deps: optional packages found once at import, imported in one place."""
+"""dynaeval.core.deps: optional packages found once at import, imported in one place."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ import textwrap
 
 import pytest
 
-from dynaeval import deps
-from dynaeval.deps import DEPENDENCIES, MissingDependency, available, load, missing
+from dynaeval.core import deps
+from dynaeval.core.deps import DEPENDENCIES, MissingDependency, available, load, missing
 
 _BLOCKED = textwrap.dedent("""
     import importlib.abc, sys
@@ -21,7 +21,7 @@ _BLOCKED = textwrap.dedent("""
             return None
 
     sys.meta_path.insert(0, Blocked())
-    from dynaeval import deps
+    from dynaeval.core import deps
     print(deps.AVAILABLE["flip_evaluator"], deps.AVAILABLE["torch"])
     try:
         deps.load("flip_evaluator")
@@ -45,7 +45,7 @@ def test_the_flags_are_found_at_import_without_importing_anything():
 def test_every_flag_agrees_with_find_spec():
     """In a fresh interpreter (in this one, other tests change ``sys.path`` after the flags
     were found: setuptools puts its vendored tomli on it)."""
-    code = ("import importlib.util\nfrom dynaeval import deps\n"
+    code = ("import importlib.util\nfrom dynaeval.core import deps\n"
             "print([n for n in deps.DEPENDENCIES\n"
             "       if deps.AVAILABLE[n] != (importlib.util.find_spec(n) is not None)])")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)

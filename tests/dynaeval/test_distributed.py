@@ -9,10 +9,10 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import pytest
 
-from dynaeval.distributed import ScoreJob, score_jobs, score_shard
 from dynaeval.errors import InputError
-from dynaeval.evaluate import score
 from dynaeval.regions.focus import FocusConfig
+from dynaeval.run.distributed import ScoreJob, score_jobs, score_shard
+from dynaeval.run.evaluate import score
 
 from .helpers import moving_square_scene, write_frames
 

@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 
 from dynaeval.cli import sample_dir
-from dynaeval.suite import folder_suite, run_suite, settings_config
+from dynaeval.run.suite import folder_suite, run_suite, settings_config
 
 from .test_suite import _noisy, _numbers
 

@@ -11,10 +11,10 @@ import pytest
 import dynaeval
 from dynaeval import metrics as M
 from dynaeval.errors import InputError
-from dynaeval.evaluate import ScoreConfig
 from dynaeval.regions import write_boxes_file
 from dynaeval.regions.focus import FocusConfig
 from dynaeval.report import schema_path
+from dynaeval.run.evaluate import ScoreConfig
 
 from .helpers import moving_square_scene, write_frames
 
@@ -350,7 +350,7 @@ def _photo_sequence(root, name="chelsea", n=3, noise=3):
 
 
 def test_bundled_detector_on_a_real_photo_says_once_what_it_is(tmp_path):
-    from dynaeval.regions.summary import SYNTHETIC_DETECTOR
+    from dynaeval.regions.detector import SYNTHETIC_DETECTOR
 
     pred, gt = _photo_sequence(tmp_path)
     with pytest.warns(dynaeval.DynaevalWarning, match="bundled synthetic-scene detector"):
@@ -437,10 +437,10 @@ def test_a_failing_camera_stops_the_others_and_its_error_is_raised(monkeypatch):
     from concurrent.futures import ThreadPoolExecutor
     from types import SimpleNamespace
 
-    import dynaeval.evaluate
-    from dynaeval.evaluate import _score_one_camera
-    from dynaeval.executor import cameras_at_once
-    from dynaeval.progress import Progress
+    import dynaeval.run.evaluate
+    from dynaeval.core.progress import Progress
+    from dynaeval.run.evaluate import _score_one_camera
+    from dynaeval.run.executor import cameras_at_once
 
     frames_of = {"a": 0, "b": 0}
 
@@ -453,12 +453,12 @@ def test_a_failing_camera_stops_the_others_and_its_error_is_raised(monkeypatch):
             raise InputError("frame 0002.png is broken")
         return cam
 
-    monkeypatch.setattr(dynaeval.evaluate, "score_camera", fake_score_camera)  # as imported there
+    monkeypatch.setattr(dynaeval.run.evaluate, "score_camera", fake_score_camera)  # as imported there
     cams = {"a": [None] * 3, "b": [None] * 3}
     progress = Progress({"regions": 6, "frames": 800, "pairs": 4, "video": 2}, enabled=False)
     run = SimpleNamespace(temporal=None, fail=False)
 
-    def score(cam, cam_pairs, stop):  # noqa: ANN202  (as dynaeval.evaluate._score_cameras)
+    def score(cam, cam_pairs, stop):  # noqa: ANN202  (as dynaeval.run.evaluate._score_cameras)
         return _score_one_camera(cam, cam_pairs, run, None, None, progress, stop)
 
     with ThreadPoolExecutor(max_workers=2) as lanes:

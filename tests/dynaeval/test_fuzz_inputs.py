@@ -191,8 +191,8 @@ def _prepared_sample() -> Path:
     """The bundled sample's ground truth prepared once per session (motion focus)."""
     if "path" not in _PREPARED:
         from dynaeval.cli import sample_dir
-        from dynaeval.prepare import prepare
         from dynaeval.regions.focus import FocusConfig
+        from dynaeval.run.prepare import prepare
 
         out = Path(tempfile.mkdtemp(prefix="dynaeval-fuzz-prep-")) / "prep"
         prepare(sample_dir() / "gt", out, focus=FocusConfig(source="motion"), progress=False)

@@ -1,4 +1,4 @@
-"""dynaeval.outcome: the statuses, the outcome of a value, and the one place warning text is made."""
+"""dynaeval.core.outcome: the statuses, the outcome of a value, and the one place warning text is made."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from dynaeval.outcome import (
+from dynaeval.core.outcome import (
     Outcome,
     Status,
     note,

@@ -10,13 +10,13 @@ from types import SimpleNamespace
 
 import pytest
 
-from dynaeval.config import ScoreConfig
 from dynaeval.errors import InputError
-from dynaeval.evaluate import per_frame_only
-from dynaeval.executor import Executor, cameras_at_once
-from dynaeval.plan import RunPlan, Scope, build_plan
 from dynaeval.regions.focus import FocusConfig
-from dynaeval.stages import STAGES, Stage, active_stages, metric_names
+from dynaeval.run.config import ScoreConfig
+from dynaeval.run.evaluate import per_frame_only
+from dynaeval.run.executor import Executor, cameras_at_once
+from dynaeval.run.plan import RunPlan, Scope, build_plan
+from dynaeval.run.stages import STAGES, Stage, active_stages, metric_names
 
 pytestmark = pytest.mark.filterwarnings("ignore::dynaeval.DynaevalWarning")
 

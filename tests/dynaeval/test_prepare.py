@@ -13,8 +13,8 @@ import pytest
 from dynaeval import score
 from dynaeval.cli import main, sample_dir
 from dynaeval.errors import InputError
-from dynaeval.prepare import prepare
 from dynaeval.regions.focus import FocusConfig
+from dynaeval.run.prepare import prepare
 
 SAMPLE = sample_dir()
 FAST = {"metrics": ("psnr", "ssim"), "progress": False}
@@ -80,8 +80,8 @@ def test_prepared_flows_are_read_not_computed(prepared_motion, monkeypatch):
     from dynaeval.metrics import flow
 
     calls = []
-    real = flow._flow_from_gray
-    monkeypatch.setattr(flow, "_flow_from_gray", lambda *a: calls.append(1) or real(*a))
+    real = flow.flow_from_gray
+    monkeypatch.setattr(flow, "flow_from_gray", lambda *a: calls.append(1) or real(*a))
     score(SAMPLE / "pred", SAMPLE / "gt", focus=FocusConfig(source="motion"),
           prepared=str(prepared_motion), **FAST)
     assert len(calls) == 14  # 2 cameras x 7 pairs, one prediction flow each (GT: 2 x 14 read)
@@ -262,7 +262,7 @@ def test_no_clobber_and_atomic(tmp_path, prepared_motion, monkeypatch, capsys):
     code = main(["prepare", str(SAMPLE / "gt"), "-o", str(prep), "--focus", "motion", "-q"])
     assert code == 2 and "pass --overwrite" in capsys.readouterr().err
     assert [p.name for p in prep.iterdir()] == ["mine.txt"]
-    from dynaeval import prepare as module
+    from dynaeval.run import prepare as module
 
     def boom(*a, **k):
         raise RuntimeError("interrupted")
@@ -480,8 +480,8 @@ def test_every_prepared_file_is_in_the_manifest(prepared_motion):
 def test_prepare_decodes_each_ground_truth_image_once(tmp_path, prepared_motion, monkeypatch):
     """The decoding that is saved is the one the regions and flows read (issue 33: each file
     was decoded twice); the prepared folder is the same, byte for byte."""
-    from dynaeval import prepare as module
     from dynaeval.io import images
+    from dynaeval.run import prepare as module
 
     decoded = []
     real = images.decode_file
@@ -525,7 +525,7 @@ def test_a_disk_that_fills_during_prepare_leaves_nothing(tmp_path, monkeypatch, 
 
 def test_an_interrupt_during_prepare_leaves_nothing_while_files_are_written(tmp_path,
                                                                              monkeypatch):
-    from dynaeval import prepare as module
+    from dynaeval.run import prepare as module
 
     real = module._save_pair
 

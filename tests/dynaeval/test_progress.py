@@ -1,4 +1,4 @@
-"""The run's one progress bar (dynaeval.progress): every phase, an ETA from measured costs,
+"""The run's one progress bar (dynaeval.core.progress): every phase, an ETA from measured costs,
 100 % only at the end, silent with -q, safe with several workers."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import pytest
 
 import dynaeval
 from dynaeval.cli import main, sample_dir
-from dynaeval.progress import LABELS, PHASES, Progress
+from dynaeval.core.progress import LABELS, PHASES, Progress
 from dynaeval.regions.focus import FocusConfig
 
 BAR = re.compile(r"scoring +(\d+)% \|[# ]+\| (.+?) \|")
@@ -158,7 +158,7 @@ def test_a_terminal_gets_one_line_redrawn_and_a_ticker_that_stops_on_close():
 
 @pytest.mark.parametrize("workers", [1, 2])
 def test_score_shows_one_bar_over_every_phase(capsys, monkeypatch, workers):
-    monkeypatch.setattr("dynaeval.progress.LOG_INTERVAL", 0.0)  # a line per tick
+    monkeypatch.setattr("dynaeval.core.progress.LOG_INTERVAL", 0.0)  # a line per tick
     root = sample_dir()
     dynaeval.score(root / "pred", root / "gt", metrics=("psnr",), workers=workers, progress=True,
                    focus=FocusConfig(source="motion"))

@@ -9,9 +9,8 @@ import sys
 import numpy as np
 import pytest
 
-from dynaeval import runtime
-from dynaeval.errors import InputError
-from dynaeval.runtime import (
+from dynaeval.core import runtime
+from dynaeval.core.runtime import (
     CPU_PROVIDERS,
     CUDA_PROVIDERS,
     file_sha256,
@@ -22,6 +21,7 @@ from dynaeval.runtime import (
     resolve_device,
     worker_opencv_threads,
 )
+from dynaeval.errors import InputError
 
 from .opencv_fakes import MIXED, install, shadowed_cv2
 
@@ -157,7 +157,7 @@ def test_opencv_threads_sets_the_count_inside_the_block_and_restores_it():
 _FAULTS = """
 import resource, sys
 import numpy as np
-from dynaeval.runtime import keep_freed_memory
+from dynaeval.core.runtime import keep_freed_memory
 kept = keep_freed_memory() if sys.argv[1] == "keep" else False
 before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
 for _ in range(10):  # a frame's arrays (25 MB: a 1080p float32 RGB frame), then all freed
@@ -186,7 +186,7 @@ def test_keep_freed_memory_reuses_frame_sized_arrays_instead_of_faulting_them_in
     assert not chosen
     import subprocess
 
-    several = subprocess.run([sys.executable, "-c", "from dynaeval.runtime import keep_freed_memory"
+    several = subprocess.run([sys.executable, "-c", "from dynaeval.core.runtime import keep_freed_memory"
                               " as k; print(k(workers=3))"], capture_output=True, text=True,
                              check=True).stdout.strip()
     assert several == "True"  # and one arena for the workers' threads

@@ -12,15 +12,15 @@ import pytest
 
 import dynaeval
 from dynaeval.errors import InputError
-from dynaeval.evaluate import ScoreConfig
-from dynaeval.executor import Executor
 from dynaeval.io import FramePair, pair_frames
 from dynaeval.io.cache import FrameCache
 from dynaeval.io.frames import FrameRef
 from dynaeval.metrics.flow import MIN_FLOW_SIZE as TEMPORAL_MIN_SIZE
-from dynaeval.plan import build_plan
 from dynaeval.regions.focus import NOT_A_VIDEO, FocusConfig, FrameRegions
-from dynaeval.scoring import camera_regions_of, name_regionless_frames, score_frame
+from dynaeval.run.evaluate import ScoreConfig
+from dynaeval.run.executor import Executor
+from dynaeval.run.plan import build_plan
+from dynaeval.run.scoring import camera_regions_of, name_regionless_frames, score_frame
 
 from .helpers import textured_frame
 
@@ -262,7 +262,7 @@ def test_the_frames_without_boxes_are_named_by_status_not_by_words():
 def test_frames_read_from_files_get_no_second_range_pass(tmp_path, monkeypatch):
     """Issue 32 item 1: io.images checked the frames' range when it read them; the metrics do
     not check it again per metric (values_known_in), unless the run's data_range is narrower."""
-    import dynaeval.validation as validation
+    import dynaeval.core.validation as validation
 
     rng = np.random.default_rng(1)
     _write(tmp_path, [textured_frame(rng, 48, 64), textured_frame(rng, 48, 64)])
@@ -317,7 +317,7 @@ def test_allow_missing_scores_the_consecutive_pairs_present_and_says_which_frame
 def test_frames_read_from_files_get_no_second_finite_pass(tmp_path, monkeypatch):
     """Issue 33: io.images refused NaN/Inf when it read the frames (integer pixels cannot hold
     them); the frame metrics and the temporal terms do not look for them again per metric."""
-    import dynaeval.validation as validation
+    import dynaeval.core.validation as validation
 
     rng = np.random.default_rng(1)
     base = textured_frame(rng, 48, 64)
@@ -382,7 +382,7 @@ def test_without_workers_the_next_frames_are_read_ahead_on_a_thread(tmp_path, mo
     nothing is read ahead (the pool overlaps the frames already)."""
     import threading
 
-    import dynaeval.plan as plan_mod
+    import dynaeval.run.plan as plan_mod
 
     rng = np.random.default_rng(4)
     base = textured_frame(rng, 48, 64)

@@ -14,8 +14,8 @@ import pytest
 
 from dynaeval.cli import main, sample_dir
 from dynaeval.errors import InputError
-from dynaeval.evaluate import score
-from dynaeval.suite import folder_suite, load_suite, run_suite, settings_config
+from dynaeval.run.evaluate import score
+from dynaeval.run.suite import folder_suite, load_suite, run_suite, settings_config
 
 METRICS = ["psnr", "ssim"]
 NUMBERS = ("frames", "cameras", "summary", "counts", "metrics", "method", "scene")
@@ -253,7 +253,7 @@ def test_the_page_shows_a_perfect_method_too(tree):
 
 
 def test_an_interrupted_suite_keeps_what_it_scored_and_a_rerun_finishes(tree, monkeypatch, capsys):
-    import dynaeval.suite as suite_module
+    import dynaeval.run.suite as suite_module
 
     real, calls = suite_module.score_task, []
 
@@ -302,7 +302,7 @@ def test_on_an_executor_a_scene_is_scored_while_another_is_still_being_prepared(
     import concurrent.futures
     import threading
 
-    import dynaeval.suite as suite_module
+    import dynaeval.run.suite as suite_module
 
     shutil.copytree(tree / "gt" / "sample", tree / "gt" / "slow")
     for m in ("m1", "m2", "m3"):
@@ -341,8 +341,8 @@ def test_a_scene_prepared_in_an_older_format_is_prepared_again(tree, monkeypatch
     """The prepared format is in a scene's prepare key: a folder a previous dynaeval wrote in
     its older format (format 3, before the ground-truth pair terms) is prepared again instead of
     failing every pair that has to be scored against it."""
-    from dynaeval import suite as module
     from dynaeval.io.prepared import FORMAT_VERSION, manifest_id
+    from dynaeval.run import suite as module
 
     with monkeypatch.context() as m:  # the key and the folder of the previous format
         m.setattr(module, "FORMAT_VERSION", FORMAT_VERSION - 1)

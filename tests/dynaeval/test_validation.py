@@ -1,12 +1,12 @@
-"""The one image validator (dynaeval.validation): the range rule, shapes, dtypes, NaN/Inf."""
+"""The one image validator (dynaeval.core.validation): the range rule, shapes, dtypes, NaN/Inf."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
+from dynaeval.core.validation import as_image, check_data_range, check_pair, to_numpy
 from dynaeval.errors import InputError
-from dynaeval.validation import as_image, check_data_range, check_pair, to_numpy
 
 U8 = np.arange(48, dtype=np.uint8).reshape(4, 4, 3) * 5
 
@@ -105,7 +105,7 @@ def test_check_data_range(bad):
 
 
 def test_grey_to_rgb_replicates_grey_and_refuses_other_channel_counts():
-    from dynaeval.validation import grey_to_rgb
+    from dynaeval.core.validation import grey_to_rgb
 
     grey = np.arange(6, dtype=np.uint8).reshape(2, 3)
     for x in (grey, grey[..., None]):
@@ -121,7 +121,7 @@ def test_grey_to_rgb_replicates_grey_and_refuses_other_channel_counts():
 @pytest.mark.parametrize("shape", [(256,), (16, 16), (8, 32, 1), (8, 32, 3), (8, 32, 4), (4, 8, 5)])
 @pytest.mark.parametrize("strided", [False, True])
 def test_unit_u8_is_the_float32_division_bit_for_bit(shape, strided):
-    from dynaeval.validation import unit_u8
+    from dynaeval.core.validation import unit_u8
 
     arr = (np.arange(int(np.prod(shape))) % 256).astype(np.uint8).reshape(shape)
     arr = arr[..., ::-1] if strided else arr  # a view OpenCV cannot take: the numpy lookup
@@ -181,7 +181,7 @@ def test_the_range_pass_reports_nan_as_nan():
 def test_values_known_in_skips_the_range_pass_in_its_thread_only():
     import threading
 
-    from dynaeval.validation import values_known_in
+    from dynaeval.core.validation import values_known_in
 
     big = np.full((2, 2), 0.8)
     with values_known_in(1.0):

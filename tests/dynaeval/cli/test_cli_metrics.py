@@ -125,8 +125,8 @@ def test_an_option_of_a_metric_not_computed_is_exit_2_naming_both_flags(broken_g
 
 
 def test_library_refuses_options_of_a_metric_not_computed():
-    from dynaeval.config import ScoreConfig
     from dynaeval.errors import InputError
+    from dynaeval.run.config import ScoreConfig
 
     with pytest.raises(InputError, match=r"metric_options\['jod'\] sets options of JOD, which is "
                        r"not computed: add 'jod' to metrics \(CLI: add --jod\), or drop the "

@@ -1,4 +1,4 @@
-"""The ``dynaeval`` command checks its OpenCV at start-up (``dynaeval.runtime.check_opencv``)."""
+"""The ``dynaeval`` command checks its OpenCV at start-up (``dynaeval.core.runtime.check_opencv``)."""
 
 from __future__ import annotations
 

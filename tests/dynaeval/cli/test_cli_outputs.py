@@ -17,7 +17,7 @@ def no_work(monkeypatch):
     def boom(*args, **kwargs):
         raise AssertionError("the work started before the output was checked")
 
-    monkeypatch.setattr("dynaeval.evaluate.score", boom)
+    monkeypatch.setattr("dynaeval.run.evaluate.score", boom)
     monkeypatch.setattr("dynaeval.regions.focus.detect_ground_truth", boom)
     monkeypatch.setattr("dynaeval.report.merge.merge_results", boom)
     monkeypatch.setattr("dynaeval.report.leaderboard.build_leaderboard", boom)

@@ -13,9 +13,9 @@ import pytest
 from dynaeval.cli import build_parser, config_from_args, sample_dir
 from dynaeval.cli.fields import field_docs
 from dynaeval.cli.options import EXPOSED, NOT_ON_CLI, score_options
-from dynaeval.config import ScoreConfig
 from dynaeval.metrics.registry import selectable_specs
 from dynaeval.regions.focus import FocusConfig
+from dynaeval.run.config import ScoreConfig
 
 BEFORE = Path(__file__).resolve().parents[1] / "data" / "cli-options-f44755f.json"
 """Every command's options on main before the CLI became a package (``describe_commands``
@@ -113,9 +113,9 @@ def test_prepare_takes_its_options_from_the_same_table():
 
 
 def test_the_choices_are_the_constants_the_config_checks():
-    from dynaeval import config
     from dynaeval.metrics import pixel
     from dynaeval.regions import expand
+    from dynaeval.run import config
 
     rows = {row.path: row.kwargs for row in score_options()}
     assert rows["quantize"]["choices"] is config.QUANTIZE_MODES is pixel.QUANTIZE_MODES

@@ -92,7 +92,7 @@ def test_library_reads_a_render_folder_like_the_cli(tmp_path, rng):
     folder, records the layout and warns, as a Python warning too, that its separate test views
     are scored per frame only (issue 32: they were scored as a sequence)."""
     import dynaeval
-    from dynaeval.evaluate import DynaevalWarning
+    from dynaeval.run.evaluate import DynaevalWarning
 
     run = _run(tmp_path / "myrun", "color", "gt-color", rng)
     with pytest.warns(DynaevalWarning, match="frames are separate test views, not a video"):

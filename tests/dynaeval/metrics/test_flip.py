@@ -460,9 +460,9 @@ def test_cli_flag_gives_the_library_numbers(tmp_path, sample_results):
 
 @needs_package
 def test_flip_is_off_unless_asked_and_image_metrics_accepts_it(pairs):
-    from dynaeval.config import ScoreConfig
     from dynaeval.metrics import ImageMetrics
     from dynaeval.metrics.registry import default_frame_metrics
+    from dynaeval.run.config import ScoreConfig
 
     assert "flip" not in default_frame_metrics() and "flip" not in ScoreConfig().metrics
     meter = ImageMetrics(metrics=("flip",))

@@ -325,7 +325,7 @@ def _none():
 
 def test_jod_is_off_by_default_and_bad_options_are_usage_errors(capsys):
     from dynaeval.cli import main, sample_dir
-    from dynaeval.config import ScoreConfig
+    from dynaeval.run.config import ScoreConfig
 
     assert "jod" not in ScoreConfig().metrics
     with pytest.raises(InputError, match="frames per second must be a positive number"):

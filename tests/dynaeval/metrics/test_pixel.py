@@ -12,7 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from dynaeval.boxes import boxes_to_mask
+from dynaeval.core.boxes import boxes_to_mask
 from dynaeval.errors import EmptyRegionError, InputError
 from dynaeval.metrics import (
     SquaredErrorStats,
@@ -258,7 +258,7 @@ def test_overflowing_squared_error_is_an_error():
 @settings(max_examples=40, deadline=None)
 @given(st.lists(st.tuples(st.integers(-5, 30), st.integers(-5, 30), st.integers(1, 20), st.integers(1, 20)), min_size=1, max_size=6))
 def test_disjoint_rectangles_cover_the_union_once(raw):
-    from dynaeval.boxes import clip_boxes
+    from dynaeval.core.boxes import clip_boxes
     from dynaeval.metrics.pixel import disjoint_rectangles
 
     boxes = clip_boxes(np.array([[x, y, x + w, y + h] for x, y, w, h in raw]), 25, 30)

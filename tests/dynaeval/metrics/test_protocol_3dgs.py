@@ -390,9 +390,9 @@ def test_4dgaussians_msssim_refuses_0_255_input_as_ms_ssim_does():
 
 
 def test_4dgaussians_protocol_is_3dgs_plus_its_msssim_and_alex():
-    from dynaeval.config import ScoreConfig
     from dynaeval.errors import InputError
     from dynaeval.metrics.protocols import PROTOCOL_NAMES, run_metrics
+    from dynaeval.run.config import ScoreConfig
 
     g4, g3 = get_protocol("4dgaussians"), get_protocol("3dgs")
     assert "4dgaussians" in PROTOCOL_NAMES

@@ -17,7 +17,6 @@ import skimage.data
 from scipy.signal import convolve2d
 
 import dynaeval
-from dynaeval.config import ScoreConfig
 from dynaeval.errors import InputError, UndefinedMetricError
 from dynaeval.metrics import ssim as dynaeval_ssim
 from dynaeval.metrics.multiscale import MIN_SIZE, build_dssim, build_msssim, d_ssim, ms_ssim
@@ -26,6 +25,7 @@ from dynaeval.metrics.protocols import get_protocol, run_metrics
 from dynaeval.metrics.registry import SPECS, FrameContext
 from dynaeval.metrics.structural import ssim_reference
 from dynaeval.regions.focus import FocusConfig
+from dynaeval.run.config import ScoreConfig
 
 NO_FOCUS = FocusConfig(source="none", masked=False)
 

@@ -201,7 +201,7 @@ def test_crop_mode_ignores_differences_outside_the_boxes_map_mode_does_not(rng):
 def test_map_mode_with_boxes_equals_mask_of_their_union(rng):
     a, b = _pair(rng)
     boxes = [[0, 0, 30, 20], [10, 10, 50, 50]]
-    from dynaeval.boxes import boxes_to_mask
+    from dynaeval.core.boxes import boxes_to_mask
 
     m = boxes_to_mask(boxes, 60, 70)
     assert ssim(a, b, boxes=boxes, region_mode="map") == ssim(a, b, mask=m)

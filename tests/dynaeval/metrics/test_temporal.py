@@ -73,7 +73,7 @@ def test_flow_of_known_translation_has_right_sign_and_direction(rng, method):
 def test_flow_and_warp_give_the_same_bits_on_any_opencv_thread_count(rng, method):
     # scoring with workers > 1 runs OpenCV on one thread (runtime.opencv_threads), 1 worker on
     # OpenCV's default: equal numbers for any worker count rest on this
-    from dynaeval.runtime import opencv_threads
+    from dynaeval.core.runtime import opencv_threads
 
     base = texture(rng, 240, 400)
     a, b = base[20:220, 20:380], base[23:223, 16:376]
@@ -263,7 +263,7 @@ def test_ground_truth_is_zero_without_a_shared_cache_for_every_flow_method(rng):
 
 
 def test_region_boxes_and_masks_give_the_same_focused_values(rng):
-    from dynaeval.boxes import boxes_to_mask
+    from dynaeval.core.boxes import boxes_to_mask
 
     gt = panning(texture(rng), 3)
     pred = [g + rng.normal(0, 0.05, g.shape).astype(np.float32) for g in gt]

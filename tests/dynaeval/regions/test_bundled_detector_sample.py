@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dynaeval.boxes import box_iou_matrix
 from dynaeval.cli import sample_dir
+from dynaeval.core.boxes import box_iou_matrix
 from dynaeval.io import find_frames
 from dynaeval.regions.boxes_file import frame_key, read_boxes_file
 from dynaeval.regions.detector import Detector, DetectorConfig

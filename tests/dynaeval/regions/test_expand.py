@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from dynaeval.boxes import boxes_to_mask
+from dynaeval.core.boxes import boxes_to_mask
 from dynaeval.errors import InputError
 from dynaeval.regions.expand import ExpandConfig, expand_box, expand_boxes, merge_boxes
 

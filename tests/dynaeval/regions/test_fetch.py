@@ -102,7 +102,7 @@ def _rounded_out(boxes: np.ndarray, h: int, w: int) -> np.ndarray:
 def _matched_ious(want: np.ndarray, want_cls: np.ndarray, got: np.ndarray,
                   got_cls: np.ndarray) -> np.ndarray:
     """For each reference box, the IoU of the best unmatched same-class box found (greedy)."""
-    from dynaeval.boxes import box_iou_matrix
+    from dynaeval.core.boxes import box_iou_matrix
 
     iou = box_iou_matrix(want, got) * (want_cls[:, None] == got_cls[None])
     taken, out = np.zeros(len(got), bool), []
@@ -163,7 +163,7 @@ def _compare_torchvision(name: str, cache, photos, **builder_kwargs) -> list[int
         counts.append(len(found))
     doc = json.loads(path.with_suffix(".json").read_text())
     assert doc["pretrained"] is False and doc["export"]["opset"] == fetch.OPSET
-    from dynaeval.runtime import file_sha256
+    from dynaeval.core.runtime import file_sha256
 
     assert doc["onnx_sha256"] == file_sha256(path)
     assert Detector(DetectorConfig(model=name)).source()["fetched"]["name"] == name  # in results

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dynaeval.boxes import boxes_to_mask
+from dynaeval.core.boxes import boxes_to_mask
 from dynaeval.errors import InputError
 from dynaeval.regions.motion import (
     LazyFrames,

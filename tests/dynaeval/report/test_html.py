@@ -13,9 +13,9 @@ import pytest
 
 from dynaeval.cli import main, sample_dir
 from dynaeval.errors import InputError
-from dynaeval.evaluate import ScoreConfig, score
 from dynaeval.regions.focus import FocusConfig
 from dynaeval.report.html import RegionRecorder, worst_frames, write_report
+from dynaeval.run.evaluate import ScoreConfig, score
 from tests.dynaeval.helpers import moving_square_scene
 
 pytest.importorskip("matplotlib")

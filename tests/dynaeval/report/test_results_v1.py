@@ -17,8 +17,8 @@ from pathlib import Path
 import pytest
 
 from dynaeval.cli import main
+from dynaeval.core.outcome import Status
 from dynaeval.errors import InputError
-from dynaeval.outcome import Status
 from dynaeval.regions.boxes_file import write_boxes_file
 from dynaeval.report import load_results, schema_path
 from dynaeval.report.leaderboard import build_leaderboard

@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
-from dynaeval.boxes import mask_to_box
+from dynaeval.core.boxes import mask_to_box
 from dynaeval.errors import InputError
 from dynaeval.regions.boxes_file import read_boxes_file
 from reference_models.scenes import build_scene, render_scene

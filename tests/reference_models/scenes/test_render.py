@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from dynaeval.boxes import mask_to_box
+from dynaeval.core.boxes import mask_to_box
 from dynaeval.errors import InputError
 from reference_models.scenes import PRESETS, build_scene, render_view
 from reference_models.scenes.geometry import closest_on_segment

@@ -42,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
 
 FLOAT_TOLERANCE = 1e-3
 """Float values this far outside [0, 1] (a fraction of ``data_range`` for the metrics) are a

@@ -5,14 +5,14 @@ from __future__ import annotations
 import time
 from typing import TYPE_CHECKING
 
-from dynaeval.errors import EmptyRegionError, InputError, UndefinedMetricError
+from dynaeval.core.errors import EmptyRegionError, InputError, UndefinedMetricError
+from dynaeval.core.outcome import Outcome, Status
 from dynaeval.metrics.registry import region_argument
 from dynaeval.metrics.structural import reusing_whole_map
-from dynaeval.outcome import Outcome, Status
-from dynaeval.stages.base import FrameWork, Stage, Value
+from dynaeval.run.stages.base import FrameWork, Stage, Value
 
 if TYPE_CHECKING:
-    from dynaeval.plan import RunPlan
+    from dynaeval.run.plan import RunPlan
 
 
 class FrameMetrics(Stage):

@@ -4,8 +4,8 @@
 inputs decide (``Scope``: a video per camera or separate views; given masks; a prepared ground
 truth) into the built metric functions, the opened region sources, the presence step, the
 temporal settings and the ``settings`` that go into the results. The scoring of a camera
-(``dynaeval.scoring``) reads it; what changes while a run goes (the worker pool, the frame caches,
-the timing) is the executor's (``dynaeval.executor``).
+(``dynaeval.run.scoring``) reads it; what changes while a run goes (the worker pool, the frame caches,
+the timing) is the executor's (``dynaeval.run.executor``).
 """
 
 from __future__ import annotations
@@ -16,8 +16,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from dynaeval.config import ScoreConfig
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
+from dynaeval.core.outcome import Status, unavailable_reason, warning
+from dynaeval.core.runtime import resolve_device
 from dynaeval.io import FramePair
 from dynaeval.io.cache import FrameCache
 from dynaeval.metrics import quantize
@@ -33,16 +34,15 @@ from dynaeval.metrics.registry import (
     build_frame_metrics,
 )
 from dynaeval.metrics.temporal import TemporalConfig
-from dynaeval.outcome import Status, unavailable_reason, warning
 from dynaeval.regions.boxes_file import frame_key
 from dynaeval.regions.focus import FocusConfig, FrameRegions, RegionSources, open_sources
-from dynaeval.runtime import resolve_device
+from dynaeval.run.config import ScoreConfig
 
 if TYPE_CHECKING:
     from dynaeval.io.masks import MaskSet
     from dynaeval.metrics.protocols import Protocol
     from dynaeval.metrics.temporal import TemporalConfig
-    from dynaeval.prepare import PreparedGT
+    from dynaeval.run.prepared_gt import PreparedGT
 
 PresenceStep = Callable[[FramePair, np.ndarray, np.ndarray, FrameRegions],
                         tuple[dict[str, float | None], dict[str, str], list[dict]]]
@@ -55,7 +55,7 @@ VideoFn = Callable[..., float]
 @dataclass(frozen=True)
 class Scope:
     """What a run scores of its frames: one video per camera, or separate views
-    (``dynaeval.evaluate.per_frame_only`` decides it from the layout and the config)."""
+    (``dynaeval.run.evaluate.per_frame_only`` decides it from the layout and the config)."""
 
     temporal: bool
     """The temporal terms run (``config.temporal``, off for separate views)."""
@@ -160,7 +160,7 @@ def build_plan(config: ScoreConfig, *, scope: Scope | None = None, masks: MaskSe
             (``Protocol.masks``) gets their weights.
         prepared: ``(sources, temporal) -> PreparedGT``: opens the ``--prepared`` ground truth
             and checks it against the run's region sources and whether it has temporal terms
-            (``dynaeval.prepare.open_prepared``), or None.
+            (``dynaeval.run.prepared_gt.open_prepared``), or None.
 
     Raises:
         InputError: an unusable detector or boxes file; a prepared ground truth that does not

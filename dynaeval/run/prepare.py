@@ -31,96 +31,69 @@ The files are written and hashed in one background thread (``io.prepared.FolderW
 the next ones are computed, and each ground-truth image is decoded once: the decoding saved is
 the one the regions and flows read.
 
-:func:`open_prepared` checks a folder against a run before any frame is scored: other settings,
-another dynaeval version or format, a ground-truth file that changed or is not in the folder:
-``InputError`` naming the setting or the file. A camera whose frames differ from the prepared
-ones (``--allow-missing``) gets its regions computed again; its flows are content-keyed, so a
-flow is only ever reused for the very same pair of ground-truth images. The numbers are those of
-a run without ``--prepared``, bit for bit (tests/dynaeval/test_prepare.py).
+``dynaeval.run.prepared_gt`` reads the folder back (``open_prepared``: checked against the run) and
+defines its layout, which this writer follows. The numbers are those of a run without
+``--prepared``, bit for bit (tests/dynaeval/test_prepare.py).
 """
 
 from __future__ import annotations
 
 import json
-import os
 import threading
 from collections.abc import Iterable
 from concurrent.futures import Future, ThreadPoolExecutor
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from dynaeval.config import ScoreConfig
-from dynaeval.errors import InputError, UndefinedMetricError
-from dynaeval.executor import Executor
+from dynaeval.core.errors import InputError, UndefinedMetricError
+from dynaeval.core.progress import Progress
+from dynaeval.core.runtime import worker_opencv_threads
+from dynaeval.core.validation import as_image, values_known_in
+from dynaeval.core.version import VERSION
 from dynaeval.io import FramePair, pair_frames
 from dynaeval.io.atomic import check_writable
-from dynaeval.io.frames import FrameRef, pairs_by_camera
+from dynaeval.io.frames import pairs_by_camera
 from dynaeval.io.images import STORED_RGB, decode_file
 from dynaeval.io.prepared import (
     FORMAT_VERSION,
     MANIFEST,
     FolderWriter,
-    PreparedFiles,
     file_digest,
     folder_digests,
     manifest_id,
-    read_manifest,
     write_folder_atomic,
 )
 from dynaeval.metrics.flow import (
     FlowCache,
     FlowConfig,
-    _flow_from_gray,
     check_flow_size,
+    flow_from_gray,
     gray_digest,
     gray_of_checked,
 )
-from dynaeval.metrics.protocols import get_protocol
 from dynaeval.metrics.static_flicker import TemporalStd, check_static, static_mean
 from dynaeval.metrics.temporal import region_mask
 from dynaeval.metrics.temporal_pairs import GroundTruthPair, ground_truth_pair, pair_region
-from dynaeval.outcome import Status, note
-from dynaeval.plan import RunPlan, ground_truth_plan
-from dynaeval.progress import Progress
 from dynaeval.regions.focus import FrameRegions, open_sources
 from dynaeval.regions.packed import PackedMask
-from dynaeval.runtime import worker_opencv_threads
-from dynaeval.scoring import camera_regions_of
-from dynaeval.stages import consecutive
-from dynaeval.stages.temporal import region_items, static_pixels
-from dynaeval.validation import as_image, values_known_in
+from dynaeval.run.config import ScoreConfig
+from dynaeval.run.executor import Executor
+from dynaeval.run.plan import RunPlan, ground_truth_plan
+from dynaeval.run.prepared_gt import (
+    REGION_FIELDS,
+    frame_rel,
+    manifest_value,
+    prepared_settings,
+    static_digest,
+)
+from dynaeval.run.scoring import camera_regions_of
+from dynaeval.run.stages import consecutive
+from dynaeval.run.stages.temporal import region_items, static_pixels
 
-__all__ = ["PreparedGT", "open_prepared", "prepare", "prepared_settings"]
-
-
-def _jsonable(value: Any) -> Any:
-    return json.loads(json.dumps(value, default=str))
-
-
-def prepared_settings(config: ScoreConfig, sources: Any,
-                      temporal: bool | None = None) -> dict[str, Any]:
-    """The settings a prepared ground truth depends on (``config``'s, ``sources`` opened from
-    its focus; ``temporal``: whether the run has temporal terms, default ``config.temporal``):
-    compared key by key when it is used."""
-    return _jsonable({
-        "background": config.background, "quantize": config.resolved_quantize(),
-        "decode": get_protocol(config.protocol).decode_rule(), "focus": sources.settings,
-        "flow": (FlowConfig(method=config.flow).describe()
-                 if (config.temporal if temporal is None else temporal) else None),
-    })
-
-
-def _rel(ref: FrameRef, root: Path) -> str:
-    """The file of ``ref`` relative to the ground-truth root, POSIX, ``#index`` for a video frame."""
-    rel = Path(os.path.relpath(ref.path.resolve(), root.resolve())).as_posix()
-    return rel if ref.index is None else f"{rel}#{ref.index}"
-
-
-# --------------------------------------------------------------------------------------------
-# Writing
+__all__ = ["KeptDecodings", "prepare"]
 
 
 def prepare(gt_dir: str | Path, out: str | Path, config: ScoreConfig | None = None, *,
@@ -153,10 +126,8 @@ def prepare(gt_dir: str | Path, out: str | Path, config: ScoreConfig | None = No
     progress = Progress({"regions": len(pairing.pairs),
                          "pairs": sum(len(c) - 1 for c in cams.values()) if config.temporal else 0},
                         enabled=config.progress)
-    from dynaeval import __version__
-
     manifest: dict[str, Any] = {
-        "format_version": FORMAT_VERSION, "dynaeval_version": __version__,
+        "format_version": FORMAT_VERSION, "dynaeval_version": VERSION,
         "gt": str(gt_dir.resolve()), "settings": prepared_settings(config, sources),
         "files": {}, "decoded": {}, "cameras": {},
     }
@@ -168,7 +139,7 @@ def prepare(gt_dir: str | Path, out: str | Path, config: ScoreConfig | None = No
             (tmp / sub).mkdir()
         with FolderWriter(tmp) as writer:  # files written and hashed beside the work
             for p in pairing.pairs:  # a video file once, not once per frame
-                rel = _rel(p.gt, gt_dir).split("#")[0]
+                rel = frame_rel(p.gt, gt_dir).split("#")[0]
                 if rel not in manifest["files"]:
                     digest = manifest["files"][rel] = file_digest(p.gt.path)
                     stored = None if p.gt.index is not None else _save_decoded(
@@ -254,7 +225,7 @@ def _prepare_camera(i: int, cam: str, pairs: list[FramePair], plan: RunPlan, exe
     cache = executor.frame_cache()
     regions = camera_regions_of(cam, pairs, plan, executor, cache)
     progress.advance("regions", len(pairs))
-    entry: dict[str, Any] = {"frames": [[p.frame, _rel(p.gt, gt_dir)] for p in pairs],
+    entry: dict[str, Any] = {"frames": [[p.frame, frame_rel(p.gt, gt_dir)] for p in pairs],
                              "regions": None, "flows": None, "gt_pairs": None, "flicker": None}
     if regions and regions[0].not_video is None:  # no video: computed again when scored
         entry["regions"] = _save_regions(regions, f"regions/{i}.npz", writer)
@@ -268,9 +239,6 @@ def _prepare_camera(i: int, cam: str, pairs: list[FramePair], plan: RunPlan, exe
     return entry
 
 
-_FIELDS = ("boxes", "raw_boxes", "mask")
-
-
 def _save_regions(regions: list[FrameRegions], rel: str, writer: FolderWriter) -> dict[str, Any]:
     """Write the arrays of a camera's regions as ``rel`` (npz, masks bit-packed as
     ``FrameRegions`` holds them); returns the JSON part (reasons, records, sizes, the camera's
@@ -279,7 +247,7 @@ def _save_regions(regions: list[FrameRegions], rel: str, writer: FolderWriter) -
     frames = []
     for k, r in enumerate(regions):
         packed = r.packed_mask
-        for name, value in zip(_FIELDS, (r.boxes, r.raw_boxes,
+        for name, value in zip(REGION_FIELDS, (r.boxes, r.raw_boxes,
                                          None if packed is None else packed.bits), strict=True):
             if value is not None:
                 arrays[f"{name}{k}"] = value
@@ -289,8 +257,8 @@ def _save_regions(regions: list[FrameRegions], rel: str, writer: FolderWriter) -
                        "records": r.records, "size": r.size,
                        "mask_shape": None if packed is None else list(packed.shape)})
     writer.write(rel, lambda path: np.savez_compressed(path, **arrays))
-    return {"file": rel, "frames": _jsonable(frames),
-            "camera_motion": _jsonable(regions[0].camera_motion)}
+    return {"file": rel, "frames": manifest_value(frames),
+            "camera_motion": manifest_value(regions[0].camera_motion)}
 
 
 def _save_flows(pairs: list[FramePair], regions: list[FrameRegions], plan: RunPlan,
@@ -326,7 +294,7 @@ def _save_flows(pairs: list[FramePair], regions: list[FrameRegions], plan: RunPl
         keys, flows = [], []
         for x, y, digests in ((ga, gb, (da, db)), (gb, ga, (db, da))):
             key = FlowCache.key(x, y, flow_cfg, digests)
-            flows.append(_flow_from_gray(x, y, flow_cfg))
+            flows.append(flow_from_gray(x, y, flow_cfg))
             writer.save(f"flows/{key}.npy", flows[-1])
             keys.append(key)
         progress.advance("pairs")
@@ -406,17 +374,6 @@ class _GrayFrames:
         return got
 
 
-def static_digest(static: np.ndarray) -> str:
-    """blake2b of a ``(H, W)`` bool mask (its shape and bits): the key of the prepared flicker
-    means."""
-    import hashlib
-
-    h = hashlib.blake2b(digest_size=16)
-    h.update(repr(static.shape).encode())
-    h.update(np.packbits(static).tobytes())
-    return h.hexdigest()
-
-
 def _gt_flicker(pairs: list[FramePair], regions: list[FrameRegions], plan: RunPlan,
                 cache: Any) -> dict[str, Any] | None:
     """The ground truth's ``S`` of the flicker terms (``static_mean`` of its temporal std on the
@@ -447,194 +404,3 @@ def _gt_flicker(pairs: list[FramePair], regions: list[FrameRegions], plan: RunPl
     return {"static": static_digest(static),
             "gt": [static_mean(std, acc.pixels, None),
                    None if union is None else static_mean(std, acc.pixels, union)]}
-
-
-# --------------------------------------------------------------------------------------------
-# Reading
-
-
-@dataclass
-class PreparedGT:
-    """A prepared ground truth checked against one run: regions by camera, flows by key."""
-
-    path: Path
-    manifest: dict[str, Any]
-    files: PreparedFiles
-    """The folder's files, each checked against the manifest's digest when first read."""
-    reuse: dict[str, bool] = field(default_factory=dict)
-    """Camera -> its prepared regions match the run's frames (else computed again)."""
-    decoded_files: dict[str, str] = field(default_factory=dict)
-    """Resolved ground-truth image path -> its prepared uint8 decoding (``frames/<digest>.npy``,
-    relative to the folder)."""
-
-    def decoded(self, path: Path) -> np.ndarray | None:
-        """The prepared decoding of the ground-truth image ``path`` (``FrameCache``'s
-        ``decoded``: memory-mapped, read-only), or None: a prediction, or not prepared."""
-        stored = self.decoded_files.get(str(Path(path).resolve()))
-        return None if stored is None else self.files.load(stored, mmap=True)
-
-    def regions(self, camera: str) -> list[FrameRegions] | None:
-        """The prepared regions of ``camera``, or None when they are computed again."""
-        if not self.reuse.get(camera):
-            return None
-        entry = self.manifest["cameras"][camera]["regions"]
-        motion = entry["camera_motion"]  # one dict shared by the camera's frames, as computed
-        out = []
-        with self.files.load(entry["file"]) as arrays:
-            for k, f in enumerate(entry["frames"]):
-                got = {n: arrays[f"{n}{k}"] if f"{n}{k}" in arrays else None for n in _FIELDS}
-                packed = (None if got["mask"] is None else
-                          PackedMask(got["mask"], tuple(f["mask_shape"])))  # kept packed
-                out.append(FrameRegions(
-                    boxes=got["boxes"], boxes_reason=f["boxes_reason"], packed_mask=packed,
-                    mask_reason=f["mask_reason"], raw_boxes=got["raw_boxes"], records=f["records"],
-                    size=None if f["size"] is None else tuple(f["size"]), camera_motion=motion,
-                    boxes_status=_status(f.get("boxes_status")),
-                    mask_status=_status(f.get("mask_status"))))
-        return out
-
-    def gt_flicker(self, camera: str, static: np.ndarray) -> tuple[float | None, float | None] | None:
-        """The ground truth's ``S`` on ``camera``'s static pixels ``static``, whole and inside
-        the union of the regions (``SequenceFlicker``'s ``gt_means``), or None when computed
-        again: frames that differ from the prepared ones, other static pixels (``--masks``),
-        none prepared."""
-        entry = (self.manifest["cameras"].get(camera) or {}).get("flicker")
-        if not self.reuse.get(camera) or not entry or entry["static"] != static_digest(static):
-            return None
-        whole, focused = entry["gt"]
-        return whole, focused
-
-    def ground_truth_pairs(self, camera: str) -> Any:
-        """``k -> GroundTruthPair`` of ``camera``'s pair ``k`` (frames ``k, k + 1``), read from
-        the folder (flows memory-mapped, visibility mask unpacked, ``E(gt)`` from the manifest),
-        or None when they are computed again: frames that differ from the prepared ones, a
-        camera without prepared pairs."""
-        entry = self.manifest["cameras"].get(camera) or {}
-        if not self.reuse.get(camera) or not entry.get("gt_pairs"):
-            return None
-
-        def load(k: int) -> GroundTruthPair:
-            (fw, bw), got = entry["flows"][k], entry["gt_pairs"][k]
-            valid = PackedMask(self.files.load(got["visible"]), tuple(got["shape"])).unpack()
-            e_whole, e_focused = got["warp_error"]
-            return GroundTruthPair(self._flow(fw), self._flow(bw), valid, (e_whole, e_focused))
-
-        return load
-
-    def _flow(self, key: str) -> np.ndarray:
-        """The prepared flow ``key``, memory-mapped read-only."""
-        return self.files.load(f"flows/{key}.npy", mmap=True)
-
-    def flow_cache(self) -> Any:
-        """A flow cache (64 MiB in memory, as the run's own) that reads the prepared flows."""
-        known = {k: self.path / "flows" / f"{k}.npy"
-                 for cam in self.manifest["cameras"].values() for pair in cam["flows"] or ()
-                 for k in pair}
-        return FlowCache(max_bytes=1 << 26, known=known, load_known=self._load_flow)
-
-    def _load_flow(self, path: Path) -> np.ndarray:
-        return self.files.load(path.relative_to(self.path).as_posix(), mmap=True)
-
-    def describe(self) -> dict[str, Any]:
-        """``settings["prepared"]`` of the results: the folder and its id (the same for every
-        shard of a run, so that ``dynaeval merge`` combines them)."""
-        return {"path": str(self.path), "id": self.manifest["id"]}
-
-    def warnings(self) -> list[dict[str, str]]:
-        """One results warning per camera whose regions were computed again."""
-        return [note("regions computed again, not read from the prepared ground truth: the "
-                     "camera's frames differ from the prepared ones (or it is no video)",
-                     camera=cam)
-                for cam, ok in self.reuse.items() if not ok]
-
-
-def _status(value: str | None) -> Status | None:
-    """A ``FrameRegions`` status as stored in the manifest (None: the frame has its region)."""
-    return None if value is None else Status(value)
-
-
-def open_prepared(path: str | Path, gt_root: Path, pairs: list[FramePair],
-                  config: ScoreConfig, sources: Any, *, temporal: bool | None = None) -> PreparedGT:
-    """Check the prepared ground truth at ``path`` against a run (its ground-truth folder, its
-    pairs, its settings and region ``sources``; ``temporal``: whether it has temporal terms,
-    default ``config.temporal``) and open it.
-
-    Raises:
-        InputError: not a prepared folder; another format or dynaeval version; a setting that
-            differs (named, with both values); a ground-truth file that is not in it or changed
-            since (named).
-    """
-    from dynaeval import __version__
-
-    path = Path(path)
-    manifest = read_manifest(path)
-    where = path / MANIFEST
-    if manifest.get("dynaeval_version") != __version__:
-        raise InputError(f"prepared with dynaeval {manifest.get('dynaeval_version')}, this is "
-                         f"{__version__}: prepare it again", path=where)
-    _check_settings(manifest["settings"], prepared_settings(config, sources, temporal), where)
-    digests: dict[str, str] = {}
-    for p in pairs:
-        rel = _rel(p.gt, gt_root).split("#")[0]
-        if rel in digests:
-            continue
-        if rel not in manifest["files"]:
-            raise InputError("ground-truth file is not in the prepared ground truth "
-                             f"{path} (added since?): run 'dynaeval prepare' again", path=p.gt.path)
-        digests[rel] = file_digest(p.gt.path)
-        if digests[rel] != manifest["files"][rel]:
-            raise InputError(f"ground-truth file changed since it was prepared in {path}: run "
-                             "'dynaeval prepare' again", path=p.gt.path)
-    prepared = PreparedGT(path, manifest, PreparedFiles(path, manifest["hashes"]))
-    for rel, stored in manifest.get("decoded", {}).items():  # only files checked just above
-        if rel in digests:
-            prepared.decoded_files[str((gt_root / rel).resolve())] = stored
-    for cam, cam_pairs in pairs_by_camera(pairs).items():
-        entry = manifest["cameras"].get(cam)
-        frames = [[p.frame, _rel(p.gt, gt_root)] for p in cam_pairs]
-        prepared.reuse[cam] = bool(entry and entry["regions"] and entry["frames"] == frames)
-    prepared.files.check_in_background(_files_in_order_of_use(prepared, pairs, gt_root))
-    return prepared
-
-
-def _files_in_order_of_use(prepared: PreparedGT, pairs: list[FramePair], gt_root: Path) -> list[str]:
-    """The prepared files a run of ``pairs`` reads, camera by camera as it reads them (regions,
-    decoded frames, flows and visibility masks): the order of the background check."""
-    out: list[str] = []
-    for cam, cam_pairs in pairs_by_camera(pairs).items():
-        entry = prepared.manifest["cameras"].get(cam) or {}
-        if prepared.reuse.get(cam):
-            out.append(entry["regions"]["file"])
-        out += [prepared.manifest["decoded"][rel] for rel in
-                (_rel(p.gt, gt_root).split("#")[0] for p in cam_pairs)
-                if rel in prepared.manifest.get("decoded", {})]
-        for k, pair in enumerate(entry.get("flows") or ()):
-            out += [f"flows/{key}.npy" for key in pair]
-            if prepared.reuse.get(cam) and entry.get("gt_pairs"):
-                out.append(entry["gt_pairs"][k]["visible"])
-    return out
-
-
-def _check_settings(prepared: dict[str, Any], run: dict[str, Any], where: Path) -> None:
-    """InputError naming the first setting of the run that differs from the prepared one's."""
-    for key, value in run.items():
-        got = prepared.get(key)
-        if key == "flow" and (value is None or got is None):
-            continue  # no temporal terms in the run, or no flows prepared (computed as usual)
-        if got != value:
-            name, got, value = _first_difference(key, got, value)
-            raise InputError(
-                f"setting {name!r} differs from the prepared ground truth's: prepared "
-                f"{json.dumps(got)}, this run {json.dumps(value)}; score with the prepared "
-                "settings or run 'dynaeval prepare' again with these", path=where)
-
-
-def _first_difference(key: str, a: Any, b: Any) -> tuple[str, Any, Any]:
-    """The dotted name and the two values of the first leaf where settings ``a`` and ``b``
-    differ (``focus.source``, not the whole ``focus`` dict)."""
-    while isinstance(a, dict) and isinstance(b, dict):
-        sub = next((k for k in dict.fromkeys([*a, *b]) if a.get(k) != b.get(k)), None)
-        if sub is None:
-            break
-        key, a, b = f"{key}.{sub}", a.get(sub), b.get(sub)
-    return key, a, b

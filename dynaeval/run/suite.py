@@ -3,7 +3,7 @@
 A suite is a set of (method, scene) pairs, each a ``dynaeval score PRED GT``, with one set of
 settings (``ScoreConfig`` fields) and one output folder ``OUT``. :func:`run_suite`:
 
-1. prepares each scene's ground truth once (``dynaeval.prepare.prepare``) into
+1. prepares each scene's ground truth once (``dynaeval.run.prepare.prepare``) into
    ``OUT/prepared/<scene>`` (kept for the next run while the scene's files and the settings are
    the same: ``OUT/prepared/<scene>.key``);
 2. scores every pair with ``prepared=`` (same numbers as a plain ``score``, faster) into
@@ -55,19 +55,20 @@ from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
-from dynaeval.config import ScoreConfig
-from dynaeval.deps import DEPENDENCIES, MissingDependency, load
-from dynaeval.distributed import ScoreJob, score_shard
-from dynaeval.errors import InputError
-from dynaeval.evaluate import DynaevalWarning
+from dynaeval.core.deps import DEPENDENCIES, MissingDependency, load
+from dynaeval.core.errors import InputError
+from dynaeval.core.progress import Progress
+from dynaeval.core.version import VERSION
 from dynaeval.io.atomic import check_writable, write_text_atomic
 from dynaeval.io.lock import hold_folder
 from dynaeval.io.prepared import FORMAT_VERSION, file_digest, folder_digests, json_digest
-from dynaeval.prepare import prepare
-from dynaeval.progress import Progress
 from dynaeval.report.leaderboard import build_leaderboard, render
 from dynaeval.report.results import load_results, results_text
 from dynaeval.report.suite_page import render_suite_page
+from dynaeval.run.config import ScoreConfig
+from dynaeval.run.distributed import ScoreJob, score_shard
+from dynaeval.run.evaluate import DynaevalWarning
+from dynaeval.run.prepare import prepare
 
 __all__ = ["Suite", "SuiteOutcome", "SuitePair", "folder_suite", "load_suite", "read_toml",
            "run_suite", "settings_config"]
@@ -355,9 +356,7 @@ def config_key(config: ScoreConfig) -> dict[str, Any]:
 def pair_key(pair: SuitePair, settings: dict[str, Any], gt_digests: dict[str, str]) -> str:
     """The key of one pair's results: version, settings (``config_key``), names and the digest
     of every prediction and ground-truth file."""
-    from dynaeval import __version__
-
-    return json_digest({"dynaeval": __version__, "settings": settings, "method": pair.method,
+    return json_digest({"dynaeval": VERSION, "settings": settings, "method": pair.method,
                         "scene": pair.scene, "pred": folder_digests(pair.pred), "gt": gt_digests},
                        16)
 
@@ -365,9 +364,7 @@ def pair_key(pair: SuitePair, settings: dict[str, Any], gt_digests: dict[str, st
 def prepare_key(settings: dict[str, Any], gt_digests: dict[str, str]) -> str:
     """The key of a scene's prepared folder (dynaeval and prepared-format versions, settings,
     ground-truth files): a folder of an older format is prepared again, not refused."""
-    from dynaeval import __version__
-
-    return json_digest({"dynaeval": __version__, "format": FORMAT_VERSION, "settings": settings,
+    return json_digest({"dynaeval": VERSION, "format": FORMAT_VERSION, "settings": settings,
                         "gt": gt_digests}, 16)
 
 

@@ -8,14 +8,14 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from dynaeval.errors import EmptyRegionError, InputError, UndefinedMetricError
+from dynaeval.core.errors import EmptyRegionError, InputError, UndefinedMetricError
+from dynaeval.core.outcome import Status
 from dynaeval.io import FramePair
 from dynaeval.io.video import video_fps
-from dynaeval.outcome import Status
-from dynaeval.stages.base import CameraWork, Stage, consecutive
+from dynaeval.run.stages.base import CameraWork, Stage, consecutive
 
 if TYPE_CHECKING:
-    from dynaeval.plan import RunPlan
+    from dynaeval.run.plan import RunPlan
 
 
 class Video(Stage):

@@ -5,10 +5,10 @@ threads and build (contrib or not), file hashes.
 the CPU* — never an error. For torch that is ``"cuda"`` when ``torch.cuda.is_available()`` (and
 ``"cpu"`` when torch is not installed); for onnxruntime it is the ``CUDAExecutionProvider`` when the
 installed onnxruntime offers it (``onnxruntime-gpu``). An explicit ``"cuda"`` that cannot be
-honoured is an :class:`~dynaeval.errors.InputError` naming the fix.
+honoured is an :class:`~dynaeval.core.errors.InputError` naming the fix.
 
 Ground floor: numpy-free even; onnxruntime and cv2 are imported inside the functions, torch through
-``dynaeval.deps``.
+``dynaeval.core.deps``.
 """
 
 from __future__ import annotations
@@ -20,8 +20,8 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from dynaeval.deps import available, load
-from dynaeval.errors import InputError
+from dynaeval.core.deps import available, load
+from dynaeval.core.errors import InputError
 
 CPU_PROVIDERS: tuple[str, ...] = ("CPUExecutionProvider",)
 CUDA_PROVIDERS: tuple[str, ...] = ("CUDAExecutionProvider", "CPUExecutionProvider")

@@ -1,7 +1,7 @@
 """The one interface of a scoring stage, and what a stage is given for a frame and a camera.
 
 A stage is one kind of work done on every camera of a run: per-frame metrics, object presence,
-temporal terms, video metrics. ``dynaeval.scoring.score_camera`` finds the camera's regions,
+temporal terms, video metrics. ``dynaeval.run.scoring.score_camera`` finds the camera's regions,
 then runs every stage that ``applies`` to the plan: ``frame`` on each frame (on the worker pool),
 ``camera`` once the frames are done. A stage holds no state of its own (one instance serves
 every run); what a camera's stages find out is in its ``CameraWork``.
@@ -15,18 +15,18 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from dynaeval.core.outcome import Outcome
 from dynaeval.io import FramePair
 from dynaeval.io.cache import FrameCache
 from dynaeval.io.frames import gap_positions
-from dynaeval.outcome import Outcome
 from dynaeval.regions.focus import FrameRegions
 
 if TYPE_CHECKING:
-    from dynaeval.executor import Executor
-    from dynaeval.plan import RunPlan
+    from dynaeval.run.executor import Executor
+    from dynaeval.run.plan import RunPlan
 
 Value = tuple[str, Outcome]
-"""``(result key, outcome)`` of one per-frame value (``dynaeval.outcome.Outcome``: the value,
+"""``(result key, outcome)`` of one per-frame value (``dynaeval.core.outcome.Outcome``: the value,
 ``inf`` or None, and why)."""
 
 
@@ -88,7 +88,7 @@ class Stage:
 
     def camera(self, plan: RunPlan, work: CameraWork) -> dict[str, dict] | None:
         """Its camera-level terms (``{key: {"value", "status", "reason", ...}}``, ``status`` a
-        ``dynaeval.outcome.Status`` value when ``value`` is None), or None for a frame stage."""
+        ``dynaeval.core.outcome.Status`` value when ``value`` is None), or None for a frame stage."""
         return None
 
 

@@ -9,21 +9,21 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from dynaeval.errors import InputError, UndefinedMetricError
+from dynaeval.core.errors import InputError, UndefinedMetricError
+from dynaeval.core.outcome import Status
+from dynaeval.core.validation import values_known_in
 from dynaeval.io import FramePair
 from dynaeval.io.frames import gap_positions
 from dynaeval.metrics.flow import check_flow_size
 from dynaeval.metrics.perceptual import MIN_SIZE
 from dynaeval.metrics.registry import SPECS, temporal_keys
 from dynaeval.metrics.temporal import temporal_metrics
-from dynaeval.outcome import Status
 from dynaeval.regions.focus import FocusConfig, FrameRegions, FramesDiffer, same_shape
 from dynaeval.regions.packed import union
-from dynaeval.stages.base import CameraWork, Stage
-from dynaeval.validation import values_known_in
+from dynaeval.run.stages.base import CameraWork, Stage
 
 if TYPE_CHECKING:
-    from dynaeval.plan import RunPlan
+    from dynaeval.run.plan import RunPlan
 
 
 class Temporal(Stage):

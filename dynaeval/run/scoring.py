@@ -1,10 +1,10 @@
 """Scoring one camera: its regions from the ground truth, then a loop over the plan's stages.
 
-``dynaeval.plan.build_plan`` resolves the run once (a frozen ``RunPlan``); ``score_camera``
+``dynaeval.run.plan.build_plan`` resolves the run once (a frozen ``RunPlan``); ``score_camera``
 scores one camera with it: the regions (``camera_regions_of``), every frame through the frame
-stages (per-frame metrics, presence; ``dynaeval.stages``) on the executor's pool, then the
+stages (per-frame metrics, presence; ``dynaeval.run.stages``) on the executor's pool, then the
 camera stages (temporal terms, video metrics), and the camera's warnings.
-``dynaeval.evaluate.score`` loops over the cameras and assembles the results.
+``dynaeval.run.evaluate.score`` loops over the cameras and assembles the results.
 """
 
 from __future__ import annotations
@@ -16,18 +16,18 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any
 
-from dynaeval.errors import InputError
-from dynaeval.executor import Executor
+from dynaeval.core.errors import InputError
+from dynaeval.core.outcome import Status, note, warning
+from dynaeval.core.validation import values_known_in
 from dynaeval.io import FramePair
 from dynaeval.io.cache import FrameCache
 from dynaeval.metrics.registry import METRICS
-from dynaeval.outcome import Status, note, warning
-from dynaeval.plan import RunPlan
 from dynaeval.regions.focus import FrameRegions, camera_regions, fit_to
 from dynaeval.regions.given import given_masks, with_weights
 from dynaeval.regions.summary import regions_summary
-from dynaeval.stages import CameraWork, FrameWork, Stage, active_stages
-from dynaeval.validation import values_known_in
+from dynaeval.run.executor import Executor
+from dynaeval.run.plan import RunPlan
+from dynaeval.run.stages import CameraWork, FrameWork, Stage, active_stages
 
 
 @dataclass

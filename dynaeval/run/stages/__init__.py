@@ -1,19 +1,19 @@
 """The stages of scoring a camera, in the order they run: per-frame metrics, presence (per
-frame), temporal terms, video metrics (per camera). ``Stage`` (``dynaeval.stages.base``) is their
-one interface; ``dynaeval.scoring`` runs those that apply to the plan."""
+frame), temporal terms, video metrics (per camera). ``Stage`` (``dynaeval.run.stages.base``) is their
+one interface; ``dynaeval.run.scoring`` runs those that apply to the plan."""
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from dynaeval.stages.base import CameraWork, FrameWork, Stage, Value, consecutive
-from dynaeval.stages.frame_metrics import FrameMetrics
-from dynaeval.stages.presence import Presence
-from dynaeval.stages.temporal import Temporal
-from dynaeval.stages.video import Video
+from dynaeval.run.stages.base import CameraWork, FrameWork, Stage, Value, consecutive
+from dynaeval.run.stages.frame_metrics import FrameMetrics
+from dynaeval.run.stages.presence import Presence
+from dynaeval.run.stages.temporal import Temporal
+from dynaeval.run.stages.video import Video
 
 if TYPE_CHECKING:
-    from dynaeval.plan import RunPlan
+    from dynaeval.run.plan import RunPlan
 
 __all__ = ["STAGES", "CameraWork", "FrameWork", "Stage", "Value", "active_stages",
            "consecutive", "metric_names"]

@@ -5,7 +5,7 @@
 (``ScoreConfig``'s).
 
 Order of work, camera by camera (so memory is bounded by one camera's regions,
-``dynaeval.scoring``; with ``workers`` > 1, up to ``workers`` cameras at a time, sharing the
+``dynaeval.run.scoring``; with ``workers`` > 1, up to ``workers`` cameras at a time, sharing the
 frame cache budget):
 
 1. regions from the ground truth only (``dynaeval.regions.focus``): boxes (detector, boxes file
@@ -28,9 +28,10 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from dynaeval.config import ScoreConfig
-from dynaeval.errors import InputError
-from dynaeval.executor import Executor, Stopped
+from dynaeval.core.errors import InputError
+from dynaeval.core.outcome import Status, note, warning, warning_line
+from dynaeval.core.progress import Progress
+from dynaeval.core.version import VERSION
 from dynaeval.io import FramePair, pair_frames
 from dynaeval.io.dycheck import pair_dycheck, pair_renders
 from dynaeval.io.frames import (
@@ -46,14 +47,14 @@ from dynaeval.io.masks import check_masks, find_masks, unused_mask_folders
 from dynaeval.io.video import close_videos
 from dynaeval.metrics.protocols import get_protocol
 from dynaeval.metrics.registry import SPECS
-from dynaeval.outcome import Status, note, warning, warning_line
-from dynaeval.plan import RunPlan, Scope, build_plan
-from dynaeval.prepare import open_prepared
-from dynaeval.progress import Progress
 from dynaeval.regions.focus import FrameRegions
 from dynaeval.report.results import build_results
-from dynaeval.scoring import score_camera
-from dynaeval.stages import metric_names
+from dynaeval.run.config import ScoreConfig
+from dynaeval.run.executor import Executor, Stopped
+from dynaeval.run.plan import RunPlan, Scope, build_plan
+from dynaeval.run.prepared_gt import open_prepared
+from dynaeval.run.scoring import score_camera
+from dynaeval.run.stages import metric_names
 
 __all__ = ["DynaevalWarning", "Results", "ScoreConfig", "score"]
 
@@ -190,7 +191,7 @@ def _pair_layout(layout: Any, config: ScoreConfig) -> Any:
 
 
 def per_frame_only(config: ScoreConfig, layout: Any, masks: Any) -> Scope:
-    """What the run scores of its frames (``dynaeval.plan.Scope``): what ``config`` asks when
+    """What the run scores of its frames (``dynaeval.run.plan.Scope``): what ``config`` asks when
     they are a video, less when they are separate views; with the results'
     ``settings["sequence"]`` (None for frames that are a video by default: nothing changes).
 
@@ -259,7 +260,7 @@ def _given_masks(config: ScoreConfig, layout: Any, pairs: list[FramePair]) -> tu
 
 
 def run_progress(pairs: list[FramePair], temporal: bool, enabled: bool) -> Any:
-    """The run's ``dynaeval.progress.Progress`` (silent unless ``enabled``): regions and scored
+    """The run's ``dynaeval.core.progress.Progress`` (silent unless ``enabled``): regions and scored
     frames per frame, temporal pairs per consecutive pair (with ``temporal`` terms), video
     metrics per camera."""
     cams = pairs_by_camera(pairs)
@@ -316,7 +317,7 @@ def _score_one_camera(cam: str, cam_pairs: list[FramePair], plan: RunPlan, execu
                       regions_done: RegionsCallback, progress: Any, stop: Any = None) -> Any:
     """``score_camera`` with its progress: frames, pairs (those a camera could not score, no
     sequence, count as done) and the camera's video step. ``stop``: a ``threading.Event``
-    checked at every frame and pair (``dynaeval.executor.Stopped`` is raised once it is set)."""
+    checked at every frame and pair (``dynaeval.run.executor.Stopped`` is raised once it is set)."""
     pairs_done = [0]
 
     def tick(phase: str) -> None:
@@ -341,8 +342,6 @@ def _assemble(layout: Any, run_name: str | None, pairing: Any, plan: RunPlan, ro
               warnings: list, temporal: dict, timing: dict, regions: dict) -> Results:
     """The results document; method and scene default to the folders' names (the render
     folder's, ``run_name``, for a known layout)."""
-    from dynaeval import __version__
-
     config = plan.config
     method = config.method or run_name or layout.pred.resolve().name
     scene = config.scene or run_name or layout.gt.resolve().name
@@ -355,7 +354,7 @@ def _assemble(layout: Any, run_name: str | None, pairing: Any, plan: RunPlan, ro
         pred_dir=str(layout.pred), gt_dir=str(layout.gt), settings=dict(plan.settings),
         unscored_cameras=pairing.unscored_cameras, shard=config.shard,
         skipped=pairing.skipped, warnings=warnings, timing=timing,
-        version=__version__, temporal=temporal, inputs_extra=inputs_extra,
+        version=VERSION, temporal=temporal, inputs_extra=inputs_extra,
         regions=_regions_doc(plan, regions),
     ))
 

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 from os import PathLike
 from typing import Any
 
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
 from dynaeval.io.frames import parse_shard
 from dynaeval.metrics.flow import FlowConfig
 from dynaeval.metrics.jod import check_fps
@@ -89,9 +89,9 @@ class ScoreConfig:
     workers: int = 1
     """Threads scoring frames and temporal pairs; with several cameras, also how many cameras
     are scored at a time. With more than one, OpenCV runs on one thread in each
-    (``dynaeval.runtime.opencv_threads``). Never changes a number."""
+    (``dynaeval.core.runtime.opencv_threads``). Never changes a number."""
     device: str = "cpu"
-    """Torch device for LPIPS: ``cpu``, ``cuda[:i]`` or ``auto`` (``dynaeval.runtime``)."""
+    """Torch device for LPIPS: ``cpu``, ``cuda[:i]`` or ``auto`` (``dynaeval.core.runtime``)."""
     progress: bool = True
     """Show a progress bar on stderr."""
     cache_mb: int = 1024
@@ -128,7 +128,7 @@ class ScoreConfig:
     video whatever the layout (``--frames-are-video``); False: per frame only. Recorded as
     ``settings["sequence"]`` when the layout's frames are not a video or this is set."""
     prepared: str | None = None
-    """A prepared ground truth (``dynaeval prepare GT -o PREP``, ``dynaeval.prepare``): its
+    """A prepared ground truth (``dynaeval prepare GT -o PREP``, ``dynaeval.run.prepare``): its
     regions and ground-truth flows are read instead of computed. Checked against the ground-truth
     files (content hashes) and the settings before the work starts; never changes a number.
     Recorded as ``settings["prepared"]`` (path and id)."""

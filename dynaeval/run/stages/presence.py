@@ -5,12 +5,12 @@ from __future__ import annotations
 import time
 from typing import TYPE_CHECKING
 
+from dynaeval.core.outcome import Outcome, Status
 from dynaeval.metrics.presence import PRESENCE_METRICS
-from dynaeval.outcome import Outcome, Status
-from dynaeval.stages.base import FrameWork, Stage, Value
+from dynaeval.run.stages.base import FrameWork, Stage, Value
 
 if TYPE_CHECKING:
-    from dynaeval.plan import RunPlan
+    from dynaeval.run.plan import RunPlan
 
 
 class Presence(Stage):

@@ -10,7 +10,7 @@ executor. Tasks receive paths, not pixels: every worker must see PRED and GT at 
 (a shared file system), and returns the results as a dict (kilobytes), so nothing large travels.
 
     from dask.distributed import Client
-    from dynaeval.distributed import ScoreJob, score_jobs
+    from dynaeval.run.distributed import ScoreJob, score_jobs
 
     client = Client("tcp://scheduler:8786")   # or Client(LocalCluster(...)) on one machine
     jobs = [ScoreJob("/data/kplanes/stadium", "/data/gt/stadium", method="kplanes", scene="stadium")]
@@ -25,10 +25,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from dynaeval.errors import InputError
-from dynaeval.evaluate import score
+from dynaeval.core.errors import InputError
 from dynaeval.report.merge import merge_results
 from dynaeval.report.results import write_json_atomic
+from dynaeval.run.evaluate import score
 
 
 @dataclass(frozen=True)

@@ -47,7 +47,7 @@ DEPENDENCIES: dict[str, Dependency] = {d.module: d for d in (
     Dependency("pyfvvdp", "pyfvvdp", "pip install 'dynaeval[fvvdp]'",
                "JOD with FovVideoVDP (jod.model=fvvdp)"),
     Dependency("distributed", "dask[distributed]", "pip install 'dynaeval[dist]'",
-               "scoring on a Dask cluster (dynaeval.distributed)"),
+               "scoring on a Dask cluster (dynaeval.run.distributed)"),
     Dependency("jsonschema", "jsonschema", "pip install jsonschema",
                "the JSON-schema check of results files, on top of dynaeval's own"),
     Dependency("tomli", "tomli", "pip install tomli", "reading SUITE.toml on Python 3.10"),

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from dynaeval.errors import InputError
+from dynaeval.core.errors import InputError
 
 
 def as_boxes(boxes: object) -> np.ndarray:

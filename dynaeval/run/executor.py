@@ -2,7 +2,7 @@
 the frame caches they share, the seconds spent per phase.
 
 The numbers of a camera never depend on it (the same with 1 worker or 8, cameras in any order);
-the plan of the run (``dynaeval.plan.RunPlan``) says what is computed, the executor how it is
+the plan of the run (``dynaeval.run.plan.RunPlan``) says what is computed, the executor how it is
 spread over threads.
 """
 
@@ -14,9 +14,9 @@ from collections.abc import Callable, Iterable
 from concurrent.futures import FIRST_EXCEPTION, ThreadPoolExecutor, wait
 from typing import Any, TypeVar
 
+from dynaeval.core.runtime import worker_opencv_threads
 from dynaeval.io import FramePair
 from dynaeval.io.cache import FrameCache
-from dynaeval.runtime import worker_opencv_threads
 
 T = TypeVar("T")
 R = TypeVar("R")
