@@ -20,7 +20,7 @@ import math
 import numpy as np
 import torch
 
-from dynaeval.runtime import compiled
+from dynaeval.core.runtime import compiled
 
 
 @compiled
