@@ -123,40 +123,50 @@ def _write_json(path: Path, obj: Any) -> None:
     write_text_atomic(path, json.dumps(obj, indent=1) + "\n", overwrite=True)
 
 
-def scene_data(study: Path, scene: str, preset: StudyPreset) -> Path:
-    """Render ``scene`` into ``study/data/<scene>`` unless it is there already."""
+def _render_once(out: Path, done: tuple[str, ...], scene: str, preset: StudyPreset,
+                 **kwargs: Any) -> Path:
+    """Render ``scene`` at the preset's size into ``out`` (through ``out.partial``, renamed when
+    complete) unless the files ``done`` are there already; ``kwargs`` go to ``render_scene``."""
     from reference_models.scenes import render_scene
 
-    out = study / "data" / scene
-    if (out / "transforms.json").is_file() and (out / "boxes.json").is_file():
+    if all((out / name).is_file() for name in done):
         return out
     tmp = out.with_name(out.name + ".partial")
     if tmp.exists():
         import shutil
 
         shutil.rmtree(tmp)
-    kwargs = {"frames": preset.frames} if preset.frames else {}
     render_scene(scene, tmp, size=preset.scene_size, seed=0, **kwargs)
     tmp.rename(out)
     return out
 
 
+def scene_data(study: Path, scene: str, preset: StudyPreset) -> Path:
+    """Render ``scene`` into ``study/data/<scene>`` unless it is there already."""
+    kwargs = {"frames": preset.frames} if preset.frames else {}
+    return _render_once(study / "data" / scene, ("transforms.json", "boxes.json"), scene, preset,
+                        **kwargs)
+
+
 def stadium_data(study: Path, scene: str, preset: StudyPreset) -> Path:
     """Render ``scene``'s cameras without players and ball, one frame, into
     ``study/data/<scene>-stadium`` unless it is there already."""
-    from reference_models.scenes import render_scene
+    return _render_once(study / "data" / f"{scene}-stadium", ("transforms.json",), scene, preset,
+                        frames=1, hide=("person", "ball"))
 
-    out = study / "data" / f"{scene}-stadium"
-    if (out / "transforms.json").is_file():
-        return out
-    tmp = out.with_name(out.name + ".partial")
-    if tmp.exists():
-        import shutil
 
-        shutil.rmtree(tmp)
-    render_scene(scene, tmp, size=preset.scene_size, seed=0, frames=1, hide=("person", "ball"))
-    tmp.rename(out)
-    return out
+def _train_with_fallback(call, model: str, preset: StudyPreset, size: str) -> dict:  # noqa: ANN001
+    """``call(size)``, and ``call`` of the preset's fallback size for ``model`` where ``size``
+    needs a moving region the motion masks do not find (``NothingMoves``; re-raised for a model
+    without a fallback)."""
+    from reference_models.kplanes.field import NothingMoves
+
+    try:
+        return call(size)
+    except NothingMoves:
+        if model not in preset.fallback_sizes:
+            raise
+        return call(preset.fallback_sizes[model])
 
 
 def stadium_run(study: Path, scene: str, model: str, preset: StudyPreset, data: Path,
@@ -164,7 +174,6 @@ def stadium_run(study: Path, scene: str, model: str, preset: StudyPreset, data: 
     """Pre-train ``model``'s stadium for ``scene`` once (resumable) into
     ``study/runs/<scene>/<model>-stadium``; None when the preset pre-trains none for it."""
     from reference_models.common.stadium import train_stadium
-    from reference_models.kplanes.field import NothingMoves
 
     if preset.stadium is None or model not in preset.stadium_models:
         return None
@@ -176,12 +185,9 @@ def stadium_run(study: Path, scene: str, model: str, preset: StudyPreset, data: 
     kwargs = {"iters": preset.stadium.get("iters", preset.iters), "progress": progress,
               "overrides": preset.stadium,
               "resume": (run / "checkpoint.pt").is_file(), "device": device}
-    try:
-        record = train_stadium(spec, data, empty, run, size=preset.size_of(model), **kwargs)
-    except NothingMoves:
-        if model not in preset.fallback_sizes:
-            raise
-        record = train_stadium(spec, data, empty, run, size=preset.fallback_sizes[model], **kwargs)
+    record = _train_with_fallback(lambda size: train_stadium(spec, data, empty, run, size=size,
+                                                             **kwargs), model, preset,
+                                  preset.size_of(model))
     cfg = json.loads((run / "config.json").read_text())
     _write_json(run / "train.json", {"wall_s": time.perf_counter() - t0, "size": cfg["size"],
                                      "batch_rays": cfg["train_config"]["batch_rays"], **record})
@@ -193,7 +199,6 @@ def train_and_render(study: Path, scene: str, model: str, sampling: str, preset:
     """Train and render one run on ``device`` unless done; the run folder holds ``train.json``
     and ``render.json`` (times, device) when each step finished."""
     from reference_models.common.train import render_run, train
-    from reference_models.kplanes.field import NothingMoves
 
     spec = _spec(model)
     run = study / "runs" / scene / f"{model}-{sampling}"
@@ -207,12 +212,9 @@ def train_and_render(study: Path, scene: str, model: str, sampling: str, preset:
         kwargs = {"iters": preset.iters, "sampling": sampling, "resume": resume,
                   "progress": progress, "overrides": preset.overrides_of(model) or None,
                   "init": stadium, "device": device}
-        try:
-            record = train(spec, data if not resume else None, run, size=size, **kwargs)
-        except NothingMoves:
-            if model not in preset.fallback_sizes:
-                raise
-            record = train(spec, data, run, size=preset.fallback_sizes[model], **kwargs)
+        record = _train_with_fallback(  # a resumed run cannot raise: its extras are stored
+            lambda size: train(spec, data if not resume else None, run, size=size, **kwargs),
+            model, preset, size)
         cfg = json.loads((run / "config.json").read_text())
         size = cfg["size"]  # a resumed run's own
         note = {} if size == preset.size_of(model) else {"fallback": (

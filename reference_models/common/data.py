@@ -189,6 +189,29 @@ def scene_box(centres: np.ndarray, ground_z: float | None = None, pad: float = 0
     return np.stack([lo, hi]).astype(np.float32)
 
 
+def _rig(views: Views) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Camera name -> (c2w, intrinsics) of its first view."""
+    return {cam: (views.c2w[idx[0]], views.intrinsics[idx[0]])
+            for cam, idx in views.camera_sequences().items()}
+
+
+def check_same_rig(clip: Views, stadium: Views, where: Path) -> None:
+    """Raise InputError unless ``stadium`` was filmed by the cameras of ``clip``: the same names,
+    poses and intrinsics (within 1e-5) and image size."""
+    a, b = _rig(clip), _rig(stadium)
+    if sorted(a) != sorted(b):
+        raise InputError(f"the stadium's training cameras ({', '.join(sorted(b))}) are not the "
+                         f"clip's ({', '.join(sorted(a))}); render the stadium with the clip's "
+                         "preset, size and seed", path=where)
+    if (clip.height, clip.width) != (stadium.height, stadium.width):
+        raise InputError(f"the stadium's images are {stadium.width}x{stadium.height}, the clip's "
+                         f"{clip.width}x{clip.height}; render both at one size", path=where)
+    for cam, (c2w, intr) in a.items():
+        if not (np.allclose(c2w, b[cam][0], atol=1e-5) and np.allclose(intr, b[cam][1], atol=1e-5)):
+            raise InputError(f"camera {cam!r} of the stadium is not placed like the clip's; render "
+                             "the stadium with the clip's preset, size and seed", path=where)
+
+
 def load_dataset(path: str | Path) -> Dataset:
     """Load ``path``: a folder with ``transforms.json`` (generator / nerfstudio) or
     ``transforms_train.json`` (D-NeRF), or the ``transforms.json`` file itself.

@@ -28,17 +28,7 @@ import torch
 
 from dynaeval.errors import InputError
 from reference_models.common.data import Views
-from reference_models.common.rays import contract
-
-
-def _rays(c2w: torch.Tensor, intrinsics: torch.Tensor, rows: torch.Tensor, cols: torch.Tensor
-          ) -> torch.Tensor:
-    """Unit directions (N, 3) float64 through pixel centres ``(rows, cols)`` (float64 pixels)."""
-    fx, fy, cx, cy = intrinsics.unbind(-1)
-    d_cam = torch.stack([(cols + 0.5 - cx) / fx, -(rows + 0.5 - cy) / fy,
-                         -torch.ones_like(cols)], dim=-1)
-    d = d_cam @ c2w[:3, :3].T
-    return d / d.norm(dim=-1, keepdim=True)
+from reference_models.common.rays import contract, pixel_rays
 
 
 def exit_face(origin: torch.Tensor, directions: torch.Tensor, extent: torch.Tensor
@@ -67,22 +57,25 @@ def pixel_steps(views: Views, box: np.ndarray, extent: np.ndarray, every: int = 
     row and column of each training camera's first view, at the distance where the pixel's ray
     leaves ``extent`` (2, 3) metres; ``box`` (2, 3) is the model's inner box."""
     b, ext = torch.as_tensor(box, dtype=torch.float64), torch.as_tensor(extent, dtype=torch.float64)
-    rows, cols = torch.meshgrid(torch.arange(0, views.height, every, dtype=torch.float64),
-                                torch.arange(0, views.width, every, dtype=torch.float64),
-                                indexing="ij")
+    rows, cols = torch.meshgrid(torch.arange(0, views.height, every),
+                                torch.arange(0, views.width, every), indexing="ij")
     rows, cols = rows.reshape(-1), cols.reshape(-1)
     out = []
     for idx in views.camera_sequences().values():
-        c2w = torch.as_tensor(views.c2w[idx[0]], dtype=torch.float64)
-        intr = torch.as_tensor(views.intrinsics[idx[0]], dtype=torch.float64)
-        origin = c2w[:3, 3]
-        d = _rays(c2w, intr, rows, cols)
+        c2w = torch.as_tensor(views.c2w[idx[0]], dtype=torch.float64).expand(len(rows), 4, 4)
+        intr = torch.as_tensor(views.intrinsics[idx[0]], dtype=torch.float64).expand(len(rows), 4)
+        origin = c2w[0, :3, 3]
+
+        def rays(r: torch.Tensor, c: torch.Tensor) -> torch.Tensor:
+            return pixel_rays(c2w, intr, r, c)[1]
+
+        d = rays(rows, cols)
         t, axis, plane = exit_face(origin, d, ext)
         here = contract(origin + t[:, None] * d, b)
         keep = t > 0
         steps = []
-        for dr, dc in ((0.0, 1.0), (1.0, 0.0)):  # the next pixel's ray on the same face
-            dn = _rays(c2w, intr, rows + dr, cols + dc)
+        for dr, dc in ((0, 1), (1, 0)):  # the next pixel's ray on the same face
+            dn = rays(rows + dr, cols + dc)
             tn = (plane - origin[axis]) / dn.gather(1, axis[:, None])[:, 0]
             keep &= torch.isfinite(tn) & (tn > 0)
             steps.append((contract(origin + tn.nan_to_num(0.0)[:, None] * dn, b) - here).abs())

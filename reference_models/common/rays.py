@@ -23,16 +23,16 @@ def pixel_rays(c2w: torch.Tensor, intrinsics: torch.Tensor, rows: torch.Tensor,
     """Rays through pixel centres.
 
     Args:
-        c2w: (N, 4, 4) float32 camera-to-world of each ray's view.
-        intrinsics: (N, 4) float32 ``fx, fy, cx, cy`` in pixels.
+        c2w: (N, 4, 4) float32 (or float64) camera-to-world of each ray's view.
+        intrinsics: (N, 4) ``fx, fy, cx, cy`` in pixels, of ``c2w``'s dtype.
         rows, cols: (N,) int64 pixel indices.
 
     Returns:
-        ``origins`` (N, 3) and unit ``directions`` (N, 3), float32, world metres.
+        ``origins`` (N, 3) and unit ``directions`` (N, 3) of ``c2w``'s dtype, world metres.
     """
     fx, fy, cx, cy = intrinsics.unbind(-1)
-    u = cols.to(torch.float32) + 0.5
-    v = rows.to(torch.float32) + 0.5
+    u = cols.to(c2w.dtype) + 0.5
+    v = rows.to(c2w.dtype) + 0.5
     d_cam = torch.stack([(u - cx) / fx, -(v - cy) / fy, -torch.ones_like(u)], dim=-1)
     d = torch.einsum("nij,nj->ni", c2w[:, :3, :3], d_cam)
     return c2w[:, :3, 3].clone(), d / d.norm(dim=-1, keepdim=True)

@@ -20,34 +20,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-
-from dynaeval.errors import InputError
-from reference_models.common.data import Views, load_dataset
 from reference_models.common.train import ModelSpec, train
-
-
-def _rig(views: Views) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """Camera name -> (c2w, intrinsics) of its first view."""
-    return {cam: (views.c2w[idx[0]], views.intrinsics[idx[0]])
-            for cam, idx in views.camera_sequences().items()}
-
-
-def check_same_rig(clip: Views, stadium: Views, where: Path) -> None:
-    """Raise InputError unless ``stadium`` was filmed by the cameras of ``clip``: the same names,
-    poses and intrinsics (within 1e-5) and image size."""
-    a, b = _rig(clip), _rig(stadium)
-    if sorted(a) != sorted(b):
-        raise InputError(f"the stadium's training cameras ({', '.join(sorted(b))}) are not the "
-                         f"clip's ({', '.join(sorted(a))}); render the stadium with the clip's "
-                         "preset, size and seed", path=where)
-    if (clip.height, clip.width) != (stadium.height, stadium.width):
-        raise InputError(f"the stadium's images are {stadium.width}x{stadium.height}, the clip's "
-                         f"{clip.width}x{clip.height}; render both at one size", path=where)
-    for cam, (c2w, intr) in a.items():
-        if not (np.allclose(c2w, b[cam][0], atol=1e-5) and np.allclose(intr, b[cam][1], atol=1e-5)):
-            raise InputError(f"camera {cam!r} of the stadium is not placed like the clip's; render "
-                             "the stadium with the clip's preset, size and seed", path=where)
 
 
 def train_stadium(spec: ModelSpec, clip_data: str | Path, stadium_data: str | Path,
@@ -59,10 +32,8 @@ def train_stadium(spec: ModelSpec, clip_data: str | Path, stadium_data: str | Pa
     fields, e.g. a ``minutes`` budget; the sampling is uniform and the whole run static;
     ``resume`` continues an interrupted pre-training from its checkpoint; ``device`` as
     ``train``'s).
-    Returns the last log record. Raises InputError when the two datasets' cameras differ or the
-    model has no static part."""
-    clip, stadium = load_dataset(clip_data), load_dataset(stadium_data)
-    check_same_rig(clip.train, stadium.train, Path(stadium_data))
+    Returns the last log record. Raises InputError when the two datasets' cameras differ
+    (``data.check_same_rig``, checked by ``train``) or the model has no static part."""
     over = {**(overrides or {}), "static_warmup": 1.0}
     if resume:
         return train(spec, None, out, iters=iters, resume=True, progress=progress, overrides=over,

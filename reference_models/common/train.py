@@ -28,7 +28,7 @@ import numpy as np
 import torch
 
 from dynaeval.errors import InputError
-from reference_models.common.data import Dataset, Views, load_dataset
+from reference_models.common.data import Dataset, Views, check_same_rig, load_dataset
 from reference_models.common.device import check_clock, device_name, resolve_device
 from reference_models.common.importance import SAMPLING, RaySampler
 from reference_models.common.model import DynamicRadianceModel, RayBatch, RenderConfig
@@ -213,6 +213,20 @@ def load_run(run: str | Path, spec: ModelSpec, device: str = "cpu"
              ) -> tuple[dict, DynamicRadianceModel, dict]:
     """``config.json`` dict, the model with its checkpointed weights on ``device`` (``cpu`` or
     ``cuda``, whichever device saved it), and the checkpoint (its tensors on the CPU)."""
+    cfg, ckpt, _ = read_run(run, spec)
+    model = build_model(spec, _from_dict(spec.config_class, cfg["model_config"]),
+                        _from_dict(RenderConfig, cfg["render_config"]), cfg["scene"])
+    model.load_state_dict(ckpt["model"])
+    return cfg, model.to(device), ckpt
+
+
+def read_run(run: str | Path, spec: ModelSpec) -> tuple[dict, dict, bytes]:
+    """A run folder's ``config.json`` dict, its checkpoint (tensors on the CPU: the RNG states
+    must be CPU tensors; the optimiser's state follows its parameters) and the checkpoint file's
+    bytes, without building a model (the RNG is left as it was). Raises InputError for a folder
+    without both files or a run of another model."""
+    import io
+
     run = Path(run)
     cfg_file, ckpt_file = run / "config.json", run / "checkpoint.pt"
     if not cfg_file.is_file() or not ckpt_file.is_file():
@@ -222,12 +236,8 @@ def load_run(run: str | Path, spec: ModelSpec, device: str = "cpu"
     if cfg.get("model") != spec.name:
         raise InputError(f"run was trained with model {cfg.get('model')!r}, not {spec.name!r}; use "
                          f"`python -m reference_models.{cfg.get('model')} render`", path=run)
-    model = build_model(spec, _from_dict(spec.config_class, cfg["model_config"]),
-                        _from_dict(RenderConfig, cfg["render_config"]), cfg["scene"])
-    # the CPU: the RNG states must be CPU tensors; the optimiser's state follows its parameters
-    ckpt = torch.load(ckpt_file, map_location="cpu", weights_only=False)
-    model.load_state_dict(ckpt["model"])
-    return cfg, model.to(device), ckpt
+    raw = ckpt_file.read_bytes()
+    return cfg, torch.load(io.BytesIO(raw), map_location="cpu", weights_only=False), raw
 
 
 def load_init(model: DynamicRadianceModel, cfg: dict, init: str | Path, spec: ModelSpec) -> dict:
@@ -238,18 +248,14 @@ def load_init(model: DynamicRadianceModel, cfg: dict, init: str | Path, spec: Mo
     import hashlib
 
     init = Path(init)
-    if not (init / "config.json").is_file() or not (init / "checkpoint.pt").is_file():
-        raise InputError("not a training run: config.json or checkpoint.pt is missing; pre-train "
-                         f"it with `python -m reference_models.{spec.name} stadium`", path=init)
-    init_cfg = json.loads((init / "config.json").read_text())  # no model built: the RNG is kept
-    ckpt = torch.load(init / "checkpoint.pt", map_location="cpu", weights_only=False)
-    for key in ("model", "size", "model_config", "render_config", "scene"):
+    init_cfg, ckpt, raw = read_run(init, spec)
+    for key in ("size", "model_config", "render_config", "scene"):
         if init_cfg.get(key) != json.loads(json.dumps(cfg.get(key))):  # tuples as JSON lists
             raise InputError(f"cannot start from this run: its {key} differs from the new run's "
                              f"({init_cfg.get(key)!r} against {cfg.get(key)!r}); pre-train the "
                              "stadium with the same model, size and scene", path=init)
     model.load_state_dict(ckpt["model"])
-    digest = hashlib.sha256((init / "checkpoint.pt").read_bytes()).hexdigest()
+    digest = hashlib.sha256(raw).hexdigest()
     return {"run": str(init.resolve()), "checkpoint_sha256": digest, "step": int(ckpt["step"]),
             "train_seconds": float(ckpt["train_seconds"]),
             "train_cpu_seconds": float(ckpt.get("train_cpu_seconds", 0.0))}
@@ -267,10 +273,10 @@ def train(spec: ModelSpec, data_path: str | Path, out: str | Path, size: str = "
     another run of the same model, size and scene (a pre-trained stadium,
     ``common.stadium``); ``scene_data`` builds the model for that dataset's scene (box, frames,
     moving box, footprint planes) instead of the training data's (the stadium is trained on the
-    empty stadium for the clip's model). ``device``: ``cpu``, ``cuda`` or ``auto`` (a resumed
+    empty stadium for the clip's model; both must be filmed by the same cameras). ``device``: ``cpu``, ``cuda`` or ``auto`` (a resumed
     run may continue on another device). Returns the last log record, with the ``device`` it
     trained on. Raises InputError for a bad preset, sampling or device, a missing dataset, an
-    ``init`` run that does not match, an existing run without ``resume``, or a ``clock="cpu"``
+    ``init`` run that does not match, a ``scene_data`` of other cameras, an existing run without ``resume``, or a ``clock="cpu"``
     budget on CUDA.
     """
     out = Path(out)
@@ -315,6 +321,7 @@ def train(spec: ModelSpec, data_path: str | Path, out: str | Path, size: str = "
         cfg = _config_dict(spec, data, model_cfg, render_cfg, train_cfg, size)
         built_for = data if scene_data is None else load_dataset(scene_data)
         if scene_data is not None:
+            check_same_rig(built_for.train, data.train, data.root)
             cfg["scene"], cfg["scene_data"] = scene_info(built_for), str(Path(scene_data).resolve())
         if spec.scene_extras is not None:
             cfg["scene"].update(spec.scene_extras(model_cfg, built_for))
