@@ -33,6 +33,7 @@ from typing import Any
 
 from dynaeval.errors import InputError
 from dynaeval.io.atomic import write_text_atomic
+from reference_models.common.paths import code_version
 
 SCENES = ("single-player-closeup", "single-player-broadcast", "players-stadium")
 MODELS = ("kplanes", "nerfplayer")
@@ -173,10 +174,10 @@ def stadium_run(study: Path, scene: str, model: str, preset: StudyPreset, data: 
                 progress: bool, device: str = "cpu") -> Path | None:
     """Pre-train ``model``'s stadium for ``scene`` once (resumable) into
     ``study/runs/<scene>/<model>-stadium``; None when the preset pre-trains none for it."""
-    from reference_models.common.stadium import train_stadium
-
     if preset.stadium is None or model not in preset.stadium_models:
         return None
+    from reference_models.common.stadium import train_stadium
+
     run = study / "runs" / scene / f"{model}-stadium"
     if (run / "train.json").is_file():
         return run
@@ -190,7 +191,8 @@ def stadium_run(study: Path, scene: str, model: str, preset: StudyPreset, data: 
                                   preset.size_of(model))
     cfg = json.loads((run / "config.json").read_text())
     _write_json(run / "train.json", {"wall_s": time.perf_counter() - t0, "size": cfg["size"],
-                                     "batch_rays": cfg["train_config"]["batch_rays"], **record})
+                                     "batch_rays": cfg["train_config"]["batch_rays"],
+                                     "code": code_version(), **record})
     return run
 
 
@@ -223,7 +225,7 @@ def train_and_render(study: Path, scene: str, model: str, sampling: str, preset:
         if "init" in cfg:
             note["stadium"] = cfg["init"]
         _write_json(run / "train.json", {"wall_s": time.perf_counter() - t0, "size": size,
-                                         **note, **record})
+                                         "code": code_version(), **note, **record})
     if not (run / "render.json").is_file():
         import shutil
 

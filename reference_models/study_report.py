@@ -72,6 +72,27 @@ def _train_min_cell(train: dict) -> str:
     return f"{_train_cpu_min(train):.1f}"
 
 
+def code_cell(train: dict) -> str:
+    """The code a run trained with, from its ``train.json``: the commit's first 8 hex digits
+    (``+changes`` where files differed from it), or ``not recorded`` (runs before the study
+    recorded it, or an installed package)."""
+    code = train.get("code")
+    if not code:
+        return "not recorded"
+    return code["commit"][:8] + ("+changes" if code["dirty"] else "")
+
+
+def code_line(docs: list[dict], study: Path) -> str:
+    """One sentence naming the commits the study's runs and stadiums trained with, and how many
+    of each (a study resumed across commits says so instead of hiding it)."""
+    trains = [d["_train"] for d in docs] + [
+        json.loads(f.read_text()) for f in sorted((study / "runs").glob("*/*-stadium/train.json"))]
+    counts = Counter(code_cell(t) for t in trains)
+    return "Code: " + ", ".join(f"`{name}` ({n} run{'s' * (n != 1)})"
+                                for name, n in sorted(counts.items())) + \
+        " (runs and stadiums; the commit of the checkout each trained from)."
+
+
 def _stadium_cell(train: dict) -> str:
     """The CPU minutes of the pre-trained stadium a run started from ("—" for none)."""
     stadium = train.get("stadium")
@@ -305,6 +326,8 @@ def write_report(study: Path, path: Path, *, preset: str, command: str,
         "Trained on: " + ", ".join(f"{name} ({n} run{'s' * (n != 1)})" for name, n in sorted(
             Counter(train_device(d["_train"]) for d in docs).items())) + "; `train min` is "
         "CPU minutes on the CPU, wall minutes (marked) on a GPU.",
+        "",
+        code_line(docs, study),
         "",
         *([f"Training: {PRESETS[preset].description}.", ""]
           if preset in PRESETS and PRESETS[preset].description else []),

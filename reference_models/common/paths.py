@@ -51,3 +51,29 @@ def repo_root() -> Path:
 def docs_dir() -> Path:
     """The repository's ``docs/`` folder, where the studies write their tables."""
     return repo_root() / "docs"
+
+
+def code_version(folder: Path | None = None) -> dict | None:
+    """The git commit of the checkout holding ``folder`` (default: the one this package is
+    imported from), as ``{"commit": 40 hex digits, "dirty": bool}``; ``dirty`` is true when
+    tracked files under ``dynaeval/`` or ``reference_models/`` differ from the commit (so a run
+    trained on uncommitted code says so). None where ``folder`` is not in a git checkout or git
+    is not installed: an installed package has no commit to name."""
+    import subprocess
+
+    folder = Path(folder) if folder is not None else Path(__file__).resolve().parents[2]
+
+    def git(*args: str) -> str | None:
+        try:
+            done = subprocess.run(["git", "-C", str(folder), *args], capture_output=True,
+                                  text=True, timeout=30)
+        except (OSError, subprocess.SubprocessError):
+            return None
+        return done.stdout.strip() if done.returncode == 0 else None
+
+    commit = git("rev-parse", "HEAD")
+    if not commit:
+        return None
+    changes = git("status", "--porcelain", "--untracked-files=no", "--", "dynaeval",
+                  "reference_models")
+    return {"commit": commit, "dirty": bool(changes)}

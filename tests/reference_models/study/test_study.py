@@ -48,6 +48,8 @@ def test_report_is_generated_with_its_images(study):
     assert images and all((docs.parent / i).is_file() for i in images)
     assert "The seed study's findings, checked" in text
     assert "From the first scene render to the last result" in text
+    commit = json.loads(next((study[0] / "runs").rglob("train.json")).read_text())["code"]
+    assert f"Code: `{commit['commit'][:8]}" in text  # the checkout the tests run from
     kept = docs.parent / "validation-tiny"
     assert "[validation-tiny/](validation-tiny/)" in text
     assert sorted(p.name for p in kept.glob("*.json")) == sorted(
@@ -72,6 +74,7 @@ def test_unknown_preset_and_bad_jobs():
 def test_a_preset_trains_each_model_with_its_own_size_and_settings(tmp_path, monkeypatch):
     """small-30min without its stadium: K-Planes at small-dynbox-fine-fp, NeRFPlayer at small,
     both on the 30-minute CPU budget."""
+    import reference_models.common.stadium  # noqa: F401  (imported before the patch: it binds train)
     import reference_models.common.train as train_mod
     from reference_models.study import PRESETS, train_and_render
 
@@ -192,3 +195,28 @@ def test_a_stadium_is_pre_trained_once_per_scene_and_every_run_starts_from_it(tm
 
     text = write_report(out, tmp_path / "v.md", preset="tiny-stadium", command="x").read_text()
     assert "+ stadium min" in text and "`kplanes-stadium` (tiny-dynbox-fine-fp)" in text
+
+
+def test_code_version_names_the_commit_and_says_when_files_differ(tmp_path):
+    import subprocess
+
+    from reference_models.common.paths import code_version
+    from reference_models.study_report import code_cell
+
+    assert code_version(tmp_path) is None  # not a git checkout: nothing to name
+    git = ["git", "-C", str(tmp_path), "-c", "user.name=t", "-c", "user.email=t@t"]
+    subprocess.run([*git, "init", "-q"], check=True)
+    (tmp_path / "reference_models").mkdir()
+    (tmp_path / "reference_models" / "a.py").write_text("x = 1\n")
+    (tmp_path / "notes.txt").write_text("n\n")
+    subprocess.run([*git, "add", "."], check=True)
+    subprocess.run([*git, "commit", "-q", "-m", "c"], check=True)
+    head = subprocess.run([*git, "rev-parse", "HEAD"], capture_output=True, text=True,
+                          check=True).stdout.strip()
+    assert code_version(tmp_path) == {"commit": head, "dirty": False}
+    (tmp_path / "notes.txt").write_text("other\n")  # not code: still the commit's code
+    assert code_version(tmp_path)["dirty"] is False
+    (tmp_path / "reference_models" / "a.py").write_text("x = 2\n")
+    assert code_version(tmp_path) == {"commit": head, "dirty": True}
+    assert code_cell({"code": code_version(tmp_path)}) == head[:8] + "+changes"
+    assert code_cell({}) == "not recorded"
