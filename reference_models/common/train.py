@@ -106,13 +106,14 @@ class TrainConfig:
     """Steps between checkpoints (and one at the end)."""
     seed: int = 0
     """Seed of the initialisation and the ray sampler."""
-    init_optimizer: bool = True
+    init_optimizer: bool = False
     """A run started from another (``train(init=...)``, a pre-trained stadium) also starts from
     its Adam state — moments and step count — for every parameter that run trained (a second
     moment not zero everywhere); the parameters it never moved (the time planes and the moving
-    box's factor of a stadium) start fresh, as in a new run. False: the init run's weights only,
-    every moment fresh (before issue 40: the fresh moments' first updates, ``lr`` times the sign
-    of every gradient, cost the stadium ~2-6 dB for a few hundred steps). Ignored without
+    box's factor of a stadium) start fresh, as in a new run. False (the default): the init run's
+    weights only, every moment fresh. Measured on the close-up (docs/reference-models.md,
+    "A warm restart"): carrying the state gains 0.5 dB at 100 steps and nothing after (0.1-0.2
+    dB behind from 300 steps, 0.09 dB behind at 8 CPU minutes), so it is an option. Ignored without
     ``init``; the schedule (warm-up, cosine) is the run's own either way."""
 
 
@@ -293,7 +294,7 @@ def carried_optimizer_state(model: torch.nn.Module, saved: dict | None, path: Pa
     params = [p for _, p in model.named_parameters()]
     if not isinstance(saved, dict) or "state" not in saved or "param_groups" not in saved:
         raise InputError("cannot start from this run's optimiser state: its checkpoint holds none; "
-                         "pre-train it again, or start from its weights only (--fresh-optimizer)",
+                         "pre-train it again, or start from its weights only (no --carry-optimizer)",
                          path=path)
     ids = [i for g in saved["param_groups"] for i in g["params"]]
     fits = len(ids) == len(params) and all(
@@ -302,7 +303,7 @@ def carried_optimizer_state(model: torch.nn.Module, saved: dict | None, path: Pa
     if not fits:
         raise InputError(f"cannot start from this run's optimiser state: it holds {len(ids)} "
                          f"parameters, not shaped like the model's {len(params)}; start from its "
-                         "weights only (--fresh-optimizer)", path=path)
+                         "weights only (no --carry-optimizer)", path=path)
     state, fresh = {}, []
     for i, name in zip(ids, names, strict=True):
         entry = saved["state"].get(i)
@@ -323,7 +324,7 @@ def train(spec: ModelSpec, data_path: str | Path, out: str | Path, size: str = "
     value) change it. ``resume`` continues a run from its checkpoint (its saved configs, changed
     only by ``iters``, ``sampling`` and ``overrides``). ``init`` starts from the weights of
     another run of the same model, size and scene (a pre-trained stadium,
-    ``common.stadium``), and from its Adam state unless ``TrainConfig.init_optimizer`` is False
+    ``common.stadium``), and from its Adam state with ``TrainConfig.init_optimizer``
     (``carried_optimizer_state``); ``scene_data`` builds the model for that dataset's scene (box, frames,
     moving box, footprint planes) instead of the training data's (the stadium is trained on the
     empty stadium for the clip's model; both must be filmed by the same cameras). ``device``: ``cpu``, ``cuda`` or ``auto`` (a resumed

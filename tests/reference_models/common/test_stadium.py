@@ -97,7 +97,7 @@ def test_the_first_step_continues_the_stadiums_adam_state(tiny_data, stadium, tm
     time planes) start fresh."""
     _, run = stadium
     train(SPEC, tiny_data, tmp_path / "r", size=SIZE, iters=1, sampling="isg", progress=False,
-          init=run)
+          init=run, overrides={"init_optimizer": True})
     cfg, model, ckpt = load_run(tmp_path / "r", SPEC)
     names = [n for n, _ in model.named_parameters()]
     stadium_state = torch.load(run / "checkpoint.pt", weights_only=False)["optimizer"]["state"]
@@ -123,13 +123,16 @@ def test_a_stadium_without_adam_state_is_refused(tiny_data, stadium, tmp_path):
     del ckpt["optimizer"]
     torch.save(ckpt, bare / "checkpoint.pt")
     with pytest.raises(InputError, match="holds none") as err:
-        train(SPEC, tiny_data, tmp_path / "r", size=SIZE, iters=1, progress=False, init=bare)
+        train(SPEC, tiny_data, tmp_path / "r", size=SIZE, iters=1, progress=False, init=bare,
+              overrides={"init_optimizer": True})
     assert "checkpoint.pt" in str(err.value)
     args = ["train", str(tiny_data), "--out", str(tmp_path / "c"), "--size", SIZE, "--iters", "1",
             "--init", str(bare), "--quiet"]
-    assert main(SPEC, args) == 2
-    assert main(SPEC, [*args, "--fresh-optimizer"]) == 0
+    assert main(SPEC, [*args, "--carry-optimizer"]) == 2
+    assert main(SPEC, args) == 0  # the weights only, the default
     assert json.loads((tmp_path / "c" / "config.json").read_text())["init"]["optimizer"] is False
+    assert main(SPEC, ["train", str(tiny_data), "--out", str(tmp_path / "d"), "--size", SIZE,
+                       "--carry-optimizer", "--quiet"]) == 2
 
 
 def test_a_stadium_of_another_size_is_refused(tiny_data, stadium, tmp_path):
