@@ -3,7 +3,8 @@
     python -m reference_models.<model> train DATA --out RUN [--size tiny|small] [--iters N]
         [--minutes M] [--sampling uniform|isg|ist] [--importance-fraction F]
         [--static-warmup F] [--batch-rays N] [--clock wall|cpu] [--regularize-every K]
-        [--proposal-rays-every K] [--resume] [--init STADIUM] [--threads 1] [--device cpu|cuda|auto]
+        [--proposal-rays-every K] [--resume] [--init STADIUM [--carry-optimizer]] [--threads 1]
+        [--device cpu|cuda|auto]
     python -m reference_models.<model> stadium CLIP_DATA STADIUM_DATA --out STADIUM [--size ...]
         [--iters N] [--minutes M] [--clock wall|cpu] [--batch-rays N] [--device cpu|cuda|auto]
     python -m reference_models.<model> render RUN [--data DATA] [--every N] [--device cpu|cuda|auto]
@@ -52,6 +53,8 @@ def _parser(spec: ModelSpec) -> argparse.ArgumentParser:
     t.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
     t.add_argument("--init", metavar="STADIUM",
                    help="start from the weights of a pre-trained stadium run (see `stadium`)")
+    t.add_argument("--carry-optimizer", action="store_true",
+                   help="with --init: also its Adam state for the parameters it trained")
     t.add_argument("--threads", type=int, default=1, help="torch CPU threads (default 1: faster than 2 on a shared machine)")
     t.add_argument("--quiet", action="store_true", help="no progress bar")
     t.add_argument("--device", choices=DEVICES, default="cpu", help=_DEVICE_HELP)
@@ -98,6 +101,11 @@ def main(spec: ModelSpec, argv: list[str] | None = None) -> int:
                      "clock": args.clock, "regularize_every": args.regularize_every,
                      "proposal_rays_every": args.proposal_rays_every}
             over = {k: v for k, v in given.items() if v is not None}
+            if args.carry_optimizer:
+                if args.init is None:
+                    raise InputError("--carry-optimizer goes with --init (the run whose Adam "
+                                     "state it carries)")
+                over["init_optimizer"] = True
             rec = train(spec, args.data, args.out, size=args.size, iters=args.iters,
                         sampling=args.sampling, resume=args.resume, progress=not args.quiet,
                         overrides=over, init=args.init, device=args.device)
