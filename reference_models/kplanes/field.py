@@ -22,7 +22,7 @@ from torch import nn
 from dynaeval.errors import InputError
 from reference_models.common.data import Dataset
 from reference_models.common.encodings import PlaneEncoding
-from reference_models.common.footprint import footprint_resolution
+from reference_models.common.footprint import VIEWS_NEEDED, footprint_resolution
 from reference_models.common.importance import moving_box
 from reference_models.common.rays import contract
 from reference_models.common.seed import seed_preset
@@ -56,6 +56,9 @@ class KPlanesConfig:
     """``footprint``: the quantile of the pixels' needs the finest planes meet."""
     footprint_max: int = 1024
     """``footprint``: cap on the cells of any axis."""
+    footprint_views: int = VIEWS_NEEDED
+    """``footprint``: training cameras that must resolve a surface point for a pixel of it to
+    ask its cells (``common.footprint.covered_asks``; 1: the pixel footprint alone)."""
     dynamic_planes: str = "time"
     """``dynamic_box``: planes of the factor over the moving box: ``time`` (xt, yt, zt) or
     ``space-time`` (all six, every one starting at 1: the box also gets its own fine space
@@ -149,7 +152,7 @@ def scene_extras(cfg: KPlanesConfig, data: Dataset) -> dict:
     if cfg.footprint:
         out["world_resolution"] = list(footprint_resolution(
             data.train, data.box, data.extent, quantile=cfg.footprint_quantile,
-            max_cells=cfg.footprint_max))
+            max_cells=cfg.footprint_max, views_needed=cfg.footprint_views))
     return {**out, **find_moving_box(cfg, data)}
 
 

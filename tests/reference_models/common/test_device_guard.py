@@ -34,10 +34,14 @@ ALLOWED = {
         "jitter drawn by the (CPU) generator and moved with .to(device): the same on every device",
     ("common/sampling.py", "resample_edges", "rand"):
         "jitter drawn by the (CPU) generator and moved to the edges' device",
-    ("common/footprint.py", "pixel_steps", "as_tensor"):
+    ("common/footprint.py", "pixel_samples", "as_tensor"):
         "the footprint rule runs once when a run starts, on the CPU's numpy views; it returns ints",
-    ("common/footprint.py", "pixel_steps", "arange"):
+    ("common/footprint.py", "pixel_samples", "arange"):
         "the footprint rule's pixel grid, on the CPU like its views (once per run, not per step)",
+    ("common/footprint.py", "camera_asks", "as_tensor"):
+        "the footprint rule's coverage: the CPU's numpy views and points, once per run",
+    ("common/footprint.py", "_face_steps", "ones"):
+        "the footprint rule's mask, on the CPU like its views (once per run, not per step)",
     ("common/encodings.py", "PlaneEncoding.__init__", "ones"):
         "a plane's initial values, made an nn.Parameter (moved with the model)",
     ("common/encodings.py", "PlaneEncoding.__init__", "empty"):
