@@ -18,6 +18,7 @@ from reference_models.common.rays import contract, spacing_to_distance
 from reference_models.common.sampling import (
     distortion_loss,
     interlevel_loss,
+    outer_mass,
     render_weights,
     resample_edges,
     stratified_edges,
@@ -76,6 +77,10 @@ class RenderConfig:
     """Nearest ray distance (m)."""
     far: float = 1000.0
     """Farthest ray distance (m); light reaching it shows the sky term."""
+    prune_weight: float = 0.0
+    """Skip the radiance field at final samples whose bin the last proposal gives at most this
+    weight (``sampling.outer_mass``): they render with density 0 (no light stopped, no colour),
+    in training and rendering alike; 0: every sample is looked up."""
 
 
 def _mlp(n_in: int, hidden: int, n_out: int, layers: int) -> nn.Sequential:
@@ -108,6 +113,14 @@ class RenderOutput:
     """(R,) float32 expected ray distance (m) of the volume part."""
     losses: dict[str, torch.Tensor] = field(default_factory=dict)
     """Unweighted per-batch losses besides the photometric one (training only)."""
+
+
+def sample_mask(edges: torch.Tensor, prop_edges: torch.Tensor, prop_weights: torch.Tensor,
+                threshold: float) -> torch.Tensor:
+    """(R, S) bool: the final bins ``edges`` (R, S + 1) whose proposal weight (``outer_mass`` of
+    the proposal's bins ``prop_edges`` and detached ``prop_weights``) exceeds ``threshold``: the
+    samples ``RenderConfig.prune_weight`` looks up."""
+    return outer_mass(edges, prop_edges, prop_weights.detach()) > threshold
 
 
 class DynamicRadianceModel(nn.Module):
@@ -192,7 +205,14 @@ class DynamicRadianceModel(nn.Module):
             edges = resample_edges(edges, w.detach(), n_next, training, generator=generator)
         coords, deltas = self._points(rays, edges)
         dirs = rays.directions[:, None, :].expand(-1, edges.shape[1] - 1, -1).reshape(-1, 3)
-        density, color = self.density_and_color(coords, dirs, bfloat16_mlps)
+        if cfg.prune_weight > 0.0 and history:
+            keep = sample_mask(edges, *history[-1], cfg.prune_weight).view(-1).nonzero()[:, 0]
+            dens_k, color_k = self.density_and_color(coords.index_select(0, keep),
+                                                     dirs.index_select(0, keep), bfloat16_mlps)
+            density = dens_k.new_zeros(coords.shape[0]).index_copy(0, keep, dens_k)
+            color = color_k.new_zeros(coords.shape[0], 3).index_copy(0, keep, color_k)
+        else:
+            density, color = self.density_and_color(coords, dirs, bfloat16_mlps)
         weights = render_weights(density.view(r, -1), deltas)
         sky = torch.sigmoid(self.sky_net(spherical_harmonics(rays.directions)))
         acc = weights.sum(-1, keepdim=True)

@@ -73,12 +73,20 @@ def interlevel_loss(edges: torch.Tensor, weights: torch.Tensor, prop_edges: torc
     ``edges`` (R, S + 1) are detached here (only the proposal learns from this loss).
     """
     w = weights.detach()
+    outer = outer_mass(edges, prop_edges, prop_weights)
+    return (torch.clamp(w - outer, min=0.0) ** 2 / (w + 1e-7)).sum(-1).mean()
+
+
+def outer_mass(edges: torch.Tensor, prop_edges: torch.Tensor, prop_weights: torch.Tensor
+               ) -> torch.Tensor:
+    """(R, S): for each bin of ``edges`` (R, S + 1), the summed ``prop_weights`` (R, P) of every
+    bin of ``prop_edges`` (R, P + 1) that overlaps it (mip-NeRF 360's outer measure; an upper
+    bound of the weight the proposal puts on that bin)."""
     cum = torch.cat([torch.zeros_like(prop_weights[:, :1]), torch.cumsum(prop_weights, -1)], -1)
     lo = torch.searchsorted(prop_edges.contiguous(), edges[:, :-1].contiguous(), right=True) - 1
     hi = torch.searchsorted(prop_edges.contiguous(), edges[:, 1:].contiguous(), right=False)
     last = prop_edges.shape[1] - 1
-    outer = cum.gather(1, hi.clamp(0, last)) - cum.gather(1, lo.clamp(0, last))
-    return (torch.clamp(w - outer, min=0.0) ** 2 / (w + 1e-7)).sum(-1).mean()
+    return cum.gather(1, hi.clamp(0, last)) - cum.gather(1, lo.clamp(0, last))
 
 
 def distortion_loss(edges: torch.Tensor, weights: torch.Tensor) -> torch.Tensor:
