@@ -42,6 +42,7 @@ from dynaeval.core.deps import available, load
 from dynaeval.core.errors import InputError
 from dynaeval.core.outcome import (
     NO_REGIONS,
+    CameraTerm,
     Status,
     no_box_reason,
     status_of,
@@ -110,55 +111,38 @@ def restore_infinite(rows: list[dict[str, Any]], warnings: list[dict]) -> int:
 
 
 def place_temporal(
-    rows: list[dict[str, Any]], temporal: dict[str, dict[str, dict]]
+    rows: list[dict[str, Any]], temporal: dict[str, dict[str, CameraTerm]]
 ) -> tuple[dict[str, dict[str, float | None]], list[dict]]:
     """Put per-pair temporal values into the frame rows, in place; return the camera-level ones.
 
     The value of pair (t-1, t) goes into the row of frame t (the first frame of a camera has
-    none); a null value's warning takes the entry's ``pair_reasons[k]`` for pair k when given
-    (a gap of missing frames, ``dynaeval.run.stages.temporal``: ``Status.NOT_CONSECUTIVE``), else the
-    entry's ``status`` and ``reason`` (a term null for the whole camera), else its
-    ``pair_status`` and ``pair_reason`` (``dynaeval.run.scoring.name_regionless_frames``). Terms
-    without per-pair values (``flicker``, or a term undefined for the whole camera) are
-    camera-level: returned as ``{camera: {name: value}}``, with a warning (the entry's
-    ``status``) when null. An entry without a ``status`` is ``Status.UNDEFINED``.
+    none), a null one with a warning of its ``CameraTerm.pair_outcome`` (a gap of missing frames,
+    the camera's own null, or its ``pair_null``: frames without a box). Terms without per-pair
+    values (``flicker``, ``jod``, or a term null for the whole camera) are camera-level:
+    returned as ``{camera: {name: value}}``, with a warning of its outcome when null.
 
     Args:
         rows: frame rows of every camera, each camera's in index order.
-        temporal: per camera, ``dynaeval.metrics.temporal.temporal_metrics`` output.
+        temporal: per camera, its terms by result key (``dynaeval.run.stages``).
     """
     camera_values: dict[str, dict[str, float | None]] = {}
     warnings: list[dict] = []
     for cam, terms in temporal.items():
         cam_rows = sorted((r for r in rows if r["camera"] == cam), key=lambda r: r["index"])
-        for name, entry in terms.items():
-            per_pair = entry.get("per_pair") or []
-            if per_pair and len(per_pair) == len(cam_rows) - 1:
-                gaps = entry.get("pair_reasons") or {}
-                for k, (row, value) in enumerate(zip(cam_rows[1:], per_pair, strict=True)):
+        for name, term in terms.items():
+            if term.per_pair and len(term.per_pair) == len(cam_rows) - 1:
+                for k, (row, value) in enumerate(zip(cam_rows[1:], term.per_pair, strict=True)):
                     row[name] = value
                     if value is None:
-                        status, text = _pair_null(entry, gaps.get(k))
-                        warnings.append(warning(status, text, camera=cam, frame=row["frame"],
-                                                metric=name))
+                        why = term.pair_outcome(k)
+                        warnings.append(warning(why.status, why.detail, camera=cam,
+                                                frame=row["frame"], metric=name))
                 continue
-            camera_values.setdefault(cam, {})[name] = entry.get("value")
-            if entry.get("value") is None:
-                warnings.append(warning(entry.get("status", Status.UNDEFINED),
-                                        entry.get("reason"), camera=cam, metric=name))
+            camera_values.setdefault(cam, {})[name] = term.outcome.value
+            if term.outcome.value is None:
+                warnings.append(warning(term.outcome.status, term.outcome.detail, camera=cam,
+                                        metric=name))
     return camera_values, warnings
-
-
-def _pair_null(entry: dict, gap: str | None) -> tuple[Status, str | None]:
-    """``(status, detail)`` of a null per-pair value of a temporal ``entry`` (``place_temporal``);
-    ``gap``: the reason of a gap of missing frames at this pair, or None."""
-    if gap is not None:
-        return Status.NOT_CONSECUTIVE, gap
-    if entry.get("reason"):
-        return Status(entry.get("status", Status.UNDEFINED)), entry["reason"]
-    if entry.get("pair_reason"):
-        return Status(entry.get("pair_status", Status.UNDEFINED)), entry["pair_reason"]
-    return Status.UNDEFINED, "undefined for the pair (previous frame, this frame)"
 
 
 @dataclass
@@ -281,7 +265,7 @@ def build_results(
     warnings: list[dict],
     timing: dict[str, float],
     version: str,
-    temporal: dict[str, dict[str, dict]] | None = None,
+    temporal: dict[str, dict[str, CameraTerm]] | None = None,
     camera_values: dict[str, dict[str, float | None]] | None = None,
     shard: tuple[int, int] | None = None,
     inputs_extra: dict[str, Any] | None = None,
@@ -290,8 +274,8 @@ def build_results(
     """Assemble the results document from per-frame rows (values may be inf; made strict here).
 
     Every metric that has per-frame values is summarised the same way: per camera the mean over
-    its frames, overall the mean over all frames (``_mean``). ``temporal`` (per camera,
-    ``temporal_metrics`` output) is first spread over the rows by ``place_temporal``: a temporal
+    its frames, overall the mean over all frames (``_mean``). ``temporal`` (per camera, its
+    terms by result key) is first spread over the rows by ``place_temporal``: a temporal
     term's per-frame value is that of the pair (previous frame, this frame), so its summary is
     the mean over all frame pairs of all cameras. Camera-level terms (``flicker``; or
     ``camera_values`` given directly, as ``merge`` does) are summarised as the mean over cameras.

@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from dynaeval.core.errors import InputError
-from dynaeval.core.outcome import Status, note, warning, warning_line
+from dynaeval.core.outcome import CameraTerm, Status, note, warning, warning_line
 from dynaeval.core.progress import Progress
 from dynaeval.core.version import VERSION
 from dynaeval.io import FramePair, pair_frames
@@ -301,7 +301,7 @@ def _score_cameras(pairs: list[FramePair], plan: RunPlan, on_regions: RegionsCal
         close_videos()
     rows: list[dict] = []
     warnings: list[dict] = []
-    temporal: dict[str, dict[str, dict]] = {}
+    temporal: dict[str, dict[str, CameraTerm]] = {}
     regions: dict[str, dict] = {}
     for cam, scores in zip(cams, scored, strict=True):
         rows.extend(scores.rows)

@@ -13,11 +13,11 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 from dynaeval.core.errors import InputError
-from dynaeval.core.outcome import Status, note, warning
+from dynaeval.core.outcome import CameraTerm, Outcome, Status, note, warning
 from dynaeval.core.validation import values_known_in
 from dynaeval.io import FramePair
 from dynaeval.io.cache import FrameCache
@@ -36,7 +36,8 @@ class CameraScores:
 
     rows: list[dict[str, Any]]
     warnings: list[dict]
-    temporal: dict[str, dict] | None
+    temporal: dict[str, CameraTerm] | None
+    """The camera-level terms (temporal, video) by result key; None: no camera stage ran."""
     regions: dict[str, Any] | None = None
     """``regions_summary`` of the camera (None with focus none and no motion masks)."""
 
@@ -213,35 +214,40 @@ def score_camera(camera: str, pairs: list[FramePair], plan: RunPlan, executor: E
     if motion is not None and motion["reason"] is not None:
         warnings.insert(0, note(motion["reason"], camera=camera))
     if temporal is not None and differ is None:
-        warnings.extend(name_regionless_frames(camera, pairs, regions, temporal))
+        temporal, named = name_regionless_frames(camera, pairs, regions, temporal)
+        warnings.extend(named)
     return CameraScores(rows, warnings, temporal, _summary_of(regions, plan))
 
 
 def name_regionless_frames(camera: str, pairs: list[FramePair], regions: list[FrameRegions],
-                           temporal: dict[str, dict]) -> list[dict]:
-    """Name the frames without boxes in the focused temporal terms, in place: a term null for the
-    whole camera gets them as its reason; one scored on the other pairs gets ``pair_reason``
-    (the reason of its null pairs) and one camera warning. Returns the warnings."""
+                           temporal: dict[str, CameraTerm]
+                           ) -> tuple[dict[str, CameraTerm], list[dict]]:
+    """The terms with the frames without boxes named in the focused ones: a term null for the
+    whole camera for want of a region gets them as its reason; one scored on the other pairs
+    gets them as ``pair_null`` (why its null pairs are null) and one camera warning. Returns the
+    terms and the warnings."""
     missing = [(p.frame, r.boxes_reason) for p, r in zip(pairs, regions, strict=True)
                if r.boxes is None]
     if not missing or len(pairs) < 2:
-        return []
+        return temporal, []
     why = "; ".join(dict.fromkeys(r or "no box" for _, r in missing))
     shown = ", ".join(repr(f) for f, _ in missing[:8]) + (" ..." if len(missing) > 8 else "")
     frames = f"{len(missing)} of {len(pairs)} frames have no box ({why}): {shown}"
-    out = []
-    for key, entry in temporal.items():
+    out, terms = [], dict(temporal)
+    for key, term in temporal.items():
         if METRICS[key].variant != "focused":
             continue
-        if entry.get("value") is None:
-            if entry.get("status") == Status.NO_REGION:  # not another cause (too few frames, ...)
-                entry["reason"] = f"{frames}; no pair of consecutive frames has boxes in both"
+        if term.outcome.value is None:
+            if term.outcome.status is Status.NO_REGION:  # not another cause (too few frames, ...)
+                terms[key] = replace(term, outcome=Outcome(
+                    None, Status.NO_REGION,
+                    f"{frames}; no pair of consecutive frames has boxes in both"))
         elif METRICS[key].kind == "camera":
             out.append(note(f"over the union of the boxes of the frames that have them; {frames}",
                             camera=camera, metric=key))
         else:
-            entry["pair_reason"] = f"this frame or the previous one has no box ({why})"
-            entry["pair_status"] = Status.NO_REGION.value
+            terms[key] = replace(term, pair_null=Outcome(
+                None, Status.NO_REGION, f"this frame or the previous one has no box ({why})"))
             out.append(note(f"scored on the pairs of frames that both have boxes; {frames}",
                             camera=camera, metric=key))
-    return out
+    return terms, out

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import dynaeval
+from dynaeval.core.outcome import CameraTerm, Status
 from dynaeval.errors import InputError
 from dynaeval.io import FramePair, pair_frames
 from dynaeval.io.cache import FrameCache
@@ -248,15 +249,15 @@ def test_the_frames_without_boxes_are_named_by_status_not_by_words():
                FrameRegions(boxes=np.array([[0, 0, 4, 4]])),
                FrameRegions(boxes=None, boxes_reason="no box here")]
     temporal = {
-        "focused_tof": {"value": None, "status": "no-region", "reason": "any words"},
-        "focused_warp_error": {"value": None, "status": "undefined",
-                               "reason": "no frame has a region"},
+        "focused_tof": CameraTerm.null(Status.NO_REGION, "any words"),
+        "focused_warp_error": CameraTerm.null(Status.UNDEFINED, "no frame has a region"),
     }
-    name_regionless_frames("cam00", pairs, regions, temporal)
-    assert temporal["focused_tof"]["reason"] == (
+    named, _ = name_regionless_frames("cam00", pairs, regions, temporal)
+    assert named["focused_tof"].outcome.detail == (
         "2 of 3 frames have no box (no box here): '0000', '0002'; no pair of consecutive "
         "frames has boxes in both")
-    assert temporal["focused_warp_error"]["reason"] == "no frame has a region"
+    assert named["focused_warp_error"].outcome.detail == "no frame has a region"
+    assert temporal["focused_tof"].outcome.detail == "any words"  # not changed in place
 
 
 def test_frames_read_from_files_get_no_second_range_pass(tmp_path, monkeypatch):

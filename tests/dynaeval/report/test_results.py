@@ -7,6 +7,7 @@ import math
 
 import pytest
 
+from dynaeval.core.outcome import CameraTerm, Outcome, Status
 from dynaeval.errors import InputError
 from dynaeval.report import build_results, load_results, schema_path, strict, write_json_atomic
 
@@ -100,11 +101,11 @@ def test_load_results_checks_schema(tmp_path):
 
 def test_temporal_pairs_go_to_the_later_frame_and_flicker_stays_per_camera():
     rows = [_row("a", i, psnr=20.0 + i) for i in range(3)] + [_row("b", 0, psnr=30.0)]
+    few = CameraTerm.null(Status.UNDEFINED, "fewer than 2 frames")
     temporal = {
-        "a": {"warp_error": {"value": 0.2, "reason": None, "per_pair": [0.1, 0.3]},
-              "flicker": {"value": 0.05, "reason": None, "per_pair": []}},
-        "b": {"warp_error": {"value": None, "reason": "fewer than 2 frames", "per_pair": []},
-              "flicker": {"value": None, "reason": "fewer than 2 frames", "per_pair": []}},
+        "a": {"warp_error": CameraTerm(Outcome(0.2), (0.1, 0.3)),
+              "flicker": CameraTerm(Outcome(0.05))},
+        "b": {"warp_error": few, "flicker": few},
     }
     doc = build_results(
         rows=rows, metric_names=["psnr"], method="m", scene="s", pred_dir="p", gt_dir="g",
