@@ -118,6 +118,7 @@ def merge_results(paths: list[str | Path]) -> dict[str, Any]:
         version=first["dynaeval_version"],
         camera_values=camera_values,
         regions=_merged_regions([doc for _, doc in docs]),
+        temporal_parts={c: t for _, doc in docs for c, t in doc.get("temporal_parts", {}).items()},
         inputs_extra={"temporal_pairs": pairs} if pairs else None,
     )
 

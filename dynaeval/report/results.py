@@ -270,6 +270,7 @@ def build_results(
     shard: tuple[int, int] | None = None,
     inputs_extra: dict[str, Any] | None = None,
     regions: dict[str, Any] | None = None,
+    temporal_parts: dict[str, dict[str, dict[str, float | None]]] | None = None,
 ) -> dict[str, Any]:
     """Assemble the results document from per-frame rows (values may be inf; made strict here).
 
@@ -280,7 +281,8 @@ def build_results(
     the mean over all frame pairs of all cameras. Camera-level terms (``flicker``; or
     ``camera_values`` given directly, as ``merge`` does) are summarised as the mean over cameras.
     ``regions`` (``{"source", "bundled_detector", "cameras": {camera: regions_summary}}``) is
-    written as is; when no frame has a box, one headline warning (``no_regions_warning``) replaces
+    written as is; ``temporal_parts`` (``{camera: {key: {"signed", "pred", "gt"}}}``, as
+    ``merge`` has them) beside the parts of ``temporal``'s terms (``parts_of``); when no frame has a box, one headline warning (``no_regions_warning``) replaces
     the null-summary warnings of the focused and presence metrics.
     """
     warnings = list(warnings)
@@ -340,7 +342,19 @@ def build_results(
         "warnings": warnings,
         **({"regions": regions} if regions is not None else {}),
     }
+    parts = {**(temporal_parts or {}), **parts_of(temporal or {})}
+    if parts:
+        doc["temporal_parts"] = parts
     return strict(doc)
+
+
+def parts_of(temporal: dict[str, dict[str, CameraTerm]]) -> dict[str, dict[str, dict]]:
+    """``{camera: {key: {"signed", "pred", "gt"}}}``: the two sides behind each temporal term
+    that has them (``warp_error``, ``flicker`` and their focused variants; means over the pairs,
+    None where undefined), cameras and keys without parts left out."""
+    out = {cam: {k: dict(t.parts) for k, t in terms.items() if t.parts}
+           for cam, terms in temporal.items()}
+    return {cam: terms for cam, terms in out.items() if terms}
 
 
 def strict(obj: Any) -> Any:

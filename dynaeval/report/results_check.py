@@ -236,6 +236,13 @@ def check_results(doc: dict[str, Any], path: str | Path) -> None:
             _check_status(check, status, f"summary_status.{name}")
     if "regions" in doc:
         _check_regions(check, doc["regions"])
+    check.kind(doc.get("temporal_parts", {}), "temporal_parts", dict)
+    for cam, terms in doc.get("temporal_parts", {}).items():
+        check.kind(terms, f"temporal_parts.{cam}", dict)
+        for key, parts in terms.items():
+            check.kind(parts, f"temporal_parts.{cam}.{key}", dict)
+            for part in ("signed", "pred", "gt"):
+                check.number(parts.get(part), f"temporal_parts.{cam}.{key}.{part}", null=True)
 
 
 def _check_status(check: _Check, status: Any, where: str) -> None:

@@ -121,3 +121,18 @@ def test_temporal_pairs_go_to_the_later_frame_and_flicker_stays_per_camera():
     assert doc["summary"]["flicker"] == 0.05 and doc["counts"]["flicker"] == 1
     assert {"camera": "b", "metric": "flicker", "status": "undefined",
             "reason": "fewer than 2 frames"} in doc["warnings"]
+
+
+def test_the_sides_of_a_temporal_term_reach_the_results():
+    """Issue 41: the engine's signed / pred / gt means were computed and dropped; they are
+    written per camera in ``temporal_parts``, terms without parts left out."""
+    rows = [_row("a", i, psnr=20.0) for i in range(3)]
+    parts = {"signed": -0.1, "pred": 0.2, "gt": 0.3}
+    temporal = {"a": {"warp_error": CameraTerm(Outcome(0.2), (0.1, 0.3), parts=parts),
+                      "tof": CameraTerm(Outcome(0.5), (0.5, 0.5))}}
+    doc = build_results(
+        rows=rows, metric_names=["psnr"], method="m", scene="s", pred_dir="p", gt_dir="g",
+        settings={}, unscored_cameras=[], skipped=[], warnings=[], timing={"total_s": 1.0},
+        version="0", temporal=temporal,
+    )
+    assert doc["temporal_parts"] == {"a": {"warp_error": parts}}
