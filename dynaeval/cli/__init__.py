@@ -1,7 +1,7 @@
 """Command line: a thin layer of argument parsing over the library.
 
 One module per command (``score``, ``merge``, ``detect``, ``detector``, ``prepare``,
-``leaderboard``, ``demo``), each with ``NAME``, ``add(subparsers)`` and ``run(args) -> exit
+``suite``, ``leaderboard``, ``demo``), each with ``NAME``, ``add(subparsers)`` and ``run(args) -> exit
 code``, registered in ``COMMANDS``; ``options`` is the one option table of the scoring settings
 (made from ``ScoreConfig``'s fields) that ``score``, ``demo`` and ``prepare`` share.
 

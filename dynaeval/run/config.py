@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 from os import PathLike
 from typing import Any
 
-from dynaeval.core.errors import InputError
+from dynaeval.core.errors import InputError, did_you_mean
 from dynaeval.io.frames import parse_shard
 from dynaeval.metrics.flow import FlowConfig
 from dynaeval.metrics.jod import check_fps
@@ -218,7 +218,8 @@ class ScoreConfig:
 
 def _check_choice(name: str, value: object, choices: tuple[str, ...]) -> None:
     if value not in choices:
-        raise InputError(f"{name} must be one of {', '.join(choices)}, got {value!r}")
+        raise InputError(f"{name} must be one of {', '.join(choices)}, got {value!r}"
+                         f"{did_you_mean(value, choices)}")
 
 
 def _check_metrics(names: object) -> tuple[str, ...]:

@@ -33,7 +33,7 @@ the one the regions and flows read.
 
 ``dynaeval.run.prepared_gt`` reads the folder back (``open_prepared``: checked against the run) and
 defines its layout, which this writer follows. The numbers are those of a run without
-``--prepared``, bit for bit (tests/dynaeval/test_prepare.py).
+``--prepared``, bit for bit (tests/dynaeval/run/test_prepare.py).
 """
 
 from __future__ import annotations

@@ -16,7 +16,7 @@ from dynaeval.regions.focus import FocusConfig
 from dynaeval.report import schema_path
 from dynaeval.run.evaluate import ScoreConfig
 
-from .helpers import moving_square_scene, write_frames
+from ..helpers import moving_square_scene, write_frames
 
 
 @pytest.fixture
@@ -325,7 +325,7 @@ def test_every_key_of_a_full_run_is_registered_and_documented(random_lpips):
     expected = set(METRICS) - {k for n in unavailable for k in SPECS[n].keys()}
     expected -= set(keys_of("frame", region="covisible"))  # DyCheck's m*: --protocol dycheck only
     assert keys == expected, (keys ^ expected)
-    doc = (Path(__file__).resolve().parents[2] / "docs" / "metrics.md").read_text()
+    doc = (Path(__file__).resolve().parents[3] / "docs" / "metrics.md").read_text()
     undocumented = [k for k in keys if f"`{k}`" not in doc]
     assert not undocumented, f"not in docs/metrics.md: {undocumented}"
     assert res["settings"]["lpips"]["enabled"] and res["summary"]["tlp"] is not None

@@ -23,7 +23,7 @@ from dynaeval.run.executor import Executor
 from dynaeval.run.plan import build_plan
 from dynaeval.run.scoring import camera_regions_of, name_regionless_frames, score_frame
 
-from .helpers import textured_frame
+from ..helpers import textured_frame
 
 pytestmark = pytest.mark.filterwarnings("ignore::dynaeval.DynaevalWarning")
 
