@@ -25,6 +25,7 @@ import time
 import warnings as pywarnings
 from collections.abc import Callable
 from dataclasses import replace
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -288,12 +289,11 @@ def _score_cameras(pairs: list[FramePair], plan: RunPlan, on_regions: RegionsCal
         if on_regions is not None:
             on_regions(cam, cam_pairs, found)
 
-    def score_one(cam: str, cam_pairs: list[FramePair], stop: Any) -> Any:
-        return _score_one_camera(cam, cam_pairs, plan, executor, regions_done, progress, stop)
-
     completed = False
-    try:
-        scored = executor.each_camera(cams, score_one)
+    try:  # each camera: _score_one_camera(cam, pairs, plan, executor, ..., stop)
+        scored = executor.each_camera(cams, partial(_score_one_camera, plan=plan,
+                                                    executor=executor, regions_done=regions_done,
+                                                    progress=progress))
         completed = True
     finally:
         progress.close(completed)
@@ -313,8 +313,8 @@ def _score_cameras(pairs: list[FramePair], plan: RunPlan, on_regions: RegionsCal
     return rows, warnings, temporal, regions, dict(executor.timing)
 
 
-def _score_one_camera(cam: str, cam_pairs: list[FramePair], plan: RunPlan, executor: Any,
-                      regions_done: RegionsCallback, progress: Any, stop: Any = None) -> Any:
+def _score_one_camera(cam: str, cam_pairs: list[FramePair], stop: Any = None, *, plan: RunPlan,
+                      executor: Any, regions_done: RegionsCallback, progress: Any) -> Any:
     """``score_camera`` with its progress: frames, pairs (those a camera could not score, no
     sequence, count as done) and the camera's video step. ``stop``: a ``threading.Event``
     checked at every frame and pair (``dynaeval.run.executor.Stopped`` is raised once it is set)."""

@@ -89,31 +89,25 @@ def score_frame(pair: FramePair, regions: FrameRegions, plan: RunPlan, cache: Fr
     inf kept, None for undefined) and its warnings; ``frames``: the pair's ``plan.read_pair``
     read beforehand (``ReadAhead``), its error raised here. An InputError that names no file is
     raised again naming the pair's files."""
+    t0 = time.perf_counter()
     try:
-        return _score_frame(pair, regions, plan, cache, executor,
-                            active_stages(plan) if stages is None else stages, frames)
+        pred, gt = plan.read_pair(pair, cache) if frames is None else frames.result()
+        elapsed = {"read": time.perf_counter() - t0}
+        regions = fit_to(regions, gt.shape[:2], plan.focus)
+        if plan.masks is not None and plan.protocol.uses_masks():
+            regions = with_weights(regions, pair.gt.path, plan.masks)
+        row: dict[str, Any] = {"camera": pair.camera, "frame": pair.frame, "index": pair.index,
+                               "pred": str(pair.pred), "gt": str(pair.gt)}
+        work = FrameWork(pair, pred, gt, regions, row, elapsed)
+        with values_known_in(1.0, finite=True):  # read by dynaeval.io.images: in [0, 1] and
+            # finite, no range or NaN/Inf pass per metric
+            values = [v for stage in (active_stages(plan) if stages is None else stages)
+                      for v in stage.frame(plan, work)]
     except InputError as err:
         if err.path is not None:
             raise
         raise InputError(f"camera {pair.camera!r} frame {pair.frame!r} (ground truth {pair.gt}): "
                          f"{err}", path=str(pair.pred)) from err
-
-
-def _score_frame(pair: FramePair, regions: FrameRegions, plan: RunPlan, cache: FrameCache,
-                 executor: Executor, stages: Sequence[Stage],
-                 frames: Future | None = None) -> tuple[dict[str, Any], list[dict]]:
-    t0 = time.perf_counter()
-    pred, gt = plan.read_pair(pair, cache) if frames is None else frames.result()
-    elapsed = {"read": time.perf_counter() - t0}
-    regions = fit_to(regions, gt.shape[:2], plan.focus)
-    if plan.masks is not None and plan.protocol.uses_masks():
-        regions = with_weights(regions, pair.gt.path, plan.masks)
-    row: dict[str, Any] = {"camera": pair.camera, "frame": pair.frame, "index": pair.index,
-                           "pred": str(pair.pred), "gt": str(pair.gt)}
-    work = FrameWork(pair, pred, gt, regions, row, elapsed)
-    with values_known_in(1.0, finite=True):  # read by dynaeval.io.images: in [0, 1] and finite,
-        # no range or NaN/Inf pass per metric
-        values = [v for stage in stages for v in stage.frame(plan, work)]
     warnings: list[dict] = []
     for name, got in values:
         value = got.value

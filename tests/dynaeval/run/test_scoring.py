@@ -184,7 +184,7 @@ def _square_scene_with_boxes(tmp_path: Path, empty: set[str]) -> Path:
     boxes file with the square's box in every frame except the keys in ``empty``."""
     import json
 
-    from .helpers import moving_square_scene, write_frames
+    from ..helpers import moving_square_scene, write_frames
 
     _, frames = moving_square_scene(tmp_path / "gt")
     boxes = {}
