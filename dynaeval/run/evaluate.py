@@ -51,7 +51,7 @@ from dynaeval.metrics.registry import SPECS
 from dynaeval.regions.focus import FrameRegions
 from dynaeval.report.results import build_results
 from dynaeval.run.config import ScoreConfig
-from dynaeval.run.executor import Executor, Stopped
+from dynaeval.run.executor import RunWorkers, Stopped
 from dynaeval.run.plan import RunPlan, Scope, build_plan
 from dynaeval.run.prepared_gt import open_prepared
 from dynaeval.run.scoring import score_camera
@@ -276,12 +276,12 @@ def _score_cameras(pairs: list[FramePair], plan: RunPlan, on_regions: RegionsCal
     the run's seconds per phase.
 
     With ``workers`` > 1 and several cameras, up to ``workers`` cameras are scored at the same
-    time (``Executor.lanes``), all feeding the one pool of ``workers`` threads: a camera's serial
+    time (``RunWorkers.lanes``), all feeding the one pool of ``workers`` threads: a camera's serial
     steps (regions, decoding, folding the pairs) overlap another's frames and flows, and the
     pool does not drain between a camera's phases. Each camera's numbers do not depend on it.
     """
     cams = pairs_by_camera(pairs)
-    executor = Executor(plan.config.workers, len(cams), cache_mb=plan.config.cache_mb,
+    executor = RunWorkers(plan.config.workers, len(cams), cache_mb=plan.config.cache_mb,
                         decoded=plan.prepared.decoded if plan.prepared is not None else None)
 
     def regions_done(cam: str, cam_pairs: list[FramePair], found: list[FrameRegions]) -> None:

@@ -25,7 +25,7 @@ from dynaeval.metrics.registry import METRICS
 from dynaeval.regions.focus import FrameRegions, camera_regions, fit_to
 from dynaeval.regions.given import given_masks, with_weights
 from dynaeval.regions.summary import regions_summary
-from dynaeval.run.executor import Executor
+from dynaeval.run.executor import RunWorkers
 from dynaeval.run.plan import RunPlan
 from dynaeval.run.stages import CameraWork, FrameWork, Stage, active_stages
 
@@ -46,7 +46,7 @@ class CameraScores:
 # Regions
 
 
-def camera_regions_of(camera: str, pairs: list[FramePair], plan: RunPlan, executor: Executor,
+def camera_regions_of(camera: str, pairs: list[FramePair], plan: RunPlan, executor: RunWorkers,
                       cache: FrameCache) -> list[FrameRegions]:
     """The regions of every frame of a camera, from its ground truth (timed as ``regions``)."""
     t0 = time.perf_counter()
@@ -83,7 +83,7 @@ def _summary_of(regions: list[FrameRegions], plan: RunPlan) -> dict[str, Any] | 
 
 
 def score_frame(pair: FramePair, regions: FrameRegions, plan: RunPlan, cache: FrameCache,
-                executor: Executor, stages: Sequence[Stage] | None = None,
+                executor: RunWorkers, stages: Sequence[Stage] | None = None,
                 frames: Future | None = None) -> tuple[dict[str, Any], list[dict]]:
     """The results row of one frame (its values from the frame ``stages``, default the plan's;
     inf kept, None for undefined) and its warnings; ``frames``: the pair's ``plan.read_pair``
@@ -161,7 +161,7 @@ def _not_video_warning(camera: str, pairs: list[FramePair], err: Any) -> dict:
         "scored one by one, its temporal and motion-mask values are null"))
 
 
-def score_camera(camera: str, pairs: list[FramePair], plan: RunPlan, executor: Executor, *,
+def score_camera(camera: str, pairs: list[FramePair], plan: RunPlan, executor: RunWorkers, *,
                  on_regions: Callable | None = None,
                  on_frame: Callable[[], None] | None = None,
                  on_pair: Callable[[], None] | None = None) -> CameraScores:

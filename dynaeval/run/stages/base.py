@@ -22,7 +22,7 @@ from dynaeval.io.frames import gap_positions
 from dynaeval.regions.focus import FrameRegions
 
 if TYPE_CHECKING:
-    from dynaeval.run.executor import Executor
+    from dynaeval.run.executor import RunWorkers
     from dynaeval.run.plan import RunPlan
 
 Value = tuple[str, Outcome]
@@ -59,7 +59,7 @@ class CameraWork:
     """Their regions (same order), from the ground truth."""
     cache: FrameCache
     """The camera's frame cache."""
-    executor: Executor
+    executor: RunWorkers
     """The run's pool and timing."""
     differ: Any = None
     """The ``FramesDiffer`` of frames that differ in shape (found by the regions, or by the

@@ -19,7 +19,7 @@ from dynaeval.io.frames import FrameRef
 from dynaeval.metrics.flow import MIN_FLOW_SIZE as TEMPORAL_MIN_SIZE
 from dynaeval.regions.focus import NOT_A_VIDEO, FocusConfig, FrameRegions
 from dynaeval.run.evaluate import ScoreConfig
-from dynaeval.run.executor import Executor
+from dynaeval.run.executor import RunWorkers
 from dynaeval.run.plan import build_plan
 from dynaeval.run.scoring import camera_regions_of, name_regionless_frames, score_frame
 
@@ -125,7 +125,7 @@ def test_an_input_error_inside_a_frame_names_camera_frame_and_files(tmp_path):
         raise InputError("float images must be in [0, 1]")
 
     run = replace(run, presence=fails)
-    executor = Executor(1, cache_mb=0)
+    executor = RunWorkers(1, cache_mb=0)
     regions = camera_regions_of(".", pairs, run, executor, FrameCache(0))
     with pytest.raises(InputError, match=r"pred/0001\.png: camera '\.' frame '0001' \(ground "
                                          r"truth .*gt/0001\.png\): float images must be in"):
@@ -141,7 +141,7 @@ def test_a_detector_error_names_the_ground_truth_file(tmp_path):
 
     run.sources.detector = fails
     with pytest.raises(InputError, match=r"gt/0000\.png: camera '\.' frame '0000': detector input"):
-        camera_regions_of(".", pairs, run, Executor(1, cache_mb=0), FrameCache(0))
+        camera_regions_of(".", pairs, run, RunWorkers(1, cache_mb=0), FrameCache(0))
 
 
 def test_boxes_file_boxes_fit_each_frame_of_a_camera_that_is_no_video(tmp_path):
