@@ -52,6 +52,7 @@ from dynaeval.core.outcome import (
 from dynaeval.io.atomic import write_text_atomic
 from dynaeval.io.jsonfile import read_json
 from dynaeval.metrics.registry import METRICS, SPECS
+from dynaeval.regions.sources import SOURCE_KINDS
 from dynaeval.report.results_check import FRAME_FIELDS, check_results
 
 SCHEMA = "dynaeval/results/v2"
@@ -226,17 +227,17 @@ def no_regions_warning(regions: dict[str, Any] | None) -> dict[str, str] | None:
     """The one headline warning of a run whose ``regions`` hold no box in any frame (None
     otherwise; ``Status.NO_REGION``, its text ``dynaeval.core.outcome.no_box_reason``): what found
     nothing, that every focused (and presence) value is null, the fix."""
-    if not regions or regions.get("source") in (None, "none") or not regions.get("cameras"):
+    kind = SOURCE_KINDS.get((regions or {}).get("source"))
+    if kind is None or not kind.gives_boxes or not regions.get("cameras"):
         return None
     cams = list(regions["cameras"].values())
     if any(c["frames_with_boxes"] for c in cams):
         return None
-    source = regions["source"]
-    finder = "bundled" if source == "detector" and regions.get("bundled_detector") else source
+    finder = kind.finder(bool(regions.get("bundled_detector")))
     classes = ", ".join(dict.fromkeys(c for cam in cams for c in cam["boxes"])) or "?"
     return warning(Status.NO_REGION, reason=no_box_reason(
         finder, sum(c["n_frames"] for c in cams), classes,
-        presence=source in ("detector", "boxes")))
+        presence=kind.classed))
 
 
 def is_no_regions_warning(w: dict) -> bool:
@@ -247,7 +248,8 @@ def is_no_regions_warning(w: dict) -> bool:
 def _explained_by_no_regions(metric: str, regions: dict[str, Any]) -> bool:
     """A null summary of ``metric`` that the no-box headline explains."""
     info = METRICS.get(metric)
-    explained = {"focused", "person", "ball", *(("masked",) if regions["source"] == "motion" else ())}
+    explained = {"focused", "person", "ball",
+                 *(("masked",) if SOURCE_KINDS[regions["source"]].from_motion else ())}
     return info is not None and info.variant in explained
 
 

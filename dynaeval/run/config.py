@@ -25,7 +25,8 @@ from dynaeval.metrics.registry import (
     require_available,
     selectable_specs,
 )
-from dynaeval.regions.focus import FOCUS_SOURCES, FocusConfig
+from dynaeval.regions.focus import FocusConfig
+from dynaeval.regions.sources import focus_source
 
 BACKGROUNDS = ("white", "black")
 DEVICES = ("cpu", "cuda", "auto")
@@ -167,7 +168,7 @@ class ScoreConfig:
         if not isinstance(self.focus, FocusConfig):
             raise InputError(f"focus must be a FocusConfig or one of the CLI's strings detector, "
                              f"motion, none, boxes:FILE, got {type(self.focus).__name__}")
-        _check_choice("focus source", self.focus.source, FOCUS_SOURCES)
+        focus_source(self.focus.source)
 
         FlowConfig(method=self.flow)  # raises InputError for an unknown method
         if self.frames_are_video not in (None, True, False):

@@ -216,8 +216,9 @@ def per_frame_only(config: ScoreConfig, layout: Any, masks: Any) -> Scope:
     fix = ("pass --frames-are-video (frames_are_video=True) if they are one camera's video"
            if config.frames_are_video is None else "drop frames_are_video=False")
     video_metrics = [n for n in config.metrics if SPECS[n].kind == "camera"]
-    if config.focus.source == "motion" or video_metrics:
-        asked = "--focus motion" if config.focus.source == "motion" else f"--{video_metrics[0]}"
+    if config.focus.kind.from_motion or video_metrics:
+        asked = (f"--focus {config.focus.source}" if config.focus.kind.from_motion
+                 else f"--{video_metrics[0]}")
         raise InputError(f"{asked} needs each camera's frames as a video, but {what} {why}; "
                          f"{fix}, or drop {asked}", path=layout.pred)
     masked = config.focus.masked and masks is not None  # over the given masks only

@@ -73,7 +73,7 @@ def camera_regions_of(camera: str, pairs: list[FramePair], plan: RunPlan, execut
 def _summary_of(regions: list[FrameRegions], plan: RunPlan) -> dict[str, Any] | None:
     """The camera's ``regions_summary`` (None when it has neither boxes nor masks)."""
     focus = plan.focus
-    if focus.source == "none" and not focus.masked:
+    if not focus.kind.gives_boxes and not focus.masked:
         return None
     return regions_summary(regions, focus.source, plan.sources.classes)
 

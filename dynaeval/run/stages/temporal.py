@@ -104,7 +104,7 @@ def static_pixels(regions: list[FrameRegions], focus: FocusConfig) -> np.ndarray
 def region_items(regions: list[FrameRegions], focus: FocusConfig) -> list | None:
     """Each frame's focus region for the temporal terms (its boxes; None for a frame without),
     or None when the run has no focus (``focus: none``)."""
-    return None if focus.source == "none" else [r.boxes for r in regions]
+    return [r.boxes for r in regions] if focus.kind.gives_boxes else None
 
 
 def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], plan: RunPlan,
