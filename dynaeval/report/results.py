@@ -253,27 +253,49 @@ def _explained_by_no_regions(metric: str, regions: dict[str, Any]) -> bool:
     return info is not None and info.variant in explained
 
 
-def build_results(
-    *,
-    rows: list[dict[str, Any]],
-    metric_names: list[str],
-    method: str,
-    scene: str,
-    pred_dir: str,
-    gt_dir: str,
-    settings: dict[str, Any],
-    unscored_cameras: list[str],
-    skipped: list[dict],
-    warnings: list[dict],
-    timing: dict[str, float],
-    version: str,
-    temporal: dict[str, dict[str, CameraTerm]] | None = None,
-    camera_values: dict[str, dict[str, float | None]] | None = None,
-    shard: tuple[int, int] | None = None,
-    inputs_extra: dict[str, Any] | None = None,
-    regions: dict[str, Any] | None = None,
-    temporal_parts: dict[str, dict[str, dict[str, float | None]]] | None = None,
-) -> dict[str, Any]:
+@dataclass
+class RunRecord:
+    """What a run (or ``merge``, from shards) hands the results document, one field each."""
+
+    rows: list[dict[str, Any]]
+    """Frame rows (``camera``, ``frame``, ``index``, ``pred``, ``gt``, values; inf kept)."""
+    metric_names: list[str]
+    """The per-frame result keys, in report order."""
+    method: str
+    """The method's name (``method``)."""
+    scene: str
+    """The scene's name (``scene``)."""
+    pred_dir: str
+    """The predictions' folder (``inputs.pred``)."""
+    gt_dir: str
+    """The ground truth's folder (``inputs.gt``)."""
+    settings: dict[str, Any]
+    """Every setting that changes a number (``settings``)."""
+    unscored_cameras: list[str]
+    """Cameras of the ground truth without predictions (``inputs.unscored_cameras``)."""
+    skipped: list[dict]
+    """Frames left out (``inputs.skipped_frames``)."""
+    warnings: list[dict]
+    """The run's warnings so far, each with a ``status``."""
+    timing: dict[str, float]
+    """Seconds per phase and metric."""
+    version: str
+    """The dynaeval version that scored."""
+    temporal: dict[str, dict[str, CameraTerm]] | None = None
+    """Per camera, its camera-level terms by result key (``place_temporal``)."""
+    camera_values: dict[str, dict[str, float | None]] | None = None
+    """Camera-level values given directly (``merge``)."""
+    shard: tuple[int, int] | None = None
+    """``(index, count)`` of a shard's run."""
+    inputs_extra: dict[str, Any] | None = None
+    """More ``inputs`` fields (the render folder's layout, the temporal pairs)."""
+    regions: dict[str, Any] | None = None
+    """``{"source", "bundled_detector", "cameras": {camera: regions_summary}}``, or None."""
+    temporal_parts: dict[str, dict[str, dict[str, float | None]]] | None = None
+    """Parts given directly (``merge``), beside those of ``temporal``."""
+
+
+def build_results(record: RunRecord) -> dict[str, Any]:
     """Assemble the results document from per-frame rows (values may be inf; made strict here).
 
     Every metric that has per-frame values is summarised the same way: per camera the mean over
@@ -287,18 +309,20 @@ def build_results(
     ``merge`` has them) beside the parts of ``temporal``'s terms (``parts_of``); when no frame has a box, one headline warning (``no_regions_warning``) replaces
     the null-summary warnings of the focused and presence metrics.
     """
-    warnings = list(warnings)
+    rows, settings, regions, temporal = (record.rows, record.settings, record.regions,
+                                         record.temporal)
+    warnings = list(record.warnings)
     unmarked = [w for w in warnings if "status" not in w]
     if unmarked:
         raise ValueError(f"warning without a status: {unmarked[0]} (a bug: make warnings with "
                          "dynaeval.core.outcome.warning or note)")
-    camera_values = {c: dict(v) for c, v in (camera_values or {}).items()}
+    camera_values = {c: dict(v) for c, v in (record.camera_values or {}).items()}
     if temporal:
         placed, more = place_temporal(rows, temporal)
         warnings.extend(more)
         for cam, values in placed.items():
             camera_values.setdefault(cam, {}).update(values)
-    names = list(metric_names)
+    names = list(record.metric_names)
     for row in rows:
         for k, v in row.items():
             if k not in FRAME_FIELDS and k not in names and (v is None or isinstance(v, float)):
@@ -319,19 +343,20 @@ def build_results(
     ]
     doc = {
         "schema": SCHEMA,
-        "dynaeval_version": version,
+        "dynaeval_version": record.version,
         "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-        "method": method,
-        "scene": scene,
+        "method": record.method,
+        "scene": record.scene,
         "inputs": {
-            "pred": pred_dir,
-            "gt": gt_dir,
+            "pred": record.pred_dir,
+            "gt": record.gt_dir,
             "n_frames": len(rows),
             "cameras": list(cameras),
-            "unscored_cameras": list(unscored_cameras),
-            "skipped_frames": list(skipped),
-            **({"shard": {"index": shard[0], "count": shard[1]}} if shard else {}),
-            **(inputs_extra or {}),
+            "unscored_cameras": list(record.unscored_cameras),
+            "skipped_frames": list(record.skipped),
+            **({"shard": {"index": record.shard[0], "count": record.shard[1]}}
+               if record.shard else {}),
+            **(record.inputs_extra or {}),
         },
         "settings": settings,
         "metrics": {n: _direction(n) for n in metric_names},
@@ -340,11 +365,11 @@ def build_results(
         "summary": summary,
         "summary_status": found.status,
         "counts": counts,
-        "timing": {k: round(v, 6) for k, v in timing.items()},
+        "timing": {k: round(v, 6) for k, v in record.timing.items()},
         "warnings": warnings,
         **({"regions": regions} if regions is not None else {}),
     }
-    parts = {**(temporal_parts or {}), **parts_of(temporal or {})}
+    parts = {**(record.temporal_parts or {}), **parts_of(temporal or {})}
     if parts:
         doc["temporal_parts"] = parts
     return strict(doc)

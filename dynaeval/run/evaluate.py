@@ -49,7 +49,7 @@ from dynaeval.io.video import close_videos
 from dynaeval.metrics.protocols import get_protocol
 from dynaeval.metrics.registry import SPECS
 from dynaeval.regions.focus import FrameRegions
-from dynaeval.report.results import build_results
+from dynaeval.report.results import RunRecord, build_results
 from dynaeval.run.config import ScoreConfig
 from dynaeval.run.executor import RunWorkers, Stopped
 from dynaeval.run.plan import RunPlan, Scope, build_plan
@@ -350,14 +350,14 @@ def _assemble(layout: Any, run_name: str | None, pairing: Any, plan: RunPlan, ro
                     {"layout": {"name": layout.name, "root": str(layout.root), **layout.details}})
     if layout.name == "kplanes":
         inputs_extra["layout"]["stack"] = describe_stack(pairing)
-    return Results(build_results(
+    return Results(build_results(RunRecord(
         rows=rows, metric_names=metric_names(plan), method=method, scene=scene,
         pred_dir=str(layout.pred), gt_dir=str(layout.gt), settings=dict(plan.settings),
         unscored_cameras=pairing.unscored_cameras, shard=config.shard,
         skipped=pairing.skipped, warnings=warnings, timing=timing,
         version=VERSION, temporal=temporal, inputs_extra=inputs_extra,
         regions=_regions_doc(plan, regions),
-    ))
+    )))
 
 
 def _regions_doc(plan: RunPlan, cameras: dict[str, dict]) -> dict[str, Any] | None:
