@@ -1,9 +1,10 @@
 """Command line: a thin layer of argument parsing over the library.
 
 One module per command (``score``, ``merge``, ``detect``, ``detector``, ``prepare``,
-``suite``, ``leaderboard``, ``demo``), each with ``NAME``, ``add(subparsers)`` and ``run(args) -> exit
-code``, registered in ``COMMANDS``; ``options`` is the one option table of the scoring settings
-(made from ``ScoreConfig``'s fields) that ``score``, ``demo`` and ``prepare`` share.
+``suite``, ``leaderboard``, ``demo``), each with ``NAME``, ``add(subparsers)`` and
+``run(args) -> exit code``, registered in ``COMMANDS``; ``options`` is the one option table of
+the scoring settings (made from ``ScoreConfig``'s fields) that ``score``, ``demo`` and
+``prepare`` share.
 
 Exit codes: 0 scored; 2 bad input or usage (the message names the file and what is wrong);
 1 a bug (a traceback is printed: please report it).

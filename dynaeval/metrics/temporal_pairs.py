@@ -68,7 +68,8 @@ def check_region(
     return r
 
 
-def check_frames(a: np.ndarray, b: np.ndarray, names: tuple[str, str]) -> tuple[np.ndarray, np.ndarray]:
+def check_frames(a: np.ndarray, b: np.ndarray,
+                 names: tuple[str, str]) -> tuple[np.ndarray, np.ndarray]:
     """Two frames validated by ``as_image`` (float32, uint8 / 255) that must have one shape."""
     a, b = as_image(a, names[0]), as_image(b, names[1])
     if a.shape != b.shape:
@@ -242,7 +243,8 @@ class Frames(NamedTuple):
     region: np.ndarray | None
     """``(H, W)`` bool focus mask, or None (no regions given for this frame)."""
     prep: FramePrep | None = None
-    """Gray images and hashes for the flows (``pair_kernels.frame_prep``); None: made when needed."""
+    """Gray images and hashes for the flows (``pair_kernels.frame_prep``); None: made when
+    needed."""
 
 
 class FeatureMemo:

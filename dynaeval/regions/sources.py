@@ -24,7 +24,8 @@ class FocusSource:
     """One kind of focus source; its facts as class attributes (subclasses set them)."""
 
     name: ClassVar[str] = ""
-    """The name of ``--focus`` and of the results' ``settings.focus.source`` / ``regions.source``."""
+    """The name of ``--focus`` and of the results' ``settings.focus.source`` and
+    ``regions.source``."""
     spec: ClassVar[str] = ""
     """How ``--focus`` spells it (``boxes:FILE`` for a boxes file)."""
     gives_boxes: ClassVar[bool] = True

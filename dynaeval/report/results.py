@@ -306,8 +306,9 @@ def build_results(record: RunRecord) -> dict[str, Any]:
     ``camera_values`` given directly, as ``merge`` does) are summarised as the mean over cameras.
     ``regions`` (``{"source", "bundled_detector", "cameras": {camera: regions_summary}}``) is
     written as is; ``temporal_parts`` (``{camera: {key: {"signed", "pred", "gt"}}}``, as
-    ``merge`` has them) beside the parts of ``temporal``'s terms (``parts_of``); when no frame has a box, one headline warning (``no_regions_warning``) replaces
-    the null-summary warnings of the focused and presence metrics.
+    ``merge`` has them) beside the parts of ``temporal``'s terms (``parts_of``); when no frame
+    has a box, one headline warning (``no_regions_warning``) replaces the null-summary warnings
+    of the focused and presence metrics.
     """
     rows, settings, regions, temporal = (record.rows, record.settings, record.regions,
                                          record.temporal)

@@ -279,7 +279,8 @@ def _save_flows(pairs: list[FramePair], regions: list[FrameRegions], plan: RunPl
     items = region_items(regions, plan.focus)
 
     def region(k: int, shape: tuple[int, ...]) -> np.ndarray | None:
-        return None if items is None or items[k] is None else region_item_mask(items[k], shape[:2], k)
+        return (None if items is None or items[k] is None
+                else region_item_mask(items[k], shape[:2], k))
 
     def terms(k: int, keys: list[str], flows: list[np.ndarray]) -> dict[str, Any]:
         with values_known_in(1.0, finite=True):  # read by dynaeval.io.images: no NaN/Inf pass

@@ -46,7 +46,8 @@ class Temporal(Stage):
 
 
 def _temporal_or_reason(camera: str, pairs: list[FramePair], regions: list[FrameRegions],
-                        plan: RunPlan, work: CameraWork, differ: Any) -> tuple[dict[str, CameraTerm], Any]:
+                        plan: RunPlan, work: CameraWork,
+                        differ: Any) -> tuple[dict[str, CameraTerm], Any]:
     """The camera's temporal terms, or every term null with the reason: frames that differ in
     shape (``differ``: the ``FramesDiffer`` found by the regions, or found here), frames too
     small for optical flow. InputErrors that name no file are raised naming the camera."""

@@ -18,11 +18,13 @@ def test_the_closest_name_is_suggested_and_none_when_nothing_is_close():
 
 
 def test_an_unknown_metric_or_protocol_name_gets_the_hint():
-    with pytest.raises(InputError, match=r"unknown metric\(s\) \['ssmi'\] \(did you mean 'ssim'\?\)"):
+    with pytest.raises(InputError,
+                       match=r"unknown metric\(s\) \['ssmi'\] \(did you mean 'ssim'\?\)"):
         dynaeval.ScoreConfig(metrics=("psnr", "ssmi"))
     with pytest.raises(InputError, match=r"got 'nerfbaseline' \(did you mean 'nerfbaselines'\?\)"):
         get_protocol("nerfbaseline")
-    with pytest.raises(KeyError, match=r"unknown metric 'focused_ssmi' \(did you mean 'focused_ssim'\?\)"):
+    with pytest.raises(KeyError,
+                       match=r"unknown metric 'focused_ssmi' \(did you mean 'focused_ssim'\?\)"):
         spec("focused_ssmi")
     with pytest.raises(InputError, match=r"got 'nerfstudi' \(did you mean 'nerfstudio'\?\)"):
         dynaeval.ScoreConfig(protocol="nerfstudi")
