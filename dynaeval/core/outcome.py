@@ -107,17 +107,6 @@ class CameraTerm:
     pairs; ``dynaeval.metrics.temporal.temporal_metrics``), else empty."""
 
     @classmethod
-    def from_entry(cls, entry: Mapping[str, object]) -> CameraTerm:
-        """The term of one entry of ``dynaeval.metrics.temporal.temporal_metrics``' output
-        (``{"value", "status", "reason", "per_pair", "signed"?, "pred"?, "gt"?}``)."""
-        value = entry.get("value")
-        status = Status(entry.get("status") or (Status.OK if value is not None
-                                                else Status.UNDEFINED))
-        parts = {k: entry[k] for k in ("signed", "pred", "gt") if k in entry}
-        return cls(Outcome(value, status, entry.get("reason")),
-                   tuple(entry.get("per_pair") or ()), parts=parts)
-
-    @classmethod
     def null(cls, status: Status, detail: str | None) -> CameraTerm:
         """A term null for the whole camera, and why."""
         return cls(Outcome(None, status, detail))
