@@ -17,7 +17,7 @@ import os
 import sys
 import traceback
 
-from dynaeval.core.errors import InputError
+from dynaeval.core.errors import InputError, did_you_mean
 from dynaeval.core.runtime import check_opencv, keep_freed_memory
 from dynaeval.core.version import VERSION
 
@@ -34,8 +34,20 @@ COMMANDS = (score, merge, detect, detector, prepare, suite, leaderboard, demo)
 ``NAME``, ``add`` and ``run``, and its entry here."""
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser with did-you-mean on an invalid choice (``--metrics lpip``, ``--protocol
+    nerfstudi``; Python 3.11's argparse has none): the closest choice added to its message."""
+
+    def _check_value(self, action: argparse.Action, value: object) -> None:
+        try:
+            super()._check_value(action, value)
+        except argparse.ArgumentError as err:
+            hint = did_you_mean(value, map(str, action.choices or ()))
+            raise argparse.ArgumentError(action, f"{err.message}{hint}") from None
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="dynaeval",
         description="Score novel views of dynamic scenes: whole-frame, focused, masked and "
                     "temporal metrics.",

@@ -28,3 +28,17 @@ def test_an_unknown_metric_or_protocol_name_gets_the_hint():
         spec("focused_ssmi")
     with pytest.raises(InputError, match=r"got 'nerfstudi' \(did you mean 'nerfstudio'\?\)"):
         dynaeval.ScoreConfig(protocol="nerfstudi")
+
+
+def test_the_cli_suggests_the_closest_choice(capsys):
+    """An invalid choice on the command line gets the hint too (exit 2, as before)."""
+    from dynaeval.cli import main
+
+    with pytest.raises(SystemExit) as exit_:
+        main(["score", "pred", "gt", "--metrics", "lpip"])
+    assert exit_.value.code == 2
+    assert "invalid choice: 'lpip'" in (err := capsys.readouterr().err)
+    assert err.rstrip().endswith("(did you mean 'lpips'?)")
+    with pytest.raises(SystemExit):
+        main(["scor"])
+    assert "(did you mean 'score'?)" in capsys.readouterr().err
