@@ -33,16 +33,13 @@ from dynaeval.core.errors import InputError
 from dynaeval.core.outcome import CameraTerm, Status, note, warning, warning_line
 from dynaeval.core.progress import Progress
 from dynaeval.core.version import VERSION
-from dynaeval.io import FramePair, pair_frames
-from dynaeval.io.dycheck import pair_dycheck, pair_renders
+from dynaeval.io import FramePair
 from dynaeval.io.frames import (
     consecutive_pairs,
     missing_frames_warning,
     pairs_by_camera,
     select_shard,
 )
-from dynaeval.io.kplanes import describe_stack, pair_stack
-from dynaeval.io.layout_3dgs import family_protocol
 from dynaeval.io.layouts import detect_layout
 from dynaeval.io.masks import check_masks, find_masks, unused_mask_folders
 from dynaeval.io.video import close_videos
@@ -133,9 +130,9 @@ def score(
                                                      scope)]
     rows, warnings, temporal, regions, timing = _score_cameras(pairing.pairs, plan, on_regions,
                                                                progress)
-    run_name = None if layout.name == "folders" else (
-        layout.root if layout.name == "kplanes" else Path(layout.details.get("model", pred_dir))
-    ).resolve().name
+    kind = layout.kind
+    run_name = (kind.run_folder(layout, Path(pred_dir)).resolve().name if kind.render_folder
+                else None)
     results = _assemble(layout, run_name, pairing, plan, rows, [*run_warnings, *warnings],
                         temporal, {"total_s": time.perf_counter() - t_start, **timing}, regions)
     if gaps and scope.temporal:
@@ -165,7 +162,7 @@ def _input_warnings(config: ScoreConfig, layout: Any, pairing: Any, mask_warning
     warnings = [*pairing.warnings, *mask_warnings, *(note(text) for text in layout.notes)]
     if gaps:
         warnings.append(missing_frames_warning(gaps, scope.temporal))
-    own = family_protocol(layout.details["family"]) if layout.name == "3dgs" else config.protocol
+    own = layout.kind.own_protocol(layout) or config.protocol
     if config.protocol != own:
         warnings.append(note(
             f"{layout.details['family']} render folder scored under --protocol "
@@ -179,13 +176,7 @@ def _input_warnings(config: ScoreConfig, layout: Any, pairing: Any, mask_warning
 def _pair_layout(layout: Any, config: ScoreConfig) -> Any:
     """The frame pairs of ``layout`` (a ``dynaeval.io.layouts`` Layout), this run's shard of
     them when ``config.shard`` is set: a ``Pairing``."""
-    if layout.name == "kplanes":
-        pairing = pair_stack(layout.pred)
-    elif layout.name == "dycheck":
-        pairing = pair_renders(layout.pred)
-    else:
-        pairing = (pair_dycheck(layout.pred, layout.gt, allow_missing=config.allow_missing)
-                   or pair_frames(layout.pred, layout.gt, allow_missing=config.allow_missing))
+    pairing = layout.kind.pairing(layout, config.allow_missing)
     if config.shard is not None:
         pairing = select_shard(pairing, *config.shard)
     return pairing
@@ -205,7 +196,7 @@ def per_frame_only(config: ScoreConfig, layout: Any, masks: Any) -> Scope:
         InputError: ``--focus motion`` or a video metric (``jod``) asked for on separate views.
     """
     video = layout.sequence if config.frames_are_video is None else config.frames_are_video
-    what = (f"the {layout.name} render folder's frames" if layout.name != "folders"
+    what = (f"the {layout.name} render folder's frames" if layout.kind.render_folder
             else "the frames")
     if video:
         return Scope(config.temporal, config.focus.masked, None if layout.sequence else {
@@ -347,9 +338,8 @@ def _assemble(layout: Any, run_name: str | None, pairing: Any, plan: RunPlan, ro
     method = config.method or run_name or layout.pred.resolve().name
     scene = config.scene or run_name or layout.gt.resolve().name
     inputs_extra = ({} if run_name is None else
-                    {"layout": {"name": layout.name, "root": str(layout.root), **layout.details}})
-    if layout.name == "kplanes":
-        inputs_extra["layout"]["stack"] = describe_stack(pairing)
+                    {"layout": {"name": layout.name, "root": str(layout.root), **layout.details,
+                                **layout.kind.describe(layout, pairing)}})
     return Results(build_results(RunRecord(
         rows=rows, metric_names=metric_names(plan), method=method, scene=scene,
         pred_dir=str(layout.pred), gt_dir=str(layout.gt), settings=dict(plan.settings),

@@ -570,10 +570,19 @@ def test_the_text_rule_catches_what_main_did(tmp_path):
     assert [line for _, line, _ in _text_matches(path)] == [2, 4, 7]
 
 
-def _source_literal_compares(path: Path) -> list[str]:
+def _layout_name(node: ast.AST) -> bool:
+    """``layout.name`` (a ``RenderLayout``'s name)."""
+    return (isinstance(node, ast.Attribute) and node.attr == "name"
+            and getattr(node.value, "id", "") == "layout")
+
+
+def _source_literal_compares(path: Path, named=None) -> list[str]:  # noqa: ANN001
     """``x.source == "motion"``, ``source in ("detector", "boxes")`` and the like in ``path``:
-    a focus source (a name ending in ``source``) compared with string literals."""
+    a focus source (a name ending in ``source``; or what ``named`` accepts) compared with string
+    literals."""
     def named_source(node: ast.AST) -> bool:
+        if named is not None:
+            return named(node)
         name = node.attr if isinstance(node, ast.Attribute) else getattr(node, "id", "")
         return name.endswith("source")
 
@@ -608,3 +617,11 @@ def test_the_source_rule_catches_what_main_did(tmp_path):
     assert len(_source_literal_compares(code)) == 2  # not the third: no literal
     code.write_text('a = cfg.source != "motion"\nb = source not in ("detector",)\n')
     assert len(_source_literal_compares(code)) == 2
+
+
+def test_no_input_layout_is_told_apart_by_its_name_in_the_run():
+    """Issue 41: ``layout.name == "kplanes"`` (and ``dycheck``, ``3dgs``, ``folders``) at 7 sites
+    of ``run/evaluate.py``; each kind is a ``dynaeval.io.layouts.LayoutKind`` the run reads."""
+    bad = [hit for p in sorted((PACKAGE / "run").rglob("*.py"))
+           for hit in _source_literal_compares(p, _layout_name)]
+    assert not bad, "a layout told apart by its name:\n" + "\n".join(bad)
