@@ -164,7 +164,8 @@ def test_channel_mismatch(tmp_path, scene):
     ("metrics", ("psnr", "fid"), r"unknown metric\(s\) \['fid'\]"),
     ("metrics", "psnr", "metrics must be a sequence of metric names"),
     ("shard", (3, 2), "needs 1 <= I <= N"),
-    ("focus", "moving", r"focus must be detector, motion, none or boxes:FILE, got 'moving'; "
+    ("focus", "moving", r"focus must be detector, motion, none or boxes:FILE, got 'moving' "
+                        r"\(did you mean 'motion'\?\); "
                         r"or a FocusConfig \(dynaeval.regions.focus\) to set expand"),
     ("focus", "boxes:", "focus boxes:FILE needs a file name after 'boxes:'"),
     ("focus", None, "focus must be a FocusConfig or one of the CLI's strings detector, motion, "
