@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from functools import partial
 
 import numpy as np
 import pytest
@@ -459,8 +460,8 @@ def test_a_failing_camera_stops_the_others_and_its_error_is_raised(monkeypatch):
     progress = Progress({"regions": 6, "frames": 800, "pairs": 4, "video": 2}, enabled=False)
     run = SimpleNamespace(temporal=None, fail=False)
 
-    def score(cam, cam_pairs, stop):  # noqa: ANN202  (as dynaeval.run.evaluate._score_cameras)
-        return _score_one_camera(cam, cam_pairs, run, None, None, progress, stop)
+    score = partial(_score_one_camera, plan=run, executor=None, regions_done=None,
+                    progress=progress)  # as dynaeval.run.evaluate._score_cameras
 
     with ThreadPoolExecutor(max_workers=2) as lanes:
         assert cameras_at_once(lanes, cams, score) == ["a", "b"]
