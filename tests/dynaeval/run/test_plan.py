@@ -6,11 +6,11 @@ from __future__ import annotations
 import dataclasses
 import threading
 from pathlib import Path
-from types import SimpleNamespace
 
 import pytest
 
 from dynaeval.errors import InputError
+from dynaeval.io.layouts import RenderLayout
 from dynaeval.regions.focus import FocusConfig
 from dynaeval.run.config import ScoreConfig
 from dynaeval.run.evaluate import per_frame_only
@@ -25,7 +25,7 @@ NONE = FocusConfig(source="none", masked=False)
 
 def _views(**kw) -> tuple[ScoreConfig, object]:  # noqa: ANN202
     """A config and a layout of separate test views (not a video)."""
-    layout = SimpleNamespace(sequence=False, name="folders", pred=Path("pred"))
+    layout = RenderLayout("folders", Path("pred"), Path("gt"), sequence=False)
     return ScoreConfig(progress=False, **kw), layout
 
 
