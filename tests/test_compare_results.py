@@ -51,3 +51,19 @@ def test_a_status_added_between_two_v2_files_is_a_difference(tmp_path):
     assert _run(tmp_path, before, after) == 1
     del before["summary_status"]
     assert _run(tmp_path, before, _v2(V1)) == 1
+
+
+def test_only_the_added_temporal_parts_may_be_new(tmp_path, capsys):
+    """Issue 41 added ``temporal_parts``: present only after, it is named, not a difference;
+    a difference inside it, or another new key, still is one."""
+    before = _v2(V1)
+    after = copy.deepcopy(before)
+    after["temporal_parts"] = {"cam": {"warp_error": {"signed": 0.1, "pred": 0.2, "gt": 0.1}}}
+    assert _run(tmp_path, before, after) == 0
+    assert "same (added: /temporal_parts)" in capsys.readouterr().out
+    after["extra"] = 1
+    assert _run(tmp_path, before, after) == 1
+    del after["extra"]
+    changed = copy.deepcopy(after)
+    changed["temporal_parts"]["cam"]["warp_error"]["pred"] = 0.3
+    assert _run(tmp_path, after, changed) == 1

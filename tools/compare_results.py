@@ -23,33 +23,41 @@ from pathlib import Path
 IGNORED = ("created", "timing")
 V2_ADDED = ("status", "summary_status")
 """Keys results schema v2 adds beside the values of v1 (docs/results-format.md)."""
+ADDED = ("temporal_parts",)
+"""Top-level keys a later v2 writer adds (issue 41: the sides of the temporal terms): present
+only after, they are counted and printed, not differences."""
 ORDERED = ("summary", "metrics", "counts")
 
 
-def differences(a: object, b: object, path: str = "", added: list[str] | None = None) -> list[str]:
+def differences(a: object, b: object, path: str = "", added: list[str] | None = None,
+                v1_to_v2: bool = False) -> list[str]:
     """Every place where two JSON values differ, as ``path: before != after`` lines. With
-    ``added`` (a list), keys of ``V2_ADDED`` present only after are appended to it instead."""
+    ``added`` (a list), top-level keys of ``ADDED`` present only after (and with ``v1_to_v2``
+    the keys of ``V2_ADDED``) are appended to it instead."""
     if isinstance(a, dict) and isinstance(b, dict):
         out = []
         for k in [*a, *(k for k in b if k not in a)]:
             if not path and k in IGNORED:
                 continue
-            if added is not None and k not in a and k in V2_ADDED:
+            if added is not None and not path and k not in a and k in ADDED:
+                added.append(f"/{k}")
+                continue
+            if v1_to_v2 and added is not None and k not in a and k in V2_ADDED:
                 added.append(f"{path}/{k}")
                 continue
-            if added is not None and not path and k == "schema":
+            if v1_to_v2 and not path and k == "schema":
                 continue
             if k not in a or k not in b:
                 side = "after" if k not in a else "before"
                 out.append(f"{path}/{k}: only {side}: {str(b.get(k, a.get(k)))[:120]}")
             else:
-                out += differences(a[k], b[k], f"{path}/{k}", added)
+                out += differences(a[k], b[k], f"{path}/{k}", added, v1_to_v2)
         return out
     if isinstance(a, list) and isinstance(b, list):
         if len(a) != len(b):
             return [f"{path}: length {len(a)} != {len(b)}"]
         return [d for i, (x, y) in enumerate(zip(a, b, strict=True))
-                for d in differences(x, y, f"{path}[{i}]", added)]
+                for d in differences(x, y, f"{path}[{i}]", added, v1_to_v2)]
     return [] if a == b else [f"{path}: {str(a)[:150]!r} != {str(b)[:150]!r}"]
 
 
@@ -67,11 +75,12 @@ def main(before: Path, after: Path, roots: tuple[str, str] | None = None) -> int
         a, b = json.loads(text), json.loads(g.read_text())
         v1_to_v2 = (a.get("schema") == "dynaeval/results/v1"
                     and b.get("schema") == "dynaeval/results/v2")
-        added: list[str] | None = [] if v1_to_v2 else None
-        out = differences(a, b, "", added)
+        added: list[str] = []
+        out = differences(a, b, "", added, v1_to_v2)
         out += [f"/{s}: key order differs" for s in ORDERED
                 if s in a and list(a[s]) != list(b.get(s, {}))]
-        note = f" (schema v1 -> v2: {len(added)} status fields added)" if added is not None else ""
+        note = (f" (schema v1 -> v2: {len(added)} status fields added)" if v1_to_v2
+                else f" (added: {', '.join(added)})" if added else "")
         print(f"{f.name}: {'same' if not out else f'{len(out)} differences'}{note}")
         for line in out[:30]:
             print("   ", line)

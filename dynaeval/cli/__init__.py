@@ -1,9 +1,10 @@
 """Command line: a thin layer of argument parsing over the library.
 
 One module per command (``score``, ``merge``, ``detect``, ``detector``, ``prepare``,
-``leaderboard``, ``demo``), each with ``NAME``, ``add(subparsers)`` and ``run(args) -> exit
-code``, registered in ``COMMANDS``; ``options`` is the one option table of the scoring settings
-(made from ``ScoreConfig``'s fields) that ``score``, ``demo`` and ``prepare`` share.
+``suite``, ``leaderboard``, ``demo``), each with ``NAME``, ``add(subparsers)`` and
+``run(args) -> exit code``, registered in ``COMMANDS``; ``options`` is the one option table of
+the scoring settings (made from ``ScoreConfig``'s fields) that ``score``, ``demo`` and
+``prepare`` share.
 
 Exit codes: 0 scored; 2 bad input or usage (the message names the file and what is wrong);
 1 a bug (a traceback is printed: please report it).
@@ -16,7 +17,7 @@ import os
 import sys
 import traceback
 
-from dynaeval.core.errors import InputError
+from dynaeval.core.errors import InputError, did_you_mean
 from dynaeval.core.runtime import check_opencv, keep_freed_memory
 from dynaeval.core.version import VERSION
 
@@ -33,8 +34,20 @@ COMMANDS = (score, merge, detect, detector, prepare, suite, leaderboard, demo)
 ``NAME``, ``add`` and ``run``, and its entry here."""
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser with did-you-mean on an invalid choice (``--metrics lpip``, ``--protocol
+    nerfstudi``; Python 3.11's argparse has none): the closest choice added to its message."""
+
+    def _check_value(self, action: argparse.Action, value: object) -> None:
+        try:
+            super()._check_value(action, value)
+        except argparse.ArgumentError as err:
+            hint = did_you_mean(value, map(str, action.choices or ()))
+            raise argparse.ArgumentError(action, f"{err.message}{hint}") from None
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="dynaeval",
         description="Score novel views of dynamic scenes: whole-frame, focused, masked and "
                     "temporal metrics.",

@@ -10,6 +10,7 @@ from dynaeval.core.errors import InputError
 from dynaeval.io.atomic import check_writable
 from dynaeval.regions import write_boxes_file
 from dynaeval.regions.focus import BOXES_SOURCES, detect_ground_truth
+from dynaeval.regions.sources import focus_source
 
 from .common import EXIT_OK, FOLDERS_RULE, add_overwrite
 from .options import add_options, parse_classes
@@ -36,7 +37,7 @@ def add(sub: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.detector and args.source != "detector":
+    if args.detector and not focus_source(args.source).detects:
         raise InputError(f"--detector is only used with --source detector (got --source "
                          f"{args.source}): drop --detector, or pass --source detector")
     check_writable(args.output, overwrite=args.overwrite, what="boxes file",

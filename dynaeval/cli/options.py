@@ -22,6 +22,7 @@ from dynaeval.metrics.perceptual import LPIPS_BACKENDS, LPIPS_NETS
 from dynaeval.metrics.protocols import PROTOCOL_NAMES
 from dynaeval.regions.expand import EXPAND_RULES
 from dynaeval.regions.focus import FocusConfig
+from dynaeval.regions.sources import DetectorSource
 from dynaeval.run.config import BACKGROUNDS, DEVICES, QUANTIZE_MODES, ScoreConfig
 
 from .fields import Cli, Option, option_of
@@ -160,7 +161,7 @@ def config_from_args(args: argparse.Namespace) -> ScoreConfig:
             owner, _, name = row.path.rpartition(".")
             (focus if owner == "focus" else values)[name] = row.read(given[row.dest])
     source = focus.pop("source", FocusConfig.source)
-    if focus.get("detector_model") and source != "detector":
+    if focus.get("detector_model") and source != DetectorSource.name:
         raise InputError(f"--detector is only used with --focus detector (got --focus "
                          f"{source}): drop --detector, or pass --focus detector")
     values["focus"] = FocusConfig.parse(source, device=values.get("device", ScoreConfig.device),

@@ -6,6 +6,8 @@ file when there is one.
 
 from __future__ import annotations
 
+import difflib
+from collections.abc import Iterable
 from pathlib import Path
 
 
@@ -43,3 +45,12 @@ class EmptyRegionError(ValueError):
     Not a user error: ``evaluate`` records the value as ``null`` with this message as the reason
     (never 0, never NaN).
     """
+
+
+def did_you_mean(name: object, choices: Iterable[str]) -> str:
+    """The hint an error about an unknown ``name`` ends with: ``" (did you mean 'ssim'?)"`` for
+    the closest of ``choices`` (``difflib``, as pyiqa does), ``""`` when none is close."""
+    if not isinstance(name, str):
+        return ""
+    close = difflib.get_close_matches(name, list(choices), n=1, cutoff=0.6)
+    return f" (did you mean {close[0]!r}?)" if close else ""

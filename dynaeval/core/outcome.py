@@ -13,7 +13,8 @@ Ground floor: every layer may import this module; it imports nothing of dynaeval
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from enum import Enum
 from typing import Any
 
@@ -74,6 +75,50 @@ class Outcome:
     def reason(self) -> str | None:
         """The warning text of a null or infinite value (None for an ``OK`` one)."""
         return None if self.status is Status.OK else reason_text(self.status, self.detail)
+
+
+PAIR_UNDEFINED = "undefined for the pair (previous frame, this frame)"
+"""The detail of a null per-pair value that nothing else explains."""
+
+
+@dataclass(frozen=True)
+class CameraTerm:
+    """One camera-level term (a temporal term such as ``warp_error``, or a video metric such as
+    ``jod``) of one camera, as the results document takes it: the camera's outcome and, for the
+    terms scored per pair of consecutive frames, each pair's value and why a null one is null.
+    Built by the run's camera stages (``dynaeval.run.stages``), read by
+    ``dynaeval.report.results.place_temporal``."""
+
+    outcome: Outcome
+    """The camera's value (the mean over its defined pairs, or one value per camera) and, when
+    null, why."""
+    per_pair: tuple[float | None, ...] = ()
+    """Pair ``k`` = frames ``(k, k + 1)``: its value (None: undefined); empty for a term with one
+    value per camera (``flicker``, ``jod``) or one null for the whole camera."""
+    gaps: Mapping[int, str] = field(default_factory=dict)
+    """Pair position -> why it is no pair (frames missing between its two frames,
+    ``Status.NOT_CONSECUTIVE``)."""
+    pair_null: Outcome | None = None
+    """Why the other null pairs are null when the camera's value is defined (frames without a
+    box); None: ``Status.UNDEFINED``, ``PAIR_UNDEFINED``."""
+    parts: Mapping[str, float | None] = field(default_factory=dict)
+    """The two sides and their signed difference behind the value (``warp_error``,
+    ``flicker`` and their focused variants: ``signed``, ``pred``, ``gt``, means over the
+    pairs; ``dynaeval.metrics.temporal.temporal_metrics``), else empty."""
+
+    @classmethod
+    def null(cls, status: Status, detail: str | None) -> CameraTerm:
+        """A term null for the whole camera, and why."""
+        return cls(Outcome(None, status, detail))
+
+    def pair_outcome(self, k: int) -> Outcome:
+        """Why the null value of pair ``k`` is null: a gap of missing frames, else the camera's
+        own null (the term is null for every pair), else ``pair_null``, else undefined."""
+        if k in self.gaps:
+            return Outcome(None, Status.NOT_CONSECUTIVE, self.gaps[k])
+        if self.outcome.detail:
+            return Outcome(None, self.outcome.status, self.outcome.detail)
+        return self.pair_null or Outcome(None, Status.UNDEFINED, PAIR_UNDEFINED)
 
 
 _DEFAULT = {

@@ -43,18 +43,28 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 from dynaeval.core.errors import InputError
-from dynaeval.io.dycheck import RENDER_PANELS, PanelFrameRef, find_renders, render_panels
+from dynaeval.io.dycheck import (
+    RENDER_PANELS,
+    PanelFrameRef,
+    find_renders,
+    pair_dycheck,
+    pair_renders,
+    render_panels,
+)
+from dynaeval.io.frames import Pairing, pair_frames
 from dynaeval.io.kplanes import (
     STACK_PARTS,
+    describe_stack,
+    pair_stack,
     StackedFrameRef,
     check_stack,
     is_stack_file,
     latest_stacks,
 )
-from dynaeval.io.layout_3dgs import GT_DIR, PRED_DIR, find_3dgs
+from dynaeval.io.layout_3dgs import GT_DIR, PRED_DIR, family_protocol, find_3dgs
 
 LAYOUTS: dict[str, tuple[str, str]] = {
     "nerfbaselines": ("color", "gt-color"),
@@ -86,6 +96,81 @@ class RenderLayout:
     the results' ``inputs.layout``."""
     notes: tuple[str, ...] = ()
     """Messages for the run's warnings (other iterations or splits rendered, ...)."""
+
+    @property
+    def kind(self) -> LayoutKind:
+        """What this kind of layout does differently (``LAYOUT_KINDS``; a ``LAYOUTS`` sibling
+        pair: the default)."""
+        return LAYOUT_KINDS.get(self.name, SIBLING_FOLDERS)
+
+
+class LayoutKind:
+    """One kind of input layout: how its frames pair and what it tells the run. The default is a
+    render folder of sibling prediction / ground-truth folders (``LAYOUTS``); a kind that differs
+    overrides the method, and the run reads the kind, never the layout's name."""
+
+    render_folder: ClassVar[bool] = True
+    """A render folder of a known tool (False: PRED and GT given as ordinary folders): it names
+    the run and is described in the results' ``inputs.layout``."""
+
+    def pairing(self, layout: RenderLayout, allow_missing: bool) -> Pairing:
+        """The frame pairs (a DyCheck ``rgb/<factor>x/`` ground truth paired by its rules)."""
+        return (pair_dycheck(layout.pred, layout.gt, allow_missing=allow_missing)
+                or pair_frames(layout.pred, layout.gt, allow_missing=allow_missing))
+
+    def run_folder(self, layout: RenderLayout, pred_dir: Path) -> Path:
+        """The folder whose name is the run's default method and scene name."""
+        return Path(layout.details.get("model", pred_dir))
+
+    def own_protocol(self, layout: RenderLayout) -> str | None:
+        """The ``--protocol`` of the tool that wrote it, when the run should say so if another is
+        used (None: no such protocol)."""
+        return None
+
+    def describe(self, layout: RenderLayout, pairing: Pairing) -> dict[str, Any]:
+        """More fields of the results' ``inputs.layout``."""
+        return {}
+
+
+class _Folders(LayoutKind):
+    """PRED and GT as given."""
+
+    render_folder = False
+
+
+class _KPlanesStack(LayoutKind):
+    """A K-Planes stack file or log folder: prediction and ground truth in one image."""
+
+    def pairing(self, layout: RenderLayout, allow_missing: bool) -> Pairing:
+        return pair_stack(layout.pred)
+
+    def run_folder(self, layout: RenderLayout, pred_dir: Path) -> Path:
+        return layout.root
+
+    def describe(self, layout: RenderLayout, pairing: Pairing) -> dict[str, Any]:
+        return {"stack": describe_stack(pairing)}
+
+
+class _DyCheckRenders(LayoutKind):
+    """DyCheck's ``novel_view/<split>`` folder: the panels of one file."""
+
+    def pairing(self, layout: RenderLayout, allow_missing: bool) -> Pairing:
+        return pair_renders(layout.pred)
+
+
+class _GaussianSplatting(LayoutKind):
+    """A 3DGS-family model folder, whose own metrics are its family's protocol."""
+
+    def own_protocol(self, layout: RenderLayout) -> str | None:
+        return family_protocol(layout.details["family"])
+
+
+SIBLING_FOLDERS = LayoutKind()
+"""The kind of every ``LAYOUTS`` entry (sibling prediction / ground-truth folders)."""
+LAYOUT_KINDS: dict[str, LayoutKind] = {
+    "folders": _Folders(), "kplanes": _KPlanesStack(), "dycheck": _DyCheckRenders(),
+    "3dgs": _GaussianSplatting()}
+"""The kinds that differ from ``SIBLING_FOLDERS``, by ``RenderLayout.name``."""
 
 
 def _pairs_in(folder: Path) -> list[RenderLayout]:

@@ -2,7 +2,7 @@
 those of the pure functions (``warping_error``, ``tof``, ``valid_warp_mask``; a test holds them
 together), with the work each of them repeats done once.
 
-* per frame, once (:func:`prepare`): the gray image the flows run on and its hash for the flow
+* per frame, once (:func:`frame_prep`): the gray image the flows run on and its hash for the flow
   cache's key (the frame itself was checked once by the engine);
 * per pair, once: the sample grid of the backward flow (visibility, warping the prediction and
   warping the ground truth share it), the visibility mask and the flat indices of the kept
@@ -37,7 +37,7 @@ class FramePrep(NamedTuple):
     """``gray_digest`` of the prediction's and of the ground truth's gray image (None with it)."""
 
 
-def prepare(pred: np.ndarray, gt: np.ndarray, *, gt_gray: bool = True) -> FramePrep:
+def frame_prep(pred: np.ndarray, gt: np.ndarray, *, gt_gray: bool = True) -> FramePrep:
     """The :class:`FramePrep` of one time step (checked float32 frames); ``gt_gray`` False:
     the prediction's only."""
     gp = gray_of_checked(pred)

@@ -53,7 +53,7 @@ All protocols report the mean of per-image values.
 
 from __future__ import annotations
 
-from dynaeval.core.errors import InputError
+from dynaeval.core.errors import InputError, did_you_mean
 from dynaeval.metrics.pixel import psnr_float32
 from dynaeval.metrics.protocol_3dgs import FourDGaussiansProtocol, GaussianSplattingProtocol
 from dynaeval.metrics.protocol_base import Protocol
@@ -103,7 +103,8 @@ def get_protocol(name: str) -> Protocol:
         InputError: unknown name.
     """
     if name not in PROTOCOLS:
-        raise InputError(f"protocol must be one of {', '.join(PROTOCOL_NAMES)}, got {name!r}")
+        raise InputError(f"protocol must be one of {', '.join(PROTOCOL_NAMES)}, got {name!r}"
+                         f"{did_you_mean(name, PROTOCOL_NAMES)}")
     return PROTOCOLS[name]
 
 

@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from dynaeval.core.deps import MissingDependency
-from dynaeval.core.errors import InputError, WeightsUnavailableError
+from dynaeval.core.errors import InputError, WeightsUnavailableError, did_you_mean
 from dynaeval.metrics.plugins import plugin_specs
 from dynaeval.metrics.protocols import get_protocol
 
@@ -422,7 +422,8 @@ def spec(name: str) -> MetricSpec:
         return SPECS[name]
     if name in METRICS:
         return SPECS[METRICS[name].metric]
-    raise KeyError(f"unknown metric {name!r}; registered: {', '.join(SPECS)}")
+    raise KeyError(f"unknown metric {name!r}{did_you_mean(name, METRICS)}; registered: "
+                   f"{', '.join(SPECS)}")
 
 
 def result_key(metric: str, region: str = "whole", *, cls: str | None = None) -> str:
@@ -459,7 +460,8 @@ def _named(specs: list[MetricSpec], names: tuple[str, ...] | list[str] | None,
     known = {s.name for s in specs}
     unknown = [n for n in names if n not in known]
     if unknown:
-        raise KeyError(f"unknown {what}(s) {unknown}; registered: {sorted(known)}")
+        raise KeyError(f"unknown {what}(s) {unknown}{did_you_mean(unknown[0], known)}; "
+                       f"registered: {sorted(known)}")
     return [s for s in specs if s.name in names]
 
 

@@ -44,7 +44,7 @@ from dynaeval.core.boxes import as_boxes, boxes_to_mask
 from dynaeval.core.errors import InputError
 from dynaeval.core.outcome import Outcome, Status
 from dynaeval.metrics.flow import FlowCache, FlowConfig
-from dynaeval.metrics.pair_kernels import prepare
+from dynaeval.metrics.pair_kernels import frame_prep
 from dynaeval.metrics.registry import METRICS, SPECS, keys_of, temporal_keys
 from dynaeval.metrics.static_flicker import SequenceFlicker, TemporalStd, check_static, flicker
 from dynaeval.metrics.temporal_pairs import (
@@ -126,7 +126,7 @@ class TemporalConfig:
 _NO_REGIONS = "no region masks given (focus: none)"
 
 
-def region_mask(item, shape: tuple[int, int], i: int) -> np.ndarray:
+def region_item_mask(item, shape: tuple[int, int], i: int) -> np.ndarray:
     """Frame ``i``'s region item (an ``(H, W) = shape`` bool mask or ``(N, 4)`` boxes) as a
     bool mask; InputError for a mask of another shape."""
     arr = np.asarray(item)
@@ -157,8 +157,8 @@ def _time_steps(
             raise InputError(
                 f"region_masks has fewer items than the {i + 1} frames seen so far"
             ) from None
-        region = None if item is None else region_mask(item, p.shape[:2], i)
-        yield Frames(p, g, region, prepare(p, g, gt_gray=gt_gray))
+        region = None if item is None else region_item_mask(item, p.shape[:2], i)
+        yield Frames(p, g, region, frame_prep(p, g, gt_gray=gt_gray))
 
 
 def _lpips_for_run(

@@ -36,9 +36,9 @@ from dynaeval.metrics.flow import (
 )
 from dynaeval.metrics.pair_kernels import (
     FramePrep,
+    frame_prep,
     ground_truth_flows,
     prediction_flow,
-    prepare,
     tof_terms,
     warp_errors,
 )
@@ -68,7 +68,8 @@ def check_region(
     return r
 
 
-def check_pair(a: np.ndarray, b: np.ndarray, names: tuple[str, str]) -> tuple[np.ndarray, np.ndarray]:
+def check_frames(a: np.ndarray, b: np.ndarray,
+                 names: tuple[str, str]) -> tuple[np.ndarray, np.ndarray]:
     """Two frames validated by ``as_image`` (float32, uint8 / 255) that must have one shape."""
     a, b = as_image(a, names[0]), as_image(b, names[1])
     if a.shape != b.shape:
@@ -130,7 +131,7 @@ def warping_error(
     pixels *and channels* (Lai et al. 2018 sum the channels: theirs = 3 x ours for RGB).
     Raises EmptyRegionError when no pixel is kept.
     """
-    prev, cur = check_pair(prev, cur, ("prev", "cur"))
+    prev, cur = check_frames(prev, cur, ("prev", "cur"))
     hw = cur.shape[:2]
     keep = np.ones(hw, dtype=bool)
     for m, name in ((valid, "valid"), (region, "region")):
@@ -212,8 +213,8 @@ def tlp(
     ``region``: ``(H, W)`` bool; the four frames are cropped to the region's tight box, grown to
     at least ``min_crop`` px per side, before LPIPS. Returns a float >= 0 (LPIPS units).
     """
-    pred_prev, pred_cur = check_pair(pred_prev, pred_cur, ("pred_prev", "pred_cur"))
-    gt_prev, gt_cur = check_pair(gt_prev, gt_cur, ("gt_prev", "gt_cur"))
+    pred_prev, pred_cur = check_frames(pred_prev, pred_cur, ("pred_prev", "pred_cur"))
+    gt_prev, gt_cur = check_frames(gt_prev, gt_cur, ("gt_prev", "gt_cur"))
     if pred_cur.shape != gt_cur.shape:
         raise InputError(
             f"prediction and ground truth must have one shape, got {pred_cur.shape} and {gt_cur.shape}"
@@ -242,7 +243,8 @@ class Frames(NamedTuple):
     region: np.ndarray | None
     """``(H, W)`` bool focus mask, or None (no regions given for this frame)."""
     prep: FramePrep | None = None
-    """Gray images and hashes for the flows (``pair_kernels.prepare``); None: made when needed."""
+    """Gray images and hashes for the flows (``pair_kernels.frame_prep``); None: made when
+    needed."""
 
 
 class FeatureMemo:
@@ -368,7 +370,7 @@ def _tlp_values(
 
 
 def _prep(frames: Frames) -> FramePrep:
-    return prepare(frames.pred, frames.gt) if frames.prep is None else frames.prep
+    return frame_prep(frames.pred, frames.gt) if frames.prep is None else frames.prep
 
 
 def pair_terms(

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from dynaeval.core.boxes import clip_boxes
-from dynaeval.core.errors import InputError
+from dynaeval.core.errors import InputError, did_you_mean
 from dynaeval.core.outcome import Status, note
 from dynaeval.core.runtime import file_sha256
 from dynaeval.io import find_frames
@@ -31,10 +31,18 @@ from dynaeval.regions.detector import (
 from dynaeval.regions.expand import ExpandConfig, expand_boxes
 from dynaeval.regions.motion import LazyFrames, MotionConfig, iter_motion_masks, mask_boxes
 from dynaeval.regions.packed import PackedMask
+from dynaeval.regions.sources import (
+    BOXES_FILE_PREFIX,
+    SOURCE_KINDS,
+    BoxesFileSource,
+    FocusSource,
+    focus_source,
+)
 from dynaeval.regions.static_camera import camera_motion, moving_camera_reason
 
-FOCUS_SOURCES = ("detector", "motion", "boxes", "none")
-BOXES_SOURCES = ("detector", "motion")
+FOCUS_SOURCES = tuple(SOURCE_KINDS)
+"""The names of the focus sources (``dynaeval.regions.sources``), in ``--focus`` order."""
+BOXES_SOURCES = tuple(n for n, k in SOURCE_KINDS.items() if k.detects or k.from_motion)
 """The sources ``detect_ground_truth`` (``dynaeval detect --source``) makes boxes from."""
 MIN_MOTION_FRAMES = 3
 """Motion masks compare a frame with the temporal median: fewer frames give no stable median."""
@@ -101,9 +109,15 @@ class FocusConfig:
     """Device for the detector (onnxruntime execution provider)."""
 
     def __post_init__(self) -> None:
-        if self.classes is not None and self.source != "detector":
+        kind = SOURCE_KINDS.get(self.source)
+        if self.classes is not None and kind is not None and not kind.detects:
             raise InputError(f"classes select the detector's classes and need focus 'detector', "
                              f"got focus {self.source!r}: drop --classes, or pass --focus detector")
+
+    @property
+    def kind(self) -> FocusSource:
+        """The kind of ``source`` (``dynaeval.regions.sources``; InputError for an unknown one)."""
+        return focus_source(self.source)
 
     def detector_config(self, **kwargs: Any) -> Any:
         """The ``DetectorConfig`` of this focus (model, device, classes)."""
@@ -118,17 +132,18 @@ class FocusConfig:
         ``ScoreConfig(focus="motion")`` / ``dynaeval.score(..., focus="motion")``); ``kwargs``:
         the other ``FocusConfig`` fields.
         """
-        if spec.startswith("boxes:"):
-            path = spec[len("boxes:"):]
+        if spec.startswith(BOXES_FILE_PREFIX):
+            path = spec[len(BOXES_FILE_PREFIX):]
             if not path:
                 raise InputError(f"{option} boxes:FILE needs a file name after 'boxes:'")
-            return FocusConfig(source="boxes", boxes_file=path, **kwargs)
-        if spec not in ("detector", "motion", "none"):
+            return FocusConfig(source=BoxesFileSource.name, boxes_file=path, **kwargs)
+        if spec not in SOURCE_KINDS or SOURCE_KINDS[spec].reads_file:
             more = "" if option.startswith("-") else (
                 "; or a FocusConfig (dynaeval.regions.focus) to set expand, classes, "
                 "detector_model or masked as well")
             raise InputError(
-                f"{option} must be detector, motion, none or boxes:FILE, got {spec!r}{more}"
+                f"{option} must be detector, motion, none or boxes:FILE, got {spec!r}"
+                f"{did_you_mean(spec, [k.spec for k in SOURCE_KINDS.values()])}{more}"
             )
         return FocusConfig(source=spec, **kwargs)
 
@@ -203,11 +218,10 @@ def open_sources(config: FocusConfig) -> RegionSources:
     Raises:
         InputError: the focus source is unknown, the boxes file or detector model is unusable.
     """
-    if config.source not in FOCUS_SOURCES:
-        raise InputError(f"focus source must be one of {FOCUS_SOURCES}, got {config.source!r}")
+    kind = config.kind
     settings: dict[str, Any] = {"source": config.source, "expand": _expand_settings(config.expand)}
     src = RegionSources(config=config, settings=settings)
-    if config.source == "boxes":
+    if kind.reads_file:
         bf = read_boxes_file(config.boxes_file)
         src.boxes = bf.boxes
         src.classes = ("person", "ball")
@@ -218,14 +232,14 @@ def open_sources(config: FocusConfig) -> RegionSources:
             "source": bf.source,
         }
         src.detector, src.detector_note = boxes_file_detector(bf.source, config.device)
-    elif config.source == "detector":
+    elif kind.detects:
         det = Detector(config.detector_config())
         src.detector = det
         src.classes = det.selected_names
         settings["detector"] = det.source()
 
         src.warnings.extend(detector_warnings(det))
-    if config.masked or config.source == "motion":
+    if config.masked or kind.from_motion:
         settings["motion"] = {"kind": config.motion_kind, "min_frames": MIN_MOTION_FRAMES}
     return src
 
@@ -311,13 +325,13 @@ def _camera_regions(camera: str, frames: Sequence[str], load_gt: Callable[[int],
     first = load_gt(0).shape
     load = same_shape(load_gt, first) if video else load_gt
     out = [FrameRegions() for _ in frames]
-    if (cfg.masked or cfg.source == "motion") and video:
+    if (cfg.masked or cfg.kind.from_motion) and video:
         _add_motion_masks(out, camera, load, cfg.motion_kind, executor, cfg.source)
-    elif cfg.masked or cfg.source == "motion":
+    elif cfg.masked or cfg.kind.from_motion:
         for r in out:
             r.mask_reason, r.mask_status = NOT_A_VIDEO, Status.NOT_A_VIDEO
     detections = None
-    if cfg.source == "detector":
+    if cfg.kind.detects:
         def detect(i: int):  # noqa: ANN202
             frame = load(i)
             try:
@@ -409,12 +423,12 @@ def _frame_boxes(r: FrameRegions, camera: str, name: str, sources: RegionSources
     """The raw boxes of one frame from the focus source (setting ``r.records``), or None with
     ``r.boxes_reason`` set. ``detections``: ``(frame's (H, W), Detections)``, one per frame, in
     order; the detector's boxes come back with the frame's size, ``((H, W), boxes)``."""
-    source = sources.config.source
-    if source == "none":
+    kind = sources.config.kind
+    if not kind.gives_boxes:
         r.boxes_reason = "no focus regions requested (--focus none)"
         r.boxes_status = Status.DISABLED
         return None
-    if source == "boxes":
+    if kind.reads_file:
         records = sources.boxes.get(frame_key(camera, name))
         if records is None:
             r.boxes_reason = f"frame {frame_key(camera, name)!r} is not in the boxes file"
@@ -422,7 +436,7 @@ def _frame_boxes(r: FrameRegions, camera: str, name: str, sources: RegionSources
             return None
         r.records = list(records)
         return records_to_boxes(records)
-    if source == "detector":
+    if kind.detects:
         hw, found = next(detections)
         r.records = found.records()
         return hw, found.boxes
@@ -467,8 +481,9 @@ def detect_ground_truth(
     cameras = find_frames(gt_dir, role="ground truth")
     total = sum(len(c.frames) for c in cameras.values())
     mapping: dict[str, list[dict]] = {}
+    kind = focus_source(source)
     config = FocusConfig(source=source, detector_model=detector_model, expand="none",
-                         masked=source == "motion", device=device,
+                         masked=kind.from_motion, device=device,
                          classes=None if classes is None else tuple(classes))
     sources = open_sources(config)
     if warnings is not None:
@@ -478,7 +493,7 @@ def detect_ground_truth(
         for cam in cameras.values():
             refs = [ref for _, ref in cam.frames]
             names = [name for name, _ in cam.frames]
-            if source == "detector":
+            if kind.detects:
                 for name, ref in zip(names, refs, strict=True):
                     mapping[frame_key(cam.name, name)] = sources.detector(ref.read()).records()
                     bar.update(1)

@@ -26,6 +26,8 @@ from collections.abc import Callable
 
 import numpy as np
 
+from dynaeval.regions.sources import focus_source
+
 MOVING_CAMERA_PX = 0.5
 """Global motion (px per frame, median over consecutive pairs) above which a camera moves."""
 MASK_FRACTION_MAX = 0.5
@@ -137,7 +139,8 @@ def moving_camera_reason(motion_px: float | None, mask_fraction: float | None,
             f"<= {MOVING_CAMERA_PX} px)" if moves else
             "its motion mask covers most of the frame")
     area = "" if mask_fraction is None else f"; the motion mask covers {mask_fraction:.0%} of each frame on average"
-    uses = "masked_* values and --focus motion boxes" if focus == "motion" else "masked_* values"
+    uses = ("masked_* values and --focus motion boxes" if focus_source(focus).from_motion
+            else "masked_* values")
     return (f"motion masks need a static camera, and {what}{area}: its {uses} are close to the "
             "whole-frame ones and flicker's 'static' pixels are not static. Score this footage "
             "with --no-masked, and --focus detector or --focus boxes:FILE")

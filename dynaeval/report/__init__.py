@@ -2,6 +2,7 @@
 
 from dynaeval.report.results import (
     SCHEMA,
+    RunRecord,
     build_results,
     load_results,
     schema_path,
@@ -12,6 +13,7 @@ from dynaeval.report.table import summary_table
 
 __all__ = [
     "SCHEMA",
+    "RunRecord",
     "build_results",
     "load_results",
     "schema_path",

@@ -22,6 +22,7 @@ from dynaeval.io.frames import missing_frames_warning, natural_key
 from dynaeval.metrics.registry import METRICS
 from dynaeval.report.results import (
     FRAME_FIELDS,
+    RunRecord,
     build_results,
     is_no_regions_warning,
     load_results,
@@ -103,7 +104,7 @@ def merge_results(paths: list[str | Path]) -> dict[str, Any]:
     skipped = sorted((s for _, doc in docs for s in doc["inputs"]["skipped_frames"]),
                      key=lambda s: (natural_key(s["camera"]), natural_key(s["frame"])))
     pairs = _merged_temporal_pairs([doc for _, doc in docs], skipped, first["settings"], warnings)
-    return build_results(
+    return build_results(RunRecord(
         rows=rows,
         metric_names=metric_names,
         method=first["method"],
@@ -118,8 +119,9 @@ def merge_results(paths: list[str | Path]) -> dict[str, Any]:
         version=first["dynaeval_version"],
         camera_values=camera_values,
         regions=_merged_regions([doc for _, doc in docs]),
+        temporal_parts={c: t for _, doc in docs for c, t in doc.get("temporal_parts", {}).items()},
         inputs_extra={"temporal_pairs": pairs} if pairs else None,
-    )
+    ))
 
 
 def _made_again(w: dict, doc: dict[str, Any]) -> bool:

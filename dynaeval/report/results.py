@@ -42,6 +42,7 @@ from dynaeval.core.deps import available, load
 from dynaeval.core.errors import InputError
 from dynaeval.core.outcome import (
     NO_REGIONS,
+    CameraTerm,
     Status,
     no_box_reason,
     status_of,
@@ -51,6 +52,7 @@ from dynaeval.core.outcome import (
 from dynaeval.io.atomic import write_text_atomic
 from dynaeval.io.jsonfile import read_json
 from dynaeval.metrics.registry import METRICS, SPECS
+from dynaeval.regions.sources import SOURCE_KINDS
 from dynaeval.report.results_check import FRAME_FIELDS, check_results
 
 SCHEMA = "dynaeval/results/v2"
@@ -110,55 +112,38 @@ def restore_infinite(rows: list[dict[str, Any]], warnings: list[dict]) -> int:
 
 
 def place_temporal(
-    rows: list[dict[str, Any]], temporal: dict[str, dict[str, dict]]
+    rows: list[dict[str, Any]], temporal: dict[str, dict[str, CameraTerm]]
 ) -> tuple[dict[str, dict[str, float | None]], list[dict]]:
     """Put per-pair temporal values into the frame rows, in place; return the camera-level ones.
 
     The value of pair (t-1, t) goes into the row of frame t (the first frame of a camera has
-    none); a null value's warning takes the entry's ``pair_reasons[k]`` for pair k when given
-    (a gap of missing frames, ``dynaeval.run.stages.temporal``: ``Status.NOT_CONSECUTIVE``), else the
-    entry's ``status`` and ``reason`` (a term null for the whole camera), else its
-    ``pair_status`` and ``pair_reason`` (``dynaeval.run.scoring.name_regionless_frames``). Terms
-    without per-pair values (``flicker``, or a term undefined for the whole camera) are
-    camera-level: returned as ``{camera: {name: value}}``, with a warning (the entry's
-    ``status``) when null. An entry without a ``status`` is ``Status.UNDEFINED``.
+    none), a null one with a warning of its ``CameraTerm.pair_outcome`` (a gap of missing frames,
+    the camera's own null, or its ``pair_null``: frames without a box). Terms without per-pair
+    values (``flicker``, ``jod``, or a term null for the whole camera) are camera-level:
+    returned as ``{camera: {name: value}}``, with a warning of its outcome when null.
 
     Args:
         rows: frame rows of every camera, each camera's in index order.
-        temporal: per camera, ``dynaeval.metrics.temporal.temporal_metrics`` output.
+        temporal: per camera, its terms by result key (``dynaeval.run.stages``).
     """
     camera_values: dict[str, dict[str, float | None]] = {}
     warnings: list[dict] = []
     for cam, terms in temporal.items():
         cam_rows = sorted((r for r in rows if r["camera"] == cam), key=lambda r: r["index"])
-        for name, entry in terms.items():
-            per_pair = entry.get("per_pair") or []
-            if per_pair and len(per_pair) == len(cam_rows) - 1:
-                gaps = entry.get("pair_reasons") or {}
-                for k, (row, value) in enumerate(zip(cam_rows[1:], per_pair, strict=True)):
+        for name, term in terms.items():
+            if term.per_pair and len(term.per_pair) == len(cam_rows) - 1:
+                for k, (row, value) in enumerate(zip(cam_rows[1:], term.per_pair, strict=True)):
                     row[name] = value
                     if value is None:
-                        status, text = _pair_null(entry, gaps.get(k))
-                        warnings.append(warning(status, text, camera=cam, frame=row["frame"],
-                                                metric=name))
+                        why = term.pair_outcome(k)
+                        warnings.append(warning(why.status, why.detail, camera=cam,
+                                                frame=row["frame"], metric=name))
                 continue
-            camera_values.setdefault(cam, {})[name] = entry.get("value")
-            if entry.get("value") is None:
-                warnings.append(warning(entry.get("status", Status.UNDEFINED),
-                                        entry.get("reason"), camera=cam, metric=name))
+            camera_values.setdefault(cam, {})[name] = term.outcome.value
+            if term.outcome.value is None:
+                warnings.append(warning(term.outcome.status, term.outcome.detail, camera=cam,
+                                        metric=name))
     return camera_values, warnings
-
-
-def _pair_null(entry: dict, gap: str | None) -> tuple[Status, str | None]:
-    """``(status, detail)`` of a null per-pair value of a temporal ``entry`` (``place_temporal``);
-    ``gap``: the reason of a gap of missing frames at this pair, or None."""
-    if gap is not None:
-        return Status.NOT_CONSECUTIVE, gap
-    if entry.get("reason"):
-        return Status(entry.get("status", Status.UNDEFINED)), entry["reason"]
-    if entry.get("pair_reason"):
-        return Status(entry.get("pair_status", Status.UNDEFINED)), entry["pair_reason"]
-    return Status.UNDEFINED, "undefined for the pair (previous frame, this frame)"
 
 
 @dataclass
@@ -242,17 +227,17 @@ def no_regions_warning(regions: dict[str, Any] | None) -> dict[str, str] | None:
     """The one headline warning of a run whose ``regions`` hold no box in any frame (None
     otherwise; ``Status.NO_REGION``, its text ``dynaeval.core.outcome.no_box_reason``): what found
     nothing, that every focused (and presence) value is null, the fix."""
-    if not regions or regions.get("source") in (None, "none") or not regions.get("cameras"):
+    kind = SOURCE_KINDS.get((regions or {}).get("source"))
+    if kind is None or not kind.gives_boxes or not regions.get("cameras"):
         return None
     cams = list(regions["cameras"].values())
     if any(c["frames_with_boxes"] for c in cams):
         return None
-    source = regions["source"]
-    finder = "bundled" if source == "detector" and regions.get("bundled_detector") else source
+    finder = kind.finder(bool(regions.get("bundled_detector")))
     classes = ", ".join(dict.fromkeys(c for cam in cams for c in cam["boxes"])) or "?"
     return warning(Status.NO_REGION, reason=no_box_reason(
         finder, sum(c["n_frames"] for c in cams), classes,
-        presence=source in ("detector", "boxes")))
+        presence=kind.classed))
 
 
 def is_no_regions_warning(w: dict) -> bool:
@@ -263,54 +248,82 @@ def is_no_regions_warning(w: dict) -> bool:
 def _explained_by_no_regions(metric: str, regions: dict[str, Any]) -> bool:
     """A null summary of ``metric`` that the no-box headline explains."""
     info = METRICS.get(metric)
-    explained = {"focused", "person", "ball", *(("masked",) if regions["source"] == "motion" else ())}
+    explained = {"focused", "person", "ball",
+                 *(("masked",) if SOURCE_KINDS[regions["source"]].from_motion else ())}
     return info is not None and info.variant in explained
 
 
-def build_results(
-    *,
-    rows: list[dict[str, Any]],
-    metric_names: list[str],
-    method: str,
-    scene: str,
-    pred_dir: str,
-    gt_dir: str,
-    settings: dict[str, Any],
-    unscored_cameras: list[str],
-    skipped: list[dict],
-    warnings: list[dict],
-    timing: dict[str, float],
-    version: str,
-    temporal: dict[str, dict[str, dict]] | None = None,
-    camera_values: dict[str, dict[str, float | None]] | None = None,
-    shard: tuple[int, int] | None = None,
-    inputs_extra: dict[str, Any] | None = None,
-    regions: dict[str, Any] | None = None,
-) -> dict[str, Any]:
+@dataclass
+class RunRecord:
+    """What a run (or ``merge``, from shards) hands the results document, one field each."""
+
+    rows: list[dict[str, Any]]
+    """Frame rows (``camera``, ``frame``, ``index``, ``pred``, ``gt``, values; inf kept)."""
+    metric_names: list[str]
+    """The per-frame result keys, in report order."""
+    method: str
+    """The method's name (``method``)."""
+    scene: str
+    """The scene's name (``scene``)."""
+    pred_dir: str
+    """The predictions' folder (``inputs.pred``)."""
+    gt_dir: str
+    """The ground truth's folder (``inputs.gt``)."""
+    settings: dict[str, Any]
+    """Every setting that changes a number (``settings``)."""
+    unscored_cameras: list[str]
+    """Cameras of the ground truth without predictions (``inputs.unscored_cameras``)."""
+    skipped: list[dict]
+    """Frames left out (``inputs.skipped_frames``)."""
+    warnings: list[dict]
+    """The run's warnings so far, each with a ``status``."""
+    timing: dict[str, float]
+    """Seconds per phase and metric."""
+    version: str
+    """The dynaeval version that scored."""
+    temporal: dict[str, dict[str, CameraTerm]] | None = None
+    """Per camera, its camera-level terms by result key (``place_temporal``)."""
+    camera_values: dict[str, dict[str, float | None]] | None = None
+    """Camera-level values given directly (``merge``)."""
+    shard: tuple[int, int] | None = None
+    """``(index, count)`` of a shard's run."""
+    inputs_extra: dict[str, Any] | None = None
+    """More ``inputs`` fields (the render folder's layout, the temporal pairs)."""
+    regions: dict[str, Any] | None = None
+    """``{"source", "bundled_detector", "cameras": {camera: regions_summary}}``, or None."""
+    temporal_parts: dict[str, dict[str, dict[str, float | None]]] | None = None
+    """Parts given directly (``merge``), beside those of ``temporal``."""
+
+
+def build_results(record: RunRecord) -> dict[str, Any]:
     """Assemble the results document from per-frame rows (values may be inf; made strict here).
 
     Every metric that has per-frame values is summarised the same way: per camera the mean over
-    its frames, overall the mean over all frames (``_mean``). ``temporal`` (per camera,
-    ``temporal_metrics`` output) is first spread over the rows by ``place_temporal``: a temporal
+    its frames, overall the mean over all frames (``_mean``). ``temporal`` (per camera, its
+    terms by result key) is first spread over the rows by ``place_temporal``: a temporal
     term's per-frame value is that of the pair (previous frame, this frame), so its summary is
     the mean over all frame pairs of all cameras. Camera-level terms (``flicker``; or
     ``camera_values`` given directly, as ``merge`` does) are summarised as the mean over cameras.
     ``regions`` (``{"source", "bundled_detector", "cameras": {camera: regions_summary}}``) is
-    written as is; when no frame has a box, one headline warning (``no_regions_warning``) replaces
-    the null-summary warnings of the focused and presence metrics.
+    written as is; ``temporal_parts`` (``{camera: {key: {"signed", "pred", "gt"}}}``, as
+    ``merge`` has them) beside the parts of ``temporal``'s terms (``parts_of``); when no frame
+    has a box, one headline warning (``no_regions_warning``) replaces the null-summary warnings
+    of the focused and presence metrics.
     """
-    warnings = list(warnings)
+    rows, settings, regions, temporal = (record.rows, record.settings, record.regions,
+                                         record.temporal)
+    warnings = list(record.warnings)
     unmarked = [w for w in warnings if "status" not in w]
     if unmarked:
         raise ValueError(f"warning without a status: {unmarked[0]} (a bug: make warnings with "
                          "dynaeval.core.outcome.warning or note)")
-    camera_values = {c: dict(v) for c, v in (camera_values or {}).items()}
+    camera_values = {c: dict(v) for c, v in (record.camera_values or {}).items()}
     if temporal:
         placed, more = place_temporal(rows, temporal)
         warnings.extend(more)
         for cam, values in placed.items():
             camera_values.setdefault(cam, {}).update(values)
-    names = list(metric_names)
+    names = list(record.metric_names)
     for row in rows:
         for k, v in row.items():
             if k not in FRAME_FIELDS and k not in names and (v is None or isinstance(v, float)):
@@ -331,19 +344,20 @@ def build_results(
     ]
     doc = {
         "schema": SCHEMA,
-        "dynaeval_version": version,
+        "dynaeval_version": record.version,
         "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-        "method": method,
-        "scene": scene,
+        "method": record.method,
+        "scene": record.scene,
         "inputs": {
-            "pred": pred_dir,
-            "gt": gt_dir,
+            "pred": record.pred_dir,
+            "gt": record.gt_dir,
             "n_frames": len(rows),
             "cameras": list(cameras),
-            "unscored_cameras": list(unscored_cameras),
-            "skipped_frames": list(skipped),
-            **({"shard": {"index": shard[0], "count": shard[1]}} if shard else {}),
-            **(inputs_extra or {}),
+            "unscored_cameras": list(record.unscored_cameras),
+            "skipped_frames": list(record.skipped),
+            **({"shard": {"index": record.shard[0], "count": record.shard[1]}}
+               if record.shard else {}),
+            **(record.inputs_extra or {}),
         },
         "settings": settings,
         "metrics": {n: _direction(n) for n in metric_names},
@@ -352,11 +366,23 @@ def build_results(
         "summary": summary,
         "summary_status": found.status,
         "counts": counts,
-        "timing": {k: round(v, 6) for k, v in timing.items()},
+        "timing": {k: round(v, 6) for k, v in record.timing.items()},
         "warnings": warnings,
         **({"regions": regions} if regions is not None else {}),
     }
+    parts = {**(record.temporal_parts or {}), **parts_of(temporal or {})}
+    if parts:
+        doc["temporal_parts"] = parts
     return strict(doc)
+
+
+def parts_of(temporal: dict[str, dict[str, CameraTerm]]) -> dict[str, dict[str, dict]]:
+    """``{camera: {key: {"signed", "pred", "gt"}}}``: the two sides behind each temporal term
+    that has them (``warp_error``, ``flicker`` and their focused variants; means over the pairs,
+    None where undefined), cameras and keys without parts left out."""
+    out = {cam: {k: dict(t.parts) for k, t in terms.items() if t.parts}
+           for cam, terms in temporal.items()}
+    return {cam: terms for cam, terms in out.items() if terms}
 
 
 def strict(obj: Any) -> Any:

@@ -236,6 +236,18 @@ def check_results(doc: dict[str, Any], path: str | Path) -> None:
             _check_status(check, status, f"summary_status.{name}")
     if "regions" in doc:
         _check_regions(check, doc["regions"])
+    _check_temporal_parts(check, doc.get("temporal_parts", {}))
+
+
+def _check_temporal_parts(check: _Check, found: Any) -> None:
+    """``temporal_parts``: per camera and key, ``signed``, ``pred``, ``gt`` numbers or null."""
+    check.kind(found, "temporal_parts", dict)
+    for cam, terms in found.items():
+        check.kind(terms, f"temporal_parts.{cam}", dict)
+        for key, parts in terms.items():
+            check.kind(parts, f"temporal_parts.{cam}.{key}", dict)
+            for part in ("signed", "pred", "gt"):
+                check.number(parts.get(part), f"temporal_parts.{cam}.{key}.{part}", null=True)
 
 
 def _check_status(check: _Check, status: Any, where: str) -> None:

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 from os import PathLike
 from typing import Any
 
-from dynaeval.core.errors import InputError
+from dynaeval.core.errors import InputError, did_you_mean
 from dynaeval.io.frames import parse_shard
 from dynaeval.metrics.flow import FlowConfig
 from dynaeval.metrics.jod import check_fps
@@ -25,7 +25,8 @@ from dynaeval.metrics.registry import (
     require_available,
     selectable_specs,
 )
-from dynaeval.regions.focus import FOCUS_SOURCES, FocusConfig
+from dynaeval.regions.focus import FocusConfig
+from dynaeval.regions.sources import focus_source
 
 BACKGROUNDS = ("white", "black")
 DEVICES = ("cpu", "cuda", "auto")
@@ -167,7 +168,7 @@ class ScoreConfig:
         if not isinstance(self.focus, FocusConfig):
             raise InputError(f"focus must be a FocusConfig or one of the CLI's strings detector, "
                              f"motion, none, boxes:FILE, got {type(self.focus).__name__}")
-        _check_choice("focus source", self.focus.source, FOCUS_SOURCES)
+        focus_source(self.focus.source)
 
         FlowConfig(method=self.flow)  # raises InputError for an unknown method
         if self.frames_are_video not in (None, True, False):
@@ -218,7 +219,8 @@ class ScoreConfig:
 
 def _check_choice(name: str, value: object, choices: tuple[str, ...]) -> None:
     if value not in choices:
-        raise InputError(f"{name} must be one of {', '.join(choices)}, got {value!r}")
+        raise InputError(f"{name} must be one of {', '.join(choices)}, got {value!r}"
+                         f"{did_you_mean(value, choices)}")
 
 
 def _check_metrics(names: object) -> tuple[str, ...]:

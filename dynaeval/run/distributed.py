@@ -14,7 +14,7 @@ executor. Tasks receive paths, not pixels: every worker must see PRED and GT at 
 
     client = Client("tcp://scheduler:8786")   # or Client(LocalCluster(...)) on one machine
     jobs = [ScoreJob("/data/kplanes/stadium", "/data/gt/stadium", method="kplanes", scene="stadium")]
-    paths = score_jobs(jobs, client, out_dir="/data/results", shards=8, no_lpips=False)
+    paths = score_jobs(jobs, client, out_dir="/data/results", shards=8, workers=1)
 """
 
 from __future__ import annotations

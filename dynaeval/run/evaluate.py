@@ -25,32 +25,30 @@ import time
 import warnings as pywarnings
 from collections.abc import Callable
 from dataclasses import replace
+from functools import partial
 from pathlib import Path
 from typing import Any
 
 from dynaeval.core.errors import InputError
-from dynaeval.core.outcome import Status, note, warning, warning_line
+from dynaeval.core.outcome import CameraTerm, Status, note, warning, warning_line
 from dynaeval.core.progress import Progress
 from dynaeval.core.version import VERSION
-from dynaeval.io import FramePair, pair_frames
-from dynaeval.io.dycheck import pair_dycheck, pair_renders
+from dynaeval.io import FramePair
 from dynaeval.io.frames import (
     consecutive_pairs,
     missing_frames_warning,
     pairs_by_camera,
     select_shard,
 )
-from dynaeval.io.kplanes import describe_stack, pair_stack
-from dynaeval.io.layout_3dgs import family_protocol
 from dynaeval.io.layouts import detect_layout
 from dynaeval.io.masks import check_masks, find_masks, unused_mask_folders
 from dynaeval.io.video import close_videos
 from dynaeval.metrics.protocols import get_protocol
 from dynaeval.metrics.registry import SPECS
 from dynaeval.regions.focus import FrameRegions
-from dynaeval.report.results import build_results
+from dynaeval.report.results import RunRecord, build_results
 from dynaeval.run.config import ScoreConfig
-from dynaeval.run.executor import Executor, Stopped
+from dynaeval.run.executor import RunWorkers, Stopped
 from dynaeval.run.plan import RunPlan, Scope, build_plan
 from dynaeval.run.prepared_gt import open_prepared
 from dynaeval.run.scoring import score_camera
@@ -132,9 +130,9 @@ def score(
                                                      scope)]
     rows, warnings, temporal, regions, timing = _score_cameras(pairing.pairs, plan, on_regions,
                                                                progress)
-    run_name = None if layout.name == "folders" else (
-        layout.root if layout.name == "kplanes" else Path(layout.details.get("model", pred_dir))
-    ).resolve().name
+    kind = layout.kind
+    run_name = (kind.run_folder(layout, Path(pred_dir)).resolve().name if kind.render_folder
+                else None)
     results = _assemble(layout, run_name, pairing, plan, rows, [*run_warnings, *warnings],
                         temporal, {"total_s": time.perf_counter() - t_start, **timing}, regions)
     if gaps and scope.temporal:
@@ -164,7 +162,7 @@ def _input_warnings(config: ScoreConfig, layout: Any, pairing: Any, mask_warning
     warnings = [*pairing.warnings, *mask_warnings, *(note(text) for text in layout.notes)]
     if gaps:
         warnings.append(missing_frames_warning(gaps, scope.temporal))
-    own = family_protocol(layout.details["family"]) if layout.name == "3dgs" else config.protocol
+    own = layout.kind.own_protocol(layout) or config.protocol
     if config.protocol != own:
         warnings.append(note(
             f"{layout.details['family']} render folder scored under --protocol "
@@ -178,13 +176,7 @@ def _input_warnings(config: ScoreConfig, layout: Any, pairing: Any, mask_warning
 def _pair_layout(layout: Any, config: ScoreConfig) -> Any:
     """The frame pairs of ``layout`` (a ``dynaeval.io.layouts`` Layout), this run's shard of
     them when ``config.shard`` is set: a ``Pairing``."""
-    if layout.name == "kplanes":
-        pairing = pair_stack(layout.pred)
-    elif layout.name == "dycheck":
-        pairing = pair_renders(layout.pred)
-    else:
-        pairing = (pair_dycheck(layout.pred, layout.gt, allow_missing=config.allow_missing)
-                   or pair_frames(layout.pred, layout.gt, allow_missing=config.allow_missing))
+    pairing = layout.kind.pairing(layout, config.allow_missing)
     if config.shard is not None:
         pairing = select_shard(pairing, *config.shard)
     return pairing
@@ -204,7 +196,7 @@ def per_frame_only(config: ScoreConfig, layout: Any, masks: Any) -> Scope:
         InputError: ``--focus motion`` or a video metric (``jod``) asked for on separate views.
     """
     video = layout.sequence if config.frames_are_video is None else config.frames_are_video
-    what = (f"the {layout.name} render folder's frames" if layout.name != "folders"
+    what = (f"the {layout.name} render folder's frames" if layout.kind.render_folder
             else "the frames")
     if video:
         return Scope(config.temporal, config.focus.masked, None if layout.sequence else {
@@ -215,8 +207,9 @@ def per_frame_only(config: ScoreConfig, layout: Any, masks: Any) -> Scope:
     fix = ("pass --frames-are-video (frames_are_video=True) if they are one camera's video"
            if config.frames_are_video is None else "drop frames_are_video=False")
     video_metrics = [n for n in config.metrics if SPECS[n].kind == "camera"]
-    if config.focus.source == "motion" or video_metrics:
-        asked = "--focus motion" if config.focus.source == "motion" else f"--{video_metrics[0]}"
+    if config.focus.kind.from_motion or video_metrics:
+        asked = (f"--focus {config.focus.source}" if config.focus.kind.from_motion
+                 else f"--{video_metrics[0]}")
         raise InputError(f"{asked} needs each camera's frames as a video, but {what} {why}; "
                          f"{fix}, or drop {asked}", path=layout.pred)
     masked = config.focus.masked and masks is not None  # over the given masks only
@@ -275,12 +268,12 @@ def _score_cameras(pairs: list[FramePair], plan: RunPlan, on_regions: RegionsCal
     the run's seconds per phase.
 
     With ``workers`` > 1 and several cameras, up to ``workers`` cameras are scored at the same
-    time (``Executor.lanes``), all feeding the one pool of ``workers`` threads: a camera's serial
+    time (``RunWorkers.lanes``), all feeding the one pool of ``workers`` threads: a camera's serial
     steps (regions, decoding, folding the pairs) overlap another's frames and flows, and the
     pool does not drain between a camera's phases. Each camera's numbers do not depend on it.
     """
     cams = pairs_by_camera(pairs)
-    executor = Executor(plan.config.workers, len(cams), cache_mb=plan.config.cache_mb,
+    executor = RunWorkers(plan.config.workers, len(cams), cache_mb=plan.config.cache_mb,
                         decoded=plan.prepared.decoded if plan.prepared is not None else None)
 
     def regions_done(cam: str, cam_pairs: list[FramePair], found: list[FrameRegions]) -> None:
@@ -288,12 +281,11 @@ def _score_cameras(pairs: list[FramePair], plan: RunPlan, on_regions: RegionsCal
         if on_regions is not None:
             on_regions(cam, cam_pairs, found)
 
-    def score_one(cam: str, cam_pairs: list[FramePair], stop: Any) -> Any:
-        return _score_one_camera(cam, cam_pairs, plan, executor, regions_done, progress, stop)
-
     completed = False
-    try:
-        scored = executor.each_camera(cams, score_one)
+    try:  # each camera: _score_one_camera(cam, pairs, plan, executor, ..., stop)
+        scored = executor.each_camera(cams, partial(_score_one_camera, plan=plan,
+                                                    executor=executor, regions_done=regions_done,
+                                                    progress=progress))
         completed = True
     finally:
         progress.close(completed)
@@ -301,7 +293,7 @@ def _score_cameras(pairs: list[FramePair], plan: RunPlan, on_regions: RegionsCal
         close_videos()
     rows: list[dict] = []
     warnings: list[dict] = []
-    temporal: dict[str, dict[str, dict]] = {}
+    temporal: dict[str, dict[str, CameraTerm]] = {}
     regions: dict[str, dict] = {}
     for cam, scores in zip(cams, scored, strict=True):
         rows.extend(scores.rows)
@@ -313,8 +305,8 @@ def _score_cameras(pairs: list[FramePair], plan: RunPlan, on_regions: RegionsCal
     return rows, warnings, temporal, regions, dict(executor.timing)
 
 
-def _score_one_camera(cam: str, cam_pairs: list[FramePair], plan: RunPlan, executor: Any,
-                      regions_done: RegionsCallback, progress: Any, stop: Any = None) -> Any:
+def _score_one_camera(cam: str, cam_pairs: list[FramePair], stop: Any = None, *, plan: RunPlan,
+                      executor: Any, regions_done: RegionsCallback, progress: Any) -> Any:
     """``score_camera`` with its progress: frames, pairs (those a camera could not score, no
     sequence, count as done) and the camera's video step. ``stop``: a ``threading.Event``
     checked at every frame and pair (``dynaeval.run.executor.Stopped`` is raised once it is set)."""
@@ -346,17 +338,16 @@ def _assemble(layout: Any, run_name: str | None, pairing: Any, plan: RunPlan, ro
     method = config.method or run_name or layout.pred.resolve().name
     scene = config.scene or run_name or layout.gt.resolve().name
     inputs_extra = ({} if run_name is None else
-                    {"layout": {"name": layout.name, "root": str(layout.root), **layout.details}})
-    if layout.name == "kplanes":
-        inputs_extra["layout"]["stack"] = describe_stack(pairing)
-    return Results(build_results(
+                    {"layout": {"name": layout.name, "root": str(layout.root), **layout.details,
+                                **layout.kind.describe(layout, pairing)}})
+    return Results(build_results(RunRecord(
         rows=rows, metric_names=metric_names(plan), method=method, scene=scene,
         pred_dir=str(layout.pred), gt_dir=str(layout.gt), settings=dict(plan.settings),
         unscored_cameras=pairing.unscored_cameras, shard=config.shard,
         skipped=pairing.skipped, warnings=warnings, timing=timing,
         version=VERSION, temporal=temporal, inputs_extra=inputs_extra,
         regions=_regions_doc(plan, regions),
-    ))
+    )))
 
 
 def _regions_doc(plan: RunPlan, cameras: dict[str, dict]) -> dict[str, Any] | None:

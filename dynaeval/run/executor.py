@@ -1,8 +1,9 @@
-"""``Executor``: what changes while a run goes — its worker threads, the cameras scored at once,
-the frame caches they share, the seconds spent per phase.
+"""``RunWorkers``: what changes while a run goes — its worker threads, the cameras scored at once,
+the frame caches they share, the seconds spent per phase. (Named apart from
+``concurrent.futures.Executor`` and a Dask ``Client``, which it is neither: issue 41.)
 
 The numbers of a camera never depend on it (the same with 1 worker or 8, cameras in any order);
-the plan of the run (``dynaeval.run.plan.RunPlan``) says what is computed, the executor how it is
+the plan of the run (``dynaeval.run.plan.RunPlan``) says what is computed, the workers how it is
 spread over threads.
 """
 
@@ -26,7 +27,7 @@ class Stopped(Exception):
     """Raised in a camera's thread when another camera has failed: the run stops."""
 
 
-class Executor:
+class RunWorkers:
     """A run's worker pool (``workers > 1``), its camera lanes, frame caches and timing.
 
     Args:

@@ -176,7 +176,7 @@ def build_plan(config: ScoreConfig, *, scope: Scope | None = None, masks: MaskSe
                        lpips_net=lpips_net, lpips_backend=config.lpips_backend,
                        options=config.metric_options, fps=config.fps)
     regions = ("whole",
-               *(("focused",) if focus.source != "none" else ()),
+               *(("focused",) if focus.kind.gives_boxes else ()),
                *(("masked",) if focus.masked else ()),
                *(protocol.mask_regions() if masks is not None else ()))
     built = build_frame_metrics(ctx, protocol.run_metrics(config.metrics), regions)
@@ -235,7 +235,7 @@ def _presence_step(config: ScoreConfig, sources: Any, settings: dict) -> Presenc
     (the ground-truth objects are ``regions.records``), or None when it does not run
     (``settings["presence"]`` says why)."""
     src = config.focus.source
-    if not config.presence or src not in ("detector", "boxes"):
+    if not config.presence or not config.focus.kind.classed:
         why = ("disabled (presence=False)" if not config.presence else
                f"needs boxes with classes (focus detector or boxes:FILE), focus is {src!r}")
         settings["presence"] = {"enabled": False, "reason": why}
@@ -245,7 +245,8 @@ def _presence_step(config: ScoreConfig, sources: Any, settings: dict) -> Presenc
     detector = sources.detector  # --focus detector's, or the one that wrote the boxes file
     settings["presence"] = {
         "enabled": True, **pcfg.describe(), "detector_test": detector is not None,
-        "objects": "the boxes file's records" if src == "boxes" else "the detector on the ground truth",
+        "objects": ("the boxes file's records" if config.focus.kind.reads_file
+                    else "the detector on the ground truth"),
         **({"detector_test_skipped": sources.detector_note} if sources.detector_note else {}),
     }
 

@@ -33,7 +33,7 @@ the one the regions and flows read.
 
 ``dynaeval.run.prepared_gt`` reads the folder back (``open_prepared``: checked against the run) and
 defines its layout, which this writer follows. The numbers are those of a run without
-``--prepared``, bit for bit (tests/dynaeval/test_prepare.py).
+``--prepared``, bit for bit (tests/dynaeval/run/test_prepare.py).
 """
 
 from __future__ import annotations
@@ -75,12 +75,12 @@ from dynaeval.metrics.flow import (
     gray_of_checked,
 )
 from dynaeval.metrics.static_flicker import TemporalStd, check_static, static_mean
-from dynaeval.metrics.temporal import region_mask
+from dynaeval.metrics.temporal import region_item_mask
 from dynaeval.metrics.temporal_pairs import GroundTruthPair, ground_truth_pair, pair_region
 from dynaeval.regions.focus import FrameRegions, open_sources
 from dynaeval.regions.packed import PackedMask
 from dynaeval.run.config import ScoreConfig
-from dynaeval.run.executor import Executor
+from dynaeval.run.executor import RunWorkers
 from dynaeval.run.plan import RunPlan, ground_truth_plan
 from dynaeval.run.prepared_gt import (
     REGION_FIELDS,
@@ -156,7 +156,7 @@ def prepare(gt_dir: str | Path, out: str | Path, config: ScoreConfig | None = No
         manifest["id"] = manifest_id(manifest)
         (tmp / MANIFEST).write_text(json.dumps(manifest, indent=1) + "\n", encoding="utf-8")
 
-    executor = Executor(config.workers, cache_mb=config.cache_mb,  # one camera at a time
+    executor = RunWorkers(config.workers, cache_mb=config.cache_mb,  # one camera at a time
                         decoded=kept.get)
     completed = False
     try:
@@ -219,7 +219,7 @@ class KeptDecodings:
                 self.bytes -= 0 if image is None else image.nbytes
 
 
-def _prepare_camera(i: int, cam: str, pairs: list[FramePair], plan: RunPlan, executor: Executor,
+def _prepare_camera(i: int, cam: str, pairs: list[FramePair], plan: RunPlan, executor: RunWorkers,
                     gt_dir: Path, writer: FolderWriter, progress: Any) -> dict[str, Any]:
     """Camera ``cam``'s manifest entry; its regions and flows written by ``writer``."""
     cache = executor.frame_cache()
@@ -262,7 +262,7 @@ def _save_regions(regions: list[FrameRegions], rel: str, writer: FolderWriter) -
 
 
 def _save_flows(pairs: list[FramePair], regions: list[FrameRegions], plan: RunPlan,
-                executor: Executor, cache: Any, writer: FolderWriter,
+                executor: RunWorkers, cache: Any, writer: FolderWriter,
                 progress: Any) -> tuple[list[list[str]], list[dict[str, Any]]] | None:
     """The ground-truth flows of every consecutive pair (forward, backward) as
     ``flows/<key>.npy`` and the rest of its ``GroundTruthPair`` (``_save_pair``); their keys and
@@ -279,7 +279,8 @@ def _save_flows(pairs: list[FramePair], regions: list[FrameRegions], plan: RunPl
     items = region_items(regions, plan.focus)
 
     def region(k: int, shape: tuple[int, ...]) -> np.ndarray | None:
-        return None if items is None or items[k] is None else region_mask(items[k], shape[:2], k)
+        return (None if items is None or items[k] is None
+                else region_item_mask(items[k], shape[:2], k))
 
     def terms(k: int, keys: list[str], flows: list[np.ndarray]) -> dict[str, Any]:
         with values_known_in(1.0, finite=True):  # read by dynaeval.io.images: no NaN/Inf pass
@@ -398,7 +399,7 @@ def _gt_flicker(pairs: list[FramePair], regions: list[FrameRegions], plan: RunPl
     union = None  # the union of the frames' regions, as the temporal engine forms it
     for k, item in enumerate(region_items(regions, plan.focus) or ()):
         if item is not None:
-            mask = region_mask(item, shape[:2], k)
+            mask = region_item_mask(item, shape[:2], k)
             union = mask.copy() if union is None else union | mask
     std = acc.std()
     return {"static": static_digest(static),

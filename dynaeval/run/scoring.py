@@ -13,11 +13,11 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 from dynaeval.core.errors import InputError
-from dynaeval.core.outcome import Status, note, warning
+from dynaeval.core.outcome import CameraTerm, Outcome, Status, note, warning
 from dynaeval.core.validation import values_known_in
 from dynaeval.io import FramePair
 from dynaeval.io.cache import FrameCache
@@ -25,7 +25,7 @@ from dynaeval.metrics.registry import METRICS
 from dynaeval.regions.focus import FrameRegions, camera_regions, fit_to
 from dynaeval.regions.given import given_masks, with_weights
 from dynaeval.regions.summary import regions_summary
-from dynaeval.run.executor import Executor
+from dynaeval.run.executor import RunWorkers
 from dynaeval.run.plan import RunPlan
 from dynaeval.run.stages import CameraWork, FrameWork, Stage, active_stages
 
@@ -36,7 +36,8 @@ class CameraScores:
 
     rows: list[dict[str, Any]]
     warnings: list[dict]
-    temporal: dict[str, dict] | None
+    temporal: dict[str, CameraTerm] | None
+    """The camera-level terms (temporal, video) by result key; None: no camera stage ran."""
     regions: dict[str, Any] | None = None
     """``regions_summary`` of the camera (None with focus none and no motion masks)."""
 
@@ -45,7 +46,7 @@ class CameraScores:
 # Regions
 
 
-def camera_regions_of(camera: str, pairs: list[FramePair], plan: RunPlan, executor: Executor,
+def camera_regions_of(camera: str, pairs: list[FramePair], plan: RunPlan, executor: RunWorkers,
                       cache: FrameCache) -> list[FrameRegions]:
     """The regions of every frame of a camera, from its ground truth (timed as ``regions``)."""
     t0 = time.perf_counter()
@@ -72,7 +73,7 @@ def camera_regions_of(camera: str, pairs: list[FramePair], plan: RunPlan, execut
 def _summary_of(regions: list[FrameRegions], plan: RunPlan) -> dict[str, Any] | None:
     """The camera's ``regions_summary`` (None when it has neither boxes nor masks)."""
     focus = plan.focus
-    if focus.source == "none" and not focus.masked:
+    if not focus.kind.gives_boxes and not focus.masked:
         return None
     return regions_summary(regions, focus.source, plan.sources.classes)
 
@@ -82,37 +83,31 @@ def _summary_of(regions: list[FrameRegions], plan: RunPlan) -> dict[str, Any] | 
 
 
 def score_frame(pair: FramePair, regions: FrameRegions, plan: RunPlan, cache: FrameCache,
-                executor: Executor, stages: Sequence[Stage] | None = None,
+                executor: RunWorkers, stages: Sequence[Stage] | None = None,
                 frames: Future | None = None) -> tuple[dict[str, Any], list[dict]]:
     """The results row of one frame (its values from the frame ``stages``, default the plan's;
     inf kept, None for undefined) and its warnings; ``frames``: the pair's ``plan.read_pair``
     read beforehand (``ReadAhead``), its error raised here. An InputError that names no file is
     raised again naming the pair's files."""
+    t0 = time.perf_counter()
     try:
-        return _score_frame(pair, regions, plan, cache, executor,
-                            active_stages(plan) if stages is None else stages, frames)
+        pred, gt = plan.read_pair(pair, cache) if frames is None else frames.result()
+        elapsed = {"read": time.perf_counter() - t0}
+        regions = fit_to(regions, gt.shape[:2], plan.focus)
+        if plan.masks is not None and plan.protocol.uses_masks():
+            regions = with_weights(regions, pair.gt.path, plan.masks)
+        row: dict[str, Any] = {"camera": pair.camera, "frame": pair.frame, "index": pair.index,
+                               "pred": str(pair.pred), "gt": str(pair.gt)}
+        work = FrameWork(pair, pred, gt, regions, row, elapsed)
+        with values_known_in(1.0, finite=True):  # read by dynaeval.io.images: in [0, 1] and
+            # finite, no range or NaN/Inf pass per metric
+            values = [v for stage in (active_stages(plan) if stages is None else stages)
+                      for v in stage.frame(plan, work)]
     except InputError as err:
         if err.path is not None:
             raise
         raise InputError(f"camera {pair.camera!r} frame {pair.frame!r} (ground truth {pair.gt}): "
                          f"{err}", path=str(pair.pred)) from err
-
-
-def _score_frame(pair: FramePair, regions: FrameRegions, plan: RunPlan, cache: FrameCache,
-                 executor: Executor, stages: Sequence[Stage],
-                 frames: Future | None = None) -> tuple[dict[str, Any], list[dict]]:
-    t0 = time.perf_counter()
-    pred, gt = plan.read_pair(pair, cache) if frames is None else frames.result()
-    elapsed = {"read": time.perf_counter() - t0}
-    regions = fit_to(regions, gt.shape[:2], plan.focus)
-    if plan.masks is not None and plan.protocol.uses_masks():
-        regions = with_weights(regions, pair.gt.path, plan.masks)
-    row: dict[str, Any] = {"camera": pair.camera, "frame": pair.frame, "index": pair.index,
-                           "pred": str(pair.pred), "gt": str(pair.gt)}
-    work = FrameWork(pair, pred, gt, regions, row, elapsed)
-    with values_known_in(1.0, finite=True):  # read by dynaeval.io.images: in [0, 1] and finite,
-        # no range or NaN/Inf pass per metric
-        values = [v for stage in stages for v in stage.frame(plan, work)]
     warnings: list[dict] = []
     for name, got in values:
         value = got.value
@@ -166,7 +161,7 @@ def _not_video_warning(camera: str, pairs: list[FramePair], err: Any) -> dict:
         "scored one by one, its temporal and motion-mask values are null"))
 
 
-def score_camera(camera: str, pairs: list[FramePair], plan: RunPlan, executor: Executor, *,
+def score_camera(camera: str, pairs: list[FramePair], plan: RunPlan, executor: RunWorkers, *,
                  on_regions: Callable | None = None,
                  on_frame: Callable[[], None] | None = None,
                  on_pair: Callable[[], None] | None = None) -> CameraScores:
@@ -213,35 +208,40 @@ def score_camera(camera: str, pairs: list[FramePair], plan: RunPlan, executor: E
     if motion is not None and motion["reason"] is not None:
         warnings.insert(0, note(motion["reason"], camera=camera))
     if temporal is not None and differ is None:
-        warnings.extend(name_regionless_frames(camera, pairs, regions, temporal))
+        temporal, named = name_regionless_frames(camera, pairs, regions, temporal)
+        warnings.extend(named)
     return CameraScores(rows, warnings, temporal, _summary_of(regions, plan))
 
 
 def name_regionless_frames(camera: str, pairs: list[FramePair], regions: list[FrameRegions],
-                           temporal: dict[str, dict]) -> list[dict]:
-    """Name the frames without boxes in the focused temporal terms, in place: a term null for the
-    whole camera gets them as its reason; one scored on the other pairs gets ``pair_reason``
-    (the reason of its null pairs) and one camera warning. Returns the warnings."""
+                           temporal: dict[str, CameraTerm]
+                           ) -> tuple[dict[str, CameraTerm], list[dict]]:
+    """The terms with the frames without boxes named in the focused ones: a term null for the
+    whole camera for want of a region gets them as its reason; one scored on the other pairs
+    gets them as ``pair_null`` (why its null pairs are null) and one camera warning. Returns the
+    terms and the warnings."""
     missing = [(p.frame, r.boxes_reason) for p, r in zip(pairs, regions, strict=True)
                if r.boxes is None]
     if not missing or len(pairs) < 2:
-        return []
+        return temporal, []
     why = "; ".join(dict.fromkeys(r or "no box" for _, r in missing))
     shown = ", ".join(repr(f) for f, _ in missing[:8]) + (" ..." if len(missing) > 8 else "")
     frames = f"{len(missing)} of {len(pairs)} frames have no box ({why}): {shown}"
-    out = []
-    for key, entry in temporal.items():
+    out, terms = [], dict(temporal)
+    for key, term in temporal.items():
         if METRICS[key].variant != "focused":
             continue
-        if entry.get("value") is None:
-            if entry.get("status") == Status.NO_REGION:  # not another cause (too few frames, ...)
-                entry["reason"] = f"{frames}; no pair of consecutive frames has boxes in both"
+        if term.outcome.value is None:
+            if term.outcome.status is Status.NO_REGION:  # not another cause (too few frames, ...)
+                terms[key] = replace(term, outcome=Outcome(
+                    None, Status.NO_REGION,
+                    f"{frames}; no pair of consecutive frames has boxes in both"))
         elif METRICS[key].kind == "camera":
             out.append(note(f"over the union of the boxes of the frames that have them; {frames}",
                             camera=camera, metric=key))
         else:
-            entry["pair_reason"] = f"this frame or the previous one has no box ({why})"
-            entry["pair_status"] = Status.NO_REGION.value
+            terms[key] = replace(term, pair_null=Outcome(
+                None, Status.NO_REGION, f"this frame or the previous one has no box ({why})"))
             out.append(note(f"scored on the pairs of frames that both have boxes; {frames}",
                             camera=camera, metric=key))
-    return out
+    return terms, out

@@ -35,7 +35,7 @@ MAY_IMPORT = {
     "regions": {"core", "io", "regions"},
     "metrics": {"core", "io", "metrics"},  # never regions
     "run": {"core", "io", "regions", "metrics", "run", "report"},  # report.results: the document
-    "report": {"core", "io", "metrics", "report"},
+    "report": {"core", "io", "metrics", "regions", "report"},  # regions.sources: focus kinds
     "cli": {"core", "io", "regions", "metrics", "run", "report", "cli"},
 }
 """Which layers each layer may import (design.md's layout table); nothing imports cli."""
@@ -568,3 +568,60 @@ def test_the_text_rule_catches_what_main_did(tmp_path):
     path = tmp_path / "old.py"
     path.write_text(old, encoding="utf-8")
     assert [line for _, line, _ in _text_matches(path)] == [2, 4, 7]
+
+
+def _layout_name(node: ast.AST) -> bool:
+    """``layout.name`` (a ``RenderLayout``'s name)."""
+    return (isinstance(node, ast.Attribute) and node.attr == "name"
+            and getattr(node.value, "id", "") == "layout")
+
+
+def _source_literal_compares(path: Path, named=None) -> list[str]:  # noqa: ANN001
+    """``x.source == "motion"``, ``source in ("detector", "boxes")`` and the like in ``path``:
+    a focus source (a name ending in ``source``; or what ``named`` accepts) compared with string
+    literals."""
+    def named_source(node: ast.AST) -> bool:
+        if named is not None:
+            return named(node)
+        name = node.attr if isinstance(node, ast.Attribute) else getattr(node, "id", "")
+        return name.endswith("source")
+
+    def literal(node: ast.AST) -> bool:
+        if isinstance(node, ast.Constant):
+            return isinstance(node.value, str)
+        return isinstance(node, ast.Tuple | ast.List | ast.Set) and any(
+            isinstance(e, ast.Constant) and isinstance(e.value, str) for e in node.elts)
+
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Compare):
+            sides = [node.left, *node.comparators]
+            if any(named_source(s) for s in sides) and any(literal(s) for s in sides):
+                found.append(f"{path}:{node.lineno}")
+    return found
+
+
+def test_no_focus_source_is_told_apart_by_its_name():
+    """Issue 41: the focus source was compared as a string literal at ~17 sites; each kind is a
+    class of ``dynaeval.regions.sources`` whose facts (``gives_boxes``, ``detects``,
+    ``reads_file``, ``from_motion``, ``classed``) the code reads instead."""
+    bad = [hit for p in _sources() if p.name != "sources.py" for hit in _source_literal_compares(p)]
+    assert not bad, "a focus source compared with a string literal:\n" + "\n".join(bad)
+
+
+def test_the_source_rule_catches_what_main_did(tmp_path):
+    code = tmp_path / "dynaeval" / "x.py"
+    code.parent.mkdir()
+    code.write_text('if focus.source == "none" or src.source in ("detector", "boxes"):\n    pass\n'
+                    'ok = config.source == other\n')
+    assert len(_source_literal_compares(code)) == 2  # not the third: no literal
+    code.write_text('a = cfg.source != "motion"\nb = source not in ("detector",)\n')
+    assert len(_source_literal_compares(code)) == 2
+
+
+def test_no_input_layout_is_told_apart_by_its_name_in_the_run():
+    """Issue 41: ``layout.name == "kplanes"`` (and ``dycheck``, ``3dgs``, ``folders``) at 7 sites
+    of ``run/evaluate.py``; each kind is a ``dynaeval.io.layouts.LayoutKind`` the run reads."""
+    bad = [hit for p in sorted((PACKAGE / "run").rglob("*.py"))
+           for hit in _source_literal_compares(p, _layout_name)]
+    assert not bad, "a layout told apart by its name:\n" + "\n".join(bad)

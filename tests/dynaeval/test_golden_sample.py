@@ -27,6 +27,7 @@ def _comparable(doc: dict) -> dict:
     for key in ("created", "timing", "provenance"):
         out.pop(key, None)
     out.pop("regions", None)  # added by issue 17 (what the regions hold; no number changes)
+    out.pop("temporal_parts", None)  # added by issue 41 (the sides of the temporal terms)
     return out
 
 

@@ -15,14 +15,14 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from dynaeval.core.outcome import Outcome
+from dynaeval.core.outcome import CameraTerm, Outcome
 from dynaeval.io import FramePair
 from dynaeval.io.cache import FrameCache
 from dynaeval.io.frames import gap_positions
 from dynaeval.regions.focus import FrameRegions
 
 if TYPE_CHECKING:
-    from dynaeval.run.executor import Executor
+    from dynaeval.run.executor import RunWorkers
     from dynaeval.run.plan import RunPlan
 
 Value = tuple[str, Outcome]
@@ -59,7 +59,7 @@ class CameraWork:
     """Their regions (same order), from the ground truth."""
     cache: FrameCache
     """The camera's frame cache."""
-    executor: Executor
+    executor: RunWorkers
     """The run's pool and timing."""
     differ: Any = None
     """The ``FramesDiffer`` of frames that differ in shape (found by the regions, or by the
@@ -72,7 +72,8 @@ class Stage:
     """One kind of work on every camera (subclasses override what they do)."""
 
     name = "stage"
-    """Its name (and timing key, where it is timed as a whole)."""
+    """Its name, for people (the run's timing keys are a stage's phases and metrics:
+    ``temporal``, ``regions``, each metric's result key)."""
 
     def applies(self, plan: RunPlan) -> bool:
         """Whether the run has this stage."""
@@ -86,9 +87,8 @@ class Stage:
         """Its values of one frame (none for a camera stage)."""
         return []
 
-    def camera(self, plan: RunPlan, work: CameraWork) -> dict[str, dict] | None:
-        """Its camera-level terms (``{key: {"value", "status", "reason", ...}}``, ``status`` a
-        ``dynaeval.core.outcome.Status`` value when ``value`` is None), or None for a frame stage."""
+    def camera(self, plan: RunPlan, work: CameraWork) -> dict[str, CameraTerm] | None:
+        """Its camera-level terms by result key, or None for a frame stage."""
         return None
 
 

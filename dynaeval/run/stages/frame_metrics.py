@@ -30,36 +30,33 @@ class FrameMetrics(Stage):
     def frame(self, plan: RunPlan, work: FrameWork) -> list[Value]:
         """``(key, Outcome)`` of every per-frame metric of one frame (SSIM over the regions reads
         the whole frame's window values: ``structural.reusing_whole_map``)."""
-        with reusing_whole_map():
-            return self._values(plan, work)
-
-    def _values(self, plan: RunPlan, work: FrameWork) -> list[Value]:
         pair, pred, gt, regions, elapsed = work.pair, work.pred, work.gt, work.regions, work.elapsed
         values: list[Value] = []
-        for name, (region, fn) in plan.fns.items():
-            if pair.index % plan.every.get(name, 1):
-                continue  # not one of the frames it scores (``every``): no value, not null
-            if region == "focused" and regions.boxes is None:
-                values.append((name, Outcome(None, regions.boxes_status or Status.NO_REGION,
-                                             regions.boxes_reason)))
-                continue
-            if region == "masked" and regions.packed_mask is None:
-                values.append((name, Outcome(None, regions.mask_status or Status.NO_REGION,
-                                             regions.mask_reason)))
-                continue
-            kw = region_argument(region, name, plan.protocol, regions)
-            if kw is None:
-                values.append((name, Outcome(None, Status.NO_REGION,
-                                             "no covisibility mask for this frame")))
-                continue
-            t0 = time.perf_counter()
-            try:
-                values.append((name, Outcome.of(float(fn(pred, gt, kw)))))
-            except EmptyRegionError as err:
-                values.append((name, Outcome(None, Status.EMPTY_REGION, str(err))))
-            except UndefinedMetricError as err:  # e.g. smaller than SSIM's window
-                values.append((name, Outcome(None, Status.UNDEFINED, str(err))))
-            except InputError as err:
-                raise InputError(f"{name}: {err}", path=str(pair.pred)) from err
-            elapsed[name] = time.perf_counter() - t0
+        with reusing_whole_map():
+            for name, (region, fn) in plan.fns.items():
+                if pair.index % plan.every.get(name, 1):
+                    continue  # not one of the frames it scores (``every``): no value, not null
+                if region == "focused" and regions.boxes is None:
+                    values.append((name, Outcome(None, regions.boxes_status or Status.NO_REGION,
+                                                 regions.boxes_reason)))
+                    continue
+                if region == "masked" and regions.packed_mask is None:
+                    values.append((name, Outcome(None, regions.mask_status or Status.NO_REGION,
+                                                 regions.mask_reason)))
+                    continue
+                kw = region_argument(region, name, plan.protocol, regions)
+                if kw is None:
+                    values.append((name, Outcome(None, Status.NO_REGION,
+                                                 "no covisibility mask for this frame")))
+                    continue
+                t0 = time.perf_counter()
+                try:
+                    values.append((name, Outcome.of(float(fn(pred, gt, kw)))))
+                except EmptyRegionError as err:
+                    values.append((name, Outcome(None, Status.EMPTY_REGION, str(err))))
+                except UndefinedMetricError as err:  # e.g. smaller than SSIM's window
+                    values.append((name, Outcome(None, Status.UNDEFINED, str(err))))
+                except InputError as err:
+                    raise InputError(f"{name}: {err}", path=str(pair.pred)) from err
+                elapsed[name] = time.perf_counter() - t0
         return values

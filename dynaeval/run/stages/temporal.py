@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from dynaeval.core.errors import InputError, UndefinedMetricError
-from dynaeval.core.outcome import Status
+from dynaeval.core.outcome import CameraTerm, Outcome, Status
 from dynaeval.core.validation import values_known_in
 from dynaeval.io import FramePair
 from dynaeval.io.frames import gap_positions
@@ -35,7 +35,7 @@ class Temporal(Stage):
     def applies(self, plan: RunPlan) -> bool:
         return plan.temporal is not None
 
-    def camera(self, plan: RunPlan, work: CameraWork) -> dict[str, dict]:
+    def camera(self, plan: RunPlan, work: CameraWork) -> dict[str, CameraTerm]:
         # the camera's pairs run on the pool (flows dominate: 3 per pair); the frames are
         # decoded here meanwhile (and, with cameras at once, the other camera's work goes on)
         t0 = time.perf_counter()
@@ -46,13 +46,13 @@ class Temporal(Stage):
 
 
 def _temporal_or_reason(camera: str, pairs: list[FramePair], regions: list[FrameRegions],
-                        plan: RunPlan, work: CameraWork, differ: Any) -> tuple[dict[str, dict], Any]:
+                        plan: RunPlan, work: CameraWork,
+                        differ: Any) -> tuple[dict[str, CameraTerm], Any]:
     """The camera's temporal terms, or every term null with the reason: frames that differ in
     shape (``differ``: the ``FramesDiffer`` found by the regions, or found here), frames too
     small for optical flow. InputErrors that name no file are raised naming the camera."""
-    def nulls(status: Status, reason: str) -> dict[str, dict]:
-        return {n: {"value": None, "status": status.value, "reason": reason}
-                for n in temporal_keys()}
+    def nulls(status: Status, reason: str) -> dict[str, CameraTerm]:
+        return dict.fromkeys(temporal_keys(), CameraTerm.null(status, reason))
 
     if differ is not None:
         return nulls(Status.NOT_A_VIDEO, differ.reason()), differ
@@ -72,19 +72,26 @@ def _temporal_or_reason(camera: str, pairs: list[FramePair], regions: list[Frame
                          path=str(pairs[0].pred.path.parent)) from err
 
 
-def _name_gaps(pairs: list[FramePair], temporal: dict[str, dict]) -> None:
-    """Give the per-pair entries the reason of each gap's null value (``pair_reasons``: pair
-    position -> reason, read by ``dynaeval.report.results.place_temporal`` as
-    ``Status.NOT_CONSECUTIVE``), in place."""
+def _with_gaps(pairs: list[FramePair], terms: dict[str, CameraTerm]) -> dict[str, CameraTerm]:
+    """The terms with per-pair values given the reason of each gap's null value
+    (``CameraTerm.gaps``: ``Status.NOT_CONSECUTIVE``)."""
     gaps = gap_positions(pairs)
     if not gaps:
-        return
+        return terms
     reasons = {k: (f"not a pair of consecutive frames: the ground-truth frame(s) between "
                    f"{pairs[k].frame!r} and {pairs[k + 1].frame!r} have no prediction "
                    "(--allow-missing)") for k in gaps}
-    for entry in temporal.values():
-        if entry.get("per_pair"):
-            entry["pair_reasons"] = reasons
+    return {k: replace(t, gaps=reasons) if t.per_pair else t for k, t in terms.items()}
+
+
+def _term(entry: dict) -> CameraTerm:
+    """The term of one entry of ``temporal_metrics``' output (``{"value", "status", "reason",
+    "per_pair", "signed"?, "pred"?, "gt"?}``)."""
+    value = entry.get("value")
+    status = Status(entry.get("status") or (Status.OK if value is not None else Status.UNDEFINED))
+    parts = {k: entry[k] for k in ("signed", "pred", "gt") if k in entry}
+    return CameraTerm(Outcome(value, status, entry.get("reason")),
+                      tuple(entry.get("per_pair") or ()), parts=parts)
 
 
 def _small_for_tlp(plan: RunPlan, h: int, w: int) -> str | None:
@@ -108,12 +115,13 @@ def static_pixels(regions: list[FrameRegions], focus: FocusConfig) -> np.ndarray
 def region_items(regions: list[FrameRegions], focus: FocusConfig) -> list | None:
     """Each frame's focus region for the temporal terms (its boxes; None for a frame without),
     or None when the run has no focus (``focus: none``)."""
-    return None if focus.source == "none" else [r.boxes for r in regions]
+    return [r.boxes for r in regions] if focus.kind.gives_boxes else None
 
 
 def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], plan: RunPlan,
-                       work: CameraWork, shape: tuple[int, ...]) -> dict[str, dict]:
-    """The temporal terms of one camera (``dynaeval.metrics.temporal.temporal_metrics`` output),
+                       work: CameraWork, shape: tuple[int, ...]) -> dict[str, CameraTerm]:
+    """The temporal terms of one camera (``dynaeval.metrics.temporal.temporal_metrics``' entries
+    as ``CameraTerm``),
     its ground truth of ``shape`` (the first frame's); tLP null with the reason when the frames
     are smaller than LPIPS accepts."""
     cache, prepared = work.cache, plan.prepared
@@ -138,8 +146,7 @@ def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], plan
             frame_indices=[p.index for p in pairs],
             gt_pairs=None if prepared is None else prepared.ground_truth_pairs(pairs[0].camera),
         )
-    _name_gaps(pairs, out)
+    terms = _with_gaps(pairs, {k: _term(v) for k, v in out.items()})
     if small is not None:
-        out.update({k: {"value": None, "status": Status.UNDEFINED.value, "reason": small,
-                        "per_pair": []} for k in SPECS["tlp"].keys()})
-    return out
+        terms.update(dict.fromkeys(SPECS["tlp"].keys(), CameraTerm.null(Status.UNDEFINED, small)))
+    return terms

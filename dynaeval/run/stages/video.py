@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from dynaeval.core.errors import EmptyRegionError, InputError, UndefinedMetricError
-from dynaeval.core.outcome import Status
+from dynaeval.core.outcome import CameraTerm, Outcome, Status
 from dynaeval.io import FramePair
 from dynaeval.io.video import video_fps
 from dynaeval.run.stages.base import CameraWork, Stage, consecutive
@@ -27,7 +27,7 @@ class Video(Stage):
     def applies(self, plan: RunPlan) -> bool:
         return bool(plan.camera_fns)
 
-    def camera(self, plan: RunPlan, work: CameraWork) -> dict[str, dict]:
+    def camera(self, plan: RunPlan, work: CameraWork) -> dict[str, CameraTerm]:
         t0 = time.perf_counter()
         out = video_metrics_of(work.name, work.pairs, work.regions, plan, work, work.differ)
         work.executor.add_time({name: (time.perf_counter() - t0) / len(plan.camera_fns)
@@ -57,10 +57,10 @@ def camera_fps(pairs: list[FramePair], fps: float) -> float:
 
 
 def video_metrics_of(camera: str, pairs: list[FramePair], regions: list, plan: RunPlan,
-                     work: CameraWork, differ: Any) -> dict[str, dict]:
-    """The video metrics (``jod``, ``focused_jod``) of one camera, ``{key: {"value", "reason",
-    "fps"}}``: null with the reason for frames that differ in shape or are not consecutive, and
-    for a focused window with no box in any frame."""
+                     work: CameraWork, differ: Any) -> dict[str, CameraTerm]:
+    """The video metrics (``jod``, ``focused_jod``) of one camera by result key: null with the
+    reason for frames that differ in shape or are not consecutive, and for a focused window
+    with no box in any frame."""
     status, reason = (
         (Status.NOT_A_VIDEO, differ.reason()) if differ is not None else
         (Status.NOT_CONSECUTIVE,
@@ -68,20 +68,18 @@ def video_metrics_of(camera: str, pairs: list[FramePair], regions: list, plan: R
         if not consecutive(pairs) else (Status.OK, None))
     fps = camera_fps(pairs, plan.config.fps)
     if reason is not None:
-        return {k: {"value": None, "status": status.value, "reason": reason, "fps": fps}
-                for k in plan.camera_fns}
+        return dict.fromkeys(plan.camera_fns, CameraTerm.null(status, reason))
     cache = work.cache
     pred = _Clip(pairs, lambda p: plan.read_pair(p, cache)[0])
     gt = _Clip(pairs, lambda p: plan.read_gt(p, cache))
-    out: dict[str, dict] = {}
+    out: dict[str, CameraTerm] = {}
     for key, (region, fn) in plan.camera_fns.items():
         kw = {"boxes": [r.boxes for r in regions]} if region == "focused" else {}
         try:
-            out[key] = {"value": float(fn(pred, gt, fps, kw)), "status": Status.OK.value,
-                        "reason": None, "fps": fps}
+            out[key] = CameraTerm(Outcome(float(fn(pred, gt, fps, kw))))
         except (EmptyRegionError, UndefinedMetricError) as err:
             status = Status.EMPTY_REGION if isinstance(err, EmptyRegionError) else Status.UNDEFINED
-            out[key] = {"value": None, "status": status.value, "reason": str(err), "fps": fps}
+            out[key] = CameraTerm.null(status, str(err))
         except InputError as err:
             if err.path is not None:
                 raise

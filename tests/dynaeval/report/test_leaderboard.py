@@ -11,7 +11,7 @@ import pytest
 
 from dynaeval.cli import main
 from dynaeval.errors import InputError
-from dynaeval.report import build_results, write_json_atomic
+from dynaeval.report import RunRecord, build_results, write_json_atomic
 from dynaeval.report.leaderboard import (
     ALL_SCENES,
     BootstrapConfig,
@@ -29,10 +29,11 @@ SETTINGS = {"data_range": 1.0, "quantize": "none", "ssim": {"win_size": 11},
 def _write(path, method, scene, psnr, ssim=None, settings=None):
     rows = [{"camera": "c", "frame": str(i), "index": i, "pred": "p", "gt": "g", "psnr": v,
              **({"ssim": ssim[i]} if ssim is not None else {})} for i, v in enumerate(psnr)]
-    doc = build_results(rows=rows, metric_names=["psnr"] + (["ssim"] if ssim is not None else []),
+    names = ["psnr"] + (["ssim"] if ssim is not None else [])
+    doc = build_results(RunRecord(rows=rows, metric_names=names,
                         method=method, scene=scene, pred_dir="p", gt_dir="g",
                         settings=json.loads(json.dumps(settings or SETTINGS)), unscored_cameras=[],
-                        skipped=[], warnings=[], timing={"total_s": 1.0}, version="0")
+                        skipped=[], warnings=[], timing={"total_s": 1.0}, version="0"))
     write_json_atomic(path, doc)
     return str(path)
 

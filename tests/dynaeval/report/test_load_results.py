@@ -11,17 +11,17 @@ import pytest
 
 from dynaeval.cli import main
 from dynaeval.errors import InputError
-from dynaeval.report import build_results, load_results, schema_path
+from dynaeval.report import RunRecord, build_results, load_results, schema_path
 from dynaeval.report.results_check import RESULTS_REQUIRED
 
 
 def _doc():
     rows = [{"camera": "c", "frame": str(i), "index": i, "pred": "p", "gt": "g", "psnr": 30.0 + i}
             for i in range(3)]
-    return build_results(
+    return build_results(RunRecord(
         rows=rows, metric_names=["psnr"], method="m", scene="s", pred_dir="p", gt_dir="g",
         settings={}, unscored_cameras=[], skipped=[], warnings=[], timing={"total_s": 1.0},
-        version="0")
+        version="0"))
 
 
 def _write(path, doc):

@@ -7,16 +7,18 @@ import math
 
 import pytest
 
+from dynaeval.core.outcome import CameraTerm, Outcome, Status
 from dynaeval.errors import InputError
-from dynaeval.report import build_results, load_results, schema_path, strict, write_json_atomic
+from dynaeval.report import RunRecord, build_results, load_results, schema_path
+from dynaeval.report import strict, write_json_atomic
 
 
 def _doc(rows, names=("psnr",)):
-    return build_results(
+    return build_results(RunRecord(
         rows=rows, metric_names=list(names), method="m", scene="s", pred_dir="p", gt_dir="g",
         settings={}, unscored_cameras=[], skipped=[], warnings=[], timing={"total_s": 1.0},
         version="0",
-    )
+    ))
 
 
 def _row(cam, i, **values):
@@ -100,17 +102,17 @@ def test_load_results_checks_schema(tmp_path):
 
 def test_temporal_pairs_go_to_the_later_frame_and_flicker_stays_per_camera():
     rows = [_row("a", i, psnr=20.0 + i) for i in range(3)] + [_row("b", 0, psnr=30.0)]
+    few = CameraTerm.null(Status.UNDEFINED, "fewer than 2 frames")
     temporal = {
-        "a": {"warp_error": {"value": 0.2, "reason": None, "per_pair": [0.1, 0.3]},
-              "flicker": {"value": 0.05, "reason": None, "per_pair": []}},
-        "b": {"warp_error": {"value": None, "reason": "fewer than 2 frames", "per_pair": []},
-              "flicker": {"value": None, "reason": "fewer than 2 frames", "per_pair": []}},
+        "a": {"warp_error": CameraTerm(Outcome(0.2), (0.1, 0.3)),
+              "flicker": CameraTerm(Outcome(0.05))},
+        "b": {"warp_error": few, "flicker": few},
     }
-    doc = build_results(
+    doc = build_results(RunRecord(
         rows=rows, metric_names=["psnr"], method="m", scene="s", pred_dir="p", gt_dir="g",
         settings={}, unscored_cameras=[], skipped=[], warnings=[], timing={"total_s": 1.0},
         version="0", temporal=temporal,
-    )
+    ))
     assert [f.get("warp_error") for f in doc["frames"]] == [None, 0.1, 0.3, None]
     assert "warp_error" not in doc["frames"][0]  # the first frame has no previous frame
     assert doc["cameras"]["a"]["warp_error"] == pytest.approx(0.2)
@@ -120,3 +122,18 @@ def test_temporal_pairs_go_to_the_later_frame_and_flicker_stays_per_camera():
     assert doc["summary"]["flicker"] == 0.05 and doc["counts"]["flicker"] == 1
     assert {"camera": "b", "metric": "flicker", "status": "undefined",
             "reason": "fewer than 2 frames"} in doc["warnings"]
+
+
+def test_the_sides_of_a_temporal_term_reach_the_results():
+    """Issue 41: the engine's signed / pred / gt means were computed and dropped; they are
+    written per camera in ``temporal_parts``, terms without parts left out."""
+    rows = [_row("a", i, psnr=20.0) for i in range(3)]
+    parts = {"signed": -0.1, "pred": 0.2, "gt": 0.3}
+    temporal = {"a": {"warp_error": CameraTerm(Outcome(0.2), (0.1, 0.3), parts=parts),
+                      "tof": CameraTerm(Outcome(0.5), (0.5, 0.5))}}
+    doc = build_results(RunRecord(
+        rows=rows, metric_names=["psnr"], method="m", scene="s", pred_dir="p", gt_dir="g",
+        settings={}, unscored_cameras=[], skipped=[], warnings=[], timing={"total_s": 1.0},
+        version="0", temporal=temporal,
+    ))
+    assert doc["temporal_parts"] == {"a": {"warp_error": parts}}

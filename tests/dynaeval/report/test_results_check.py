@@ -23,7 +23,7 @@ import pytest
 
 from dynaeval.cli import main
 from dynaeval.errors import InputError
-from dynaeval.report import build_results, load_results
+from dynaeval.report import RunRecord, build_results, load_results
 
 
 def _shard(index: int, camera: str) -> dict:
@@ -37,11 +37,11 @@ def _shard(index: int, camera: str) -> dict:
         "mask_fraction": {"mean": 0.1, "max": 0.2}, "global_motion_px": 0.01}}}
     warnings = [{"camera": camera, "frame": "0001", "metric": "focused_psnr",
                  "status": "no-region", "reason": "no box in this frame"}]
-    return build_results(
+    return build_results(RunRecord(
         rows=rows, metric_names=["psnr", "focused_psnr"], method="m", scene="s", pred_dir="p",
         gt_dir="g", settings={"temporal": {"tlp": True}, "ssim": {"win_size": 11}},
         unscored_cameras=[], skipped=[], warnings=warnings, timing={"total_s": 1.0, "psnr": 0.1},
-        version="0", shard=(index, 2), regions=regions)
+        version="0", shard=(index, 2), regions=regions))
 
 
 def _set(*keys, value):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from functools import partial
 
 import numpy as np
 import pytest
@@ -16,7 +17,7 @@ from dynaeval.regions.focus import FocusConfig
 from dynaeval.report import schema_path
 from dynaeval.run.evaluate import ScoreConfig
 
-from .helpers import moving_square_scene, write_frames
+from ..helpers import moving_square_scene, write_frames
 
 
 @pytest.fixture
@@ -164,7 +165,8 @@ def test_channel_mismatch(tmp_path, scene):
     ("metrics", ("psnr", "fid"), r"unknown metric\(s\) \['fid'\]"),
     ("metrics", "psnr", "metrics must be a sequence of metric names"),
     ("shard", (3, 2), "needs 1 <= I <= N"),
-    ("focus", "moving", r"focus must be detector, motion, none or boxes:FILE, got 'moving'; "
+    ("focus", "moving", r"focus must be detector, motion, none or boxes:FILE, got 'moving' "
+                        r"\(did you mean 'motion'\?\); "
                         r"or a FocusConfig \(dynaeval.regions.focus\) to set expand"),
     ("focus", "boxes:", "focus boxes:FILE needs a file name after 'boxes:'"),
     ("focus", None, "focus must be a FocusConfig or one of the CLI's strings detector, motion, "
@@ -325,7 +327,7 @@ def test_every_key_of_a_full_run_is_registered_and_documented(random_lpips):
     expected = set(METRICS) - {k for n in unavailable for k in SPECS[n].keys()}
     expected -= set(keys_of("frame", region="covisible"))  # DyCheck's m*: --protocol dycheck only
     assert keys == expected, (keys ^ expected)
-    doc = (Path(__file__).resolve().parents[2] / "docs" / "metrics.md").read_text()
+    doc = (Path(__file__).resolve().parents[3] / "docs" / "metrics.md").read_text()
     undocumented = [k for k in keys if f"`{k}`" not in doc]
     assert not undocumented, f"not in docs/metrics.md: {undocumented}"
     assert res["settings"]["lpips"]["enabled"] and res["summary"]["tlp"] is not None
@@ -458,8 +460,8 @@ def test_a_failing_camera_stops_the_others_and_its_error_is_raised(monkeypatch):
     progress = Progress({"regions": 6, "frames": 800, "pairs": 4, "video": 2}, enabled=False)
     run = SimpleNamespace(temporal=None, fail=False)
 
-    def score(cam, cam_pairs, stop):  # noqa: ANN202  (as dynaeval.run.evaluate._score_cameras)
-        return _score_one_camera(cam, cam_pairs, run, None, None, progress, stop)
+    score = partial(_score_one_camera, plan=run, executor=None, regions_done=None,
+                    progress=progress)  # as dynaeval.run.evaluate._score_cameras
 
     with ThreadPoolExecutor(max_workers=2) as lanes:
         assert cameras_at_once(lanes, cams, score) == ["a", "b"]

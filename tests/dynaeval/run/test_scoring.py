@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import dynaeval
+from dynaeval.core.outcome import CameraTerm, Status
 from dynaeval.errors import InputError
 from dynaeval.io import FramePair, pair_frames
 from dynaeval.io.cache import FrameCache
@@ -18,11 +19,11 @@ from dynaeval.io.frames import FrameRef
 from dynaeval.metrics.flow import MIN_FLOW_SIZE as TEMPORAL_MIN_SIZE
 from dynaeval.regions.focus import NOT_A_VIDEO, FocusConfig, FrameRegions
 from dynaeval.run.evaluate import ScoreConfig
-from dynaeval.run.executor import Executor
+from dynaeval.run.executor import RunWorkers
 from dynaeval.run.plan import build_plan
 from dynaeval.run.scoring import camera_regions_of, name_regionless_frames, score_frame
 
-from .helpers import textured_frame
+from ..helpers import textured_frame
 
 pytestmark = pytest.mark.filterwarnings("ignore::dynaeval.DynaevalWarning")
 
@@ -124,7 +125,7 @@ def test_an_input_error_inside_a_frame_names_camera_frame_and_files(tmp_path):
         raise InputError("float images must be in [0, 1]")
 
     run = replace(run, presence=fails)
-    executor = Executor(1, cache_mb=0)
+    executor = RunWorkers(1, cache_mb=0)
     regions = camera_regions_of(".", pairs, run, executor, FrameCache(0))
     with pytest.raises(InputError, match=r"pred/0001\.png: camera '\.' frame '0001' \(ground "
                                          r"truth .*gt/0001\.png\): float images must be in"):
@@ -140,7 +141,7 @@ def test_a_detector_error_names_the_ground_truth_file(tmp_path):
 
     run.sources.detector = fails
     with pytest.raises(InputError, match=r"gt/0000\.png: camera '\.' frame '0000': detector input"):
-        camera_regions_of(".", pairs, run, Executor(1, cache_mb=0), FrameCache(0))
+        camera_regions_of(".", pairs, run, RunWorkers(1, cache_mb=0), FrameCache(0))
 
 
 def test_boxes_file_boxes_fit_each_frame_of_a_camera_that_is_no_video(tmp_path):
@@ -183,7 +184,7 @@ def _square_scene_with_boxes(tmp_path: Path, empty: set[str]) -> Path:
     boxes file with the square's box in every frame except the keys in ``empty``."""
     import json
 
-    from .helpers import moving_square_scene, write_frames
+    from ..helpers import moving_square_scene, write_frames
 
     _, frames = moving_square_scene(tmp_path / "gt")
     boxes = {}
@@ -248,15 +249,15 @@ def test_the_frames_without_boxes_are_named_by_status_not_by_words():
                FrameRegions(boxes=np.array([[0, 0, 4, 4]])),
                FrameRegions(boxes=None, boxes_reason="no box here")]
     temporal = {
-        "focused_tof": {"value": None, "status": "no-region", "reason": "any words"},
-        "focused_warp_error": {"value": None, "status": "undefined",
-                               "reason": "no frame has a region"},
+        "focused_tof": CameraTerm.null(Status.NO_REGION, "any words"),
+        "focused_warp_error": CameraTerm.null(Status.UNDEFINED, "no frame has a region"),
     }
-    name_regionless_frames("cam00", pairs, regions, temporal)
-    assert temporal["focused_tof"]["reason"] == (
+    named, _ = name_regionless_frames("cam00", pairs, regions, temporal)
+    assert named["focused_tof"].outcome.detail == (
         "2 of 3 frames have no box (no box here): '0000', '0002'; no pair of consecutive "
         "frames has boxes in both")
-    assert temporal["focused_warp_error"]["reason"] == "no frame has a region"
+    assert named["focused_warp_error"].outcome.detail == "no frame has a region"
+    assert temporal["focused_tof"].outcome.detail == "any words"  # not changed in place
 
 
 def test_frames_read_from_files_get_no_second_range_pass(tmp_path, monkeypatch):

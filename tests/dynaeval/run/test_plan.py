@@ -1,4 +1,4 @@
-"""RunPlan (the run resolved once, frozen, the user's config kept as given), the Executor (pool,
+"""RunPlan (the run resolved once, frozen, the user's config kept as given), the RunWorkers (pool,
 camera lanes, frame caches, timing) and the stages behind one interface (issue 31)."""
 
 from __future__ import annotations
@@ -6,15 +6,15 @@ from __future__ import annotations
 import dataclasses
 import threading
 from pathlib import Path
-from types import SimpleNamespace
 
 import pytest
 
 from dynaeval.errors import InputError
+from dynaeval.io.layouts import RenderLayout
 from dynaeval.regions.focus import FocusConfig
 from dynaeval.run.config import ScoreConfig
 from dynaeval.run.evaluate import per_frame_only
-from dynaeval.run.executor import Executor, cameras_at_once
+from dynaeval.run.executor import RunWorkers, cameras_at_once
 from dynaeval.run.plan import RunPlan, Scope, build_plan
 from dynaeval.run.stages import STAGES, Stage, active_stages, metric_names
 
@@ -25,7 +25,7 @@ NONE = FocusConfig(source="none", masked=False)
 
 def _views(**kw) -> tuple[ScoreConfig, object]:  # noqa: ANN202
     """A config and a layout of separate test views (not a video)."""
-    layout = SimpleNamespace(sequence=False, name="folders", pred=Path("pred"))
+    layout = RenderLayout("folders", Path("pred"), Path("gt"), sequence=False)
     return ScoreConfig(progress=False, **kw), layout
 
 
@@ -107,14 +107,14 @@ def test_scope_of_a_config_is_what_it_asks():
 
 
 def test_executor_without_workers_runs_in_order_in_the_caller():
-    ex = Executor(1, cameras=4, cache_mb=8)
+    ex = RunWorkers(1, cameras=4, cache_mb=8)
     assert ex.pool is None and ex.lanes == 1 and ex.window == 2
     assert ex.map(lambda x: threading.get_ident(), range(3)) == [threading.get_ident()] * 3
     assert ex.frame_cache().max_bytes == 8 * 2**20
 
 
 def test_executor_shares_cache_and_window_between_lanes():
-    ex = Executor(4, cameras=2, cache_mb=8)
+    ex = RunWorkers(4, cameras=2, cache_mb=8)
     try:
         assert ex.lanes == 2 and ex.window == 4
         assert ex.frame_cache().max_bytes == 4 * 2**20  # each camera at once: its share
@@ -126,7 +126,7 @@ def test_executor_shares_cache_and_window_between_lanes():
 
 
 def test_each_camera_returns_in_camera_order_and_raises_the_first_failure():
-    ex = Executor(2, cameras=2, cache_mb=1)
+    ex = RunWorkers(2, cameras=2, cache_mb=1)
     cams = {"a": [], "b": []}
     assert ex.each_camera(cams, lambda c, p, stop: c) == ["a", "b"]
 

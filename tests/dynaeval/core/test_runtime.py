@@ -23,7 +23,7 @@ from dynaeval.core.runtime import (
 )
 from dynaeval.errors import InputError
 
-from .opencv_fakes import MIXED, install, shadowed_cv2
+from ..opencv_fakes import MIXED, install, shadowed_cv2
 
 ort = pytest.importorskip("onnxruntime")
 

@@ -14,7 +14,7 @@ from dynaeval.regions.focus import FocusConfig
 from dynaeval.run.distributed import ScoreJob, score_jobs, score_shard
 from dynaeval.run.evaluate import score
 
-from .helpers import moving_square_scene, write_frames
+from ..helpers import moving_square_scene, write_frames
 
 NUMBERS = ("frames", "cameras", "summary", "counts", "metrics", "settings", "method", "scene")
 SETTINGS = {"metrics": ("psnr", "ssim"), "focus": FocusConfig(source="motion", masked=True)}

@@ -1,0 +1,97 @@
+"""The kinds of focus source (``--focus detector|motion|boxes:FILE|none``), one class each.
+
+A kind says what it is once, as data its users read: whether it gives boxes (the ``focused_*``
+variants), runs the detector on each ground-truth frame, reads a boxes file, makes its boxes from
+the motion masks, gives boxes with classes (object presence, ``--classes``), and what the run's
+"no box anywhere" headline calls what found nothing. ``dynaeval.regions.focus`` (opening the
+sources, each frame's boxes), the run (plan, scoring, the temporal stage, ``evaluate``) and the
+results (the headline) branch on these facts, never on the name (issue 41: the name was compared
+as a string literal at ~17 sites; ``tests/dynaeval/test_architecture.py`` holds it).
+
+Adding a kind: a subclass here, registered in ``SOURCE_KINDS``, and where its boxes come from in
+``regions.focus`` (``open_sources``, ``_frame_boxes``); docs/architecture.md "Where do I add X".
+Light: imports nothing of dynaeval but the ground floor.
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+from dynaeval.core.errors import InputError, did_you_mean
+
+
+class FocusSource:
+    """One kind of focus source; its facts as class attributes (subclasses set them)."""
+
+    name: ClassVar[str] = ""
+    """The name of ``--focus`` and of the results' ``settings.focus.source`` and
+    ``regions.source``."""
+    spec: ClassVar[str] = ""
+    """How ``--focus`` spells it (``boxes:FILE`` for a boxes file)."""
+    gives_boxes: ClassVar[bool] = True
+    """Frames get focus boxes: the ``focused_*`` variants are computed (False: ``none``)."""
+    detects: ClassVar[bool] = False
+    """Runs the ONNX detector on every ground-truth frame (``--detector``, ``--classes``)."""
+    reads_file: ClassVar[bool] = False
+    """Reads the boxes from a boxes file (``dynaeval detect`` or a scene generator's)."""
+    from_motion: ClassVar[bool] = False
+    """Makes its boxes from the motion masks (they are computed even with ``--no-masked``; a
+    moving camera spoils them; a video is needed)."""
+    classed: ClassVar[bool] = False
+    """Its boxes carry object classes: object presence can run."""
+
+    def finder(self, bundled_detector: bool) -> str:
+        """What found the boxes, as ``dynaeval.core.outcome.no_box_reason`` names it."""
+        return self.name
+
+
+class DetectorSource(FocusSource):
+    """The ONNX detector on the ground truth (the bundled one, or ``--detector``)."""
+
+    name = spec = "detector"
+    detects = classed = True
+
+    def finder(self, bundled_detector: bool) -> str:
+        return "bundled" if bundled_detector else "detector"
+
+
+class MotionSource(FocusSource):
+    """Connected components of each static camera's motion masks."""
+
+    name = spec = "motion"
+    from_motion = True
+
+
+class BoxesFileSource(FocusSource):
+    """A boxes file (``--focus boxes:FILE``)."""
+
+    name = "boxes"
+    spec = "boxes:FILE"
+    reads_file = classed = True
+
+
+class NoFocus(FocusSource):
+    """No focus regions: the whole frame only (``--focus none``)."""
+
+    name = spec = "none"
+    gives_boxes = False
+
+
+SOURCE_KINDS: dict[str, FocusSource] = {
+    k.name: k() for k in (DetectorSource, MotionSource, BoxesFileSource, NoFocus)}
+"""Every kind of focus source by name, in ``--focus`` order: the one place that lists them."""
+
+BOXES_FILE_PREFIX = "boxes:"
+"""``--focus boxes:FILE``: the prefix before the file name."""
+
+
+def focus_source(name: object, what: str = "focus source") -> FocusSource:
+    """The kind called ``name``.
+
+    Raises:
+        InputError: no such kind (the known ones listed, the closest suggested).
+    """
+    if not isinstance(name, str) or name not in SOURCE_KINDS:
+        raise InputError(f"{what} must be one of {tuple(SOURCE_KINDS)}, got {name!r}"
+                         f"{did_you_mean(name, SOURCE_KINDS)}")
+    return SOURCE_KINDS[name]
