@@ -343,7 +343,9 @@ def run_study(study: Path, preset: str = "tiny", scenes=SCENES, models=MODELS,
                 future.result()
                 print(f"[{k}/{len(todo)}] done: {' '.join(job)}", file=sys.stderr)
         result_files = [study / "results" / f"{s}__{m}-{x}.json" for s, m, x in todo]
-    board = build_leaderboard(result_files)
+    # the leaderboard of the study folder: a study built in pieces (--scenes / --models per
+    # call, each run's commit in its train.json) ranks every run it holds, not the last call's
+    board = build_leaderboard(sorted({*result_files, *(study / "results").glob("*.json")}))
     _write_json(study / "leaderboard.json", board)
     return board
 

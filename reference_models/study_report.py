@@ -341,7 +341,8 @@ def write_report(study: Path, path: Path, *, preset: str, command: str,
     ]
     if results_dir is not None:
         rel_results = os.path.relpath(results_dir, path.parent)
-        lines += [f"Every run's results JSON (`dynaeval/results/v1`) and the leaderboard are in "
+        schemas = ", ".join(f"`{name}`" for name in sorted({d["schema"] for d in docs}))
+        lines += [f"Every run's results JSON ({schemas}) and the leaderboard are in "
                   f"[{rel_results}/]({rel_results}/).", ""]
     for scene, sdocs in by_scene.items():
         lines += [f"## {scene}", "", scene_table(sdocs), "", *stadium_lines(study, scene)]
