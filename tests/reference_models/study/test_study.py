@@ -129,16 +129,16 @@ def test_a_scene_without_a_moving_region_trains_the_fallback_size(tmp_path, monk
     monkeypatch.setattr(train_mod, "render_run", lambda spec, run, data, progress, device: [])
     run = train_and_render(tmp_path, "players-stadium", "kplanes", "isg", NO_STADIUM,
                            tmp_path / "data", progress=False)
-    assert sizes == ["small-dynbox-fine-fp", "small-fp"]
+    assert sizes == ["small-dynbox-fine-fp", "small"]
     record = json.loads((run / "train.json").read_text())
-    assert record["size"] == "small-fp" and "nothing that moves" in record["fallback"]
+    assert record["size"] == "small" and "nothing that moves" in record["fallback"]
     # resumed after an interruption: the run's own size is recorded, not the preset's first choice
     (run / "train.json").unlink()
     (run / "checkpoint.pt").write_bytes(b"")
     record = json.loads((train_and_render(tmp_path, "players-stadium", "kplanes", "isg",
                                           NO_STADIUM, tmp_path / "data",
                                           progress=False) / "train.json").read_text())
-    assert record["step"] == 1 and record["size"] == "small-fp" and "nothing that moves" in record["fallback"]
+    assert record["step"] == 1 and record["size"] == "small" and "nothing that moves" in record["fallback"]
     with pytest.raises(NothingMoves):  # a preset without a fallback does not hide the error
         sizes.clear()
         train_and_render(tmp_path, "players-stadium", "nerfplayer", "isg",
