@@ -297,10 +297,7 @@ def carried_optimizer_state(model: torch.nn.Module, saved: dict | None, path: Pa
                          "pre-train it again, or start from its weights only (no --carry-optimizer)",
                          path=path)
     ids = [i for g in saved["param_groups"] for i in g["params"]]
-    fits = len(ids) == len(params) and all(
-        i not in saved["state"] or saved["state"][i]["exp_avg"].shape == p.shape
-        for i, p in zip(ids, params, strict=True))
-    if not fits:
+    if not optimizer_state_fits(saved, params):
         raise InputError(f"cannot start from this run's optimiser state: it holds {len(ids)} "
                          f"parameters, not shaped like the model's {len(params)}; start from its "
                          "weights only (no --carry-optimizer)", path=path)
@@ -312,6 +309,16 @@ def carried_optimizer_state(model: torch.nn.Module, saved: dict | None, path: Pa
         else:
             state[i] = entry
     return {"state": state, "param_groups": saved["param_groups"]}, fresh
+
+
+def optimizer_state_fits(saved: dict, params: list[torch.Tensor]) -> bool:
+    """Whether the Adam ``state_dict`` ``saved`` holds one entry per parameter of ``params``,
+    each moment shaped like its parameter (K-Planes' planes are stored (1, H, W, F) since
+    issue 40; a checkpoint's Adam state from before holds them (1, F, H, W))."""
+    ids = [i for g in saved["param_groups"] for i in g["params"]]
+    return len(ids) == len(params) and all(
+        i not in saved["state"] or saved["state"][i]["exp_avg"].shape == p.shape
+        for i, p in zip(ids, params, strict=True))
 
 
 def train(spec: ModelSpec, data_path: str | Path, out: str | Path, size: str = "small",
@@ -405,6 +412,11 @@ def _loop(model: DynamicRadianceModel, data: Dataset, cfg: TrainConfig, out: Pat
         optim.load_state_dict(init_state)
     step, seconds, cpu_seconds = 0, 0.0, 0.0
     if ckpt is not None:
+        if not optimizer_state_fits(ckpt["optimizer"], list(model.parameters())):
+            raise InputError("cannot resume: the checkpoint's optimiser state is not shaped like "
+                             "the model's parameters (written by an older version of the "
+                             "reference models?); resume with the code its train.json names "
+                             "('code'), or train again", path=out / "checkpoint.pt")
         optim.load_state_dict(ckpt["optimizer"])
         step, seconds = int(ckpt["step"]), float(ckpt["train_seconds"])
         cpu_seconds = float(ckpt.get("train_cpu_seconds", 0.0))

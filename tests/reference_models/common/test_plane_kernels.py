@@ -62,9 +62,9 @@ def test_a_plane_not_stored_channels_last_reads_the_same():
 def test_coordinates_with_a_gradient_take_grid_sample():
     enc = PlaneEncoding(8, 5, (1, 2), 4)
     x = (torch.rand(50, 4) * 2 - 1).requires_grad_()
-    assert not uses_fused_lookup(x, list(enc.planes))
+    assert not uses_fused_lookup(x, enc.views())
     with pytest.raises(ValueError, match="grid_sample"):
-        plane_product(x, list(enc.planes[:6]), enc.plane_pairs[:6])
+        plane_product(x, enc.views()[:6], enc.plane_pairs[:6])
     enc(x).sum().backward()  # the grid_sample path: the coordinates get their gradient
     assert x.grad is not None and float(x.grad.abs().sum()) > 0
 
@@ -75,11 +75,11 @@ def test_encoding_uses_the_fused_path_and_matches_grid_sample():
     with torch.no_grad():
         for p in enc.planes:
             p.uniform_(0.5, 1.5)
-    assert all(p.is_contiguous(memory_format=torch.channels_last) for p in enc.planes)
+    assert all(p.is_contiguous(memory_format=torch.channels_last) for p in enc.views())
     x = _coords(500, seed=4)
     fast = enc(x)
     fast_g = torch.autograd.grad(fast.square().sum(), list(enc.planes))
-    ref = torch.cat([grid_sample_product(x, list(enc.planes[s * 6:(s + 1) * 6]), enc.pairs)
+    ref = torch.cat([grid_sample_product(x, enc.views()[s * 6:(s + 1) * 6], enc.pairs)
                      for s in range(2)], -1)
     ref_g = torch.autograd.grad(ref.square().sum(), list(enc.planes))
     torch.testing.assert_close(fast, ref, rtol=RTOL, atol=ATOL)
@@ -95,6 +95,30 @@ def test_a_state_dict_of_plain_planes_loads_into_channels_last_ones():
     assert not all(v.is_contiguous(memory_format=torch.channels_last) for v in old.values())
     enc = PlaneEncoding(8, 5, (1, 2), 4)
     enc.load_state_dict(old)
-    assert all(p.is_contiguous(memory_format=torch.channels_last) for p in enc.planes)
+    assert all(p.is_contiguous(memory_format=torch.channels_last) for p in enc.views())
     for k, v in enc.state_dict().items():
         torch.testing.assert_close(v, old[k], rtol=0, atol=0)
+
+
+def test_planes_are_stored_so_fused_adam_updates_them_without_copies():
+    """Planes kept as (1, F, H, W) ``channels_last`` parameters made torch's fused Adam copy each
+    into a contiguous tensor and back every step (a quarter of a close-up study step, issue 40).
+    Stored (1, H, W, F), the parameters and their gradients are contiguous, and one Adam step
+    gives the very numbers the old layout gave."""
+    torch.manual_seed(0)
+    enc = PlaneEncoding(8, 5, (1, 2), 4)
+    with torch.no_grad():
+        for p in enc.planes:
+            p.uniform_(0.5, 1.5)
+    x = torch.rand(300, 4) * 2 - 1
+    (enc(x).square().sum() + sum(enc.regularizers().values())).backward()
+    assert all(p.is_contiguous() and p.grad.is_contiguous() for p in enc.planes)
+    old = [v.detach().clone(memory_format=torch.channels_last).requires_grad_() for v in enc.views()]
+    for o, p in zip(old, enc.planes, strict=True):
+        o.grad = p.grad.permute(0, 3, 1, 2).contiguous(memory_format=torch.channels_last)
+    for params in (list(enc.parameters()), old):
+        torch.optim.Adam(params, lr=1e-2, eps=1e-15, fused=True).step()
+    for o, v in zip(old, enc.views(), strict=True):
+        torch.testing.assert_close(v, o, rtol=0, atol=0)
+    assert all(tuple(v.shape) == tuple(o.shape) for v, o in zip(enc.state_dict().values(), old,
+                                                                strict=True))
