@@ -29,7 +29,8 @@ import torch
 
 from dynaeval.errors import InputError
 from reference_models.common.data import Dataset, Views, check_same_rig, load_dataset
-from reference_models.common.device import check_clock, device_name, resolve_device
+from reference_models.common.device import (check_clock, device_name, keep_freed_memory,
+                                             resolve_device)
 from reference_models.common.importance import SAMPLING, RaySampler
 from reference_models.common.model import DynamicRadianceModel, RayBatch, RenderConfig
 from reference_models.common.rays import pixel_rays
@@ -342,6 +343,7 @@ def train(spec: ModelSpec, data_path: str | Path, out: str | Path, size: str = "
     """
     out = Path(out)
     device = resolve_device(device)
+    keep_freed_memory()
     if resume:
         cfg, model, ckpt = load_run(out, spec, device)
         train_cfg = _from_dict(TrainConfig, {**cfg["train_config"], **(overrides or {})})
@@ -509,6 +511,7 @@ def render_run(spec: ModelSpec, run: str | Path, data_path: str | Path | None = 
 
     run = Path(run)
     device = resolve_device(device)
+    keep_freed_memory()
     cfg, model, _ = load_run(run, spec, device)
     data = load_dataset(data_path or cfg["data"])
     if data.eval is None:
