@@ -167,3 +167,84 @@ def plane_product(x: torch.Tensor, planes: list[torch.Tensor], pairs: list[tuple
                          "gradient; use grid_sample otherwise")
     axes = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
     return _PlaneProduct.apply(x.contiguous(), axes, *planes)
+
+
+@compiled
+def _tv_sums(a, rows):  # noqa: ANN001, ANN202
+    """Sums of the squared first differences of an (H, W, F) float32 array: along its rows
+    (axis 0; 0.0 unless ``rows``) and along its columns (axis 1), float32 differences and
+    squares (as torch forms them) summed in float64, one running sum per feature (independent
+    sums: the loop over the features vectorises without reordering any sum)."""
+    h, w, f = a.shape
+    cols, rows_sum = np.zeros(f), np.zeros(f)
+    for i in range(h):
+        for j in range(w - 1):
+            for k in range(f):
+                d = a[i, j + 1, k] - a[i, j, k]
+                cols[k] += d * d
+    if rows:
+        for i in range(h - 1):
+            for j in range(w):
+                for k in range(f):
+                    d = a[i + 1, j, k] - a[i, j, k]
+                    rows_sum[k] += d * d
+    return rows_sum.sum(), cols.sum()
+
+
+@compiled
+def _tv_grad(a, c_rows, c_cols, out):  # noqa: ANN001, ANN202
+    """``out`` (H, W, F) = the gradient of ``c_rows / 2 * sum(diff(a, axis 0)^2) + c_cols / 2 *
+    sum(diff(a, axis 1)^2)``: at each texel ``c (d_before - d_after)`` along each axis, where a
+    difference beyond the edge is 0 (a clamped neighbour index gives it). Writes every element
+    (``out`` needs no zeroing); no branch in the loop over the features, which vectorises."""
+    h, w, f = a.shape
+    cr, cc = np.float32(c_rows), np.float32(c_cols)
+    for i in range(h):
+        im, ip = max(i - 1, 0), min(i + 1, h - 1)
+        for j in range(w):
+            jm, jp = max(j - 1, 0), min(j + 1, w - 1)
+            for k in range(f):
+                v = a[i, j, k]
+                out[i, j, k] = (cc * ((v - a[i, jm, k]) - (a[i, jp, k] - v))
+                                + cr * ((v - a[im, j, k]) - (a[ip, j, k] - v)))
+
+
+class _PlaneTV(torch.autograd.Function):
+    @staticmethod
+    def forward(ctx, plane, rows):  # noqa: ANN001
+        a = _texel_rows(plane)
+        _, f, h, w = plane.shape
+        n_rows, n_cols = (h - 1) * w * f, h * (w - 1) * f
+        s_rows, s_cols = _tv_sums(a.numpy(), rows)
+        ctx.save_for_backward(a)
+        ctx.scale = (2.0 / n_rows if rows else 0.0, 2.0 / n_cols)
+        value = s_cols / n_cols + (s_rows / n_rows if rows else 0.0)
+        return torch.tensor(value, dtype=torch.float32)
+
+    @staticmethod
+    def backward(ctx, g):  # noqa: ANN001
+        (a,) = ctx.saved_tensors
+        grad = torch.empty(a.shape[2], *a.shape[:2]).unsqueeze(0).contiguous(
+            memory_format=torch.channels_last)  # the plane's own layout: no copy into it
+        scale = float(g)
+        _tv_grad(a.numpy(), scale * ctx.scale[0], scale * ctx.scale[1],
+                 _texel_rows(grad).numpy())
+        return grad, None
+
+
+def uses_fused_tv(plane: torch.Tensor) -> bool:
+    """Whether ``plane_tv`` runs the compiled loops (a float32 CPU plane)."""
+    return plane.device.type == "cpu" and plane.dtype == torch.float32
+
+
+def plane_tv(plane: torch.Tensor, rows: bool) -> torch.Tensor:
+    """K-Planes' total variation of one (1, F, H, W) float32 CPU plane (best ``channels_last``,
+    as ``PlaneEncoding`` reads its planes): the mean of the squared first differences along its
+    columns (the last axis), plus, with ``rows``, the mean of those along its rows. A float32
+    scalar, differentiable in the plane: one compiled pass for the value, one for the gradient
+    (the reference, ``encodings.squared_difference_mean``, takes six). Raises ValueError off
+    the CPU or for another dtype."""
+    if not uses_fused_tv(plane):
+        raise ValueError("plane_tv takes a float32 CPU plane; use squared_difference_mean "
+                         "otherwise")
+    return _PlaneTV.apply(plane, bool(rows))

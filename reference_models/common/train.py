@@ -29,7 +29,8 @@ import torch
 
 from dynaeval.errors import InputError
 from reference_models.common.data import Dataset, Views, check_same_rig, load_dataset
-from reference_models.common.device import check_clock, device_name, resolve_device
+from reference_models.common.device import (check_clock, device_name, keep_freed_memory,
+                                             resolve_device)
 from reference_models.common.importance import SAMPLING, RaySampler
 from reference_models.common.model import DynamicRadianceModel, RayBatch, RenderConfig
 from reference_models.common.rays import pixel_rays
@@ -297,10 +298,7 @@ def carried_optimizer_state(model: torch.nn.Module, saved: dict | None, path: Pa
                          "pre-train it again, or start from its weights only (no --carry-optimizer)",
                          path=path)
     ids = [i for g in saved["param_groups"] for i in g["params"]]
-    fits = len(ids) == len(params) and all(
-        i not in saved["state"] or saved["state"][i]["exp_avg"].shape == p.shape
-        for i, p in zip(ids, params, strict=True))
-    if not fits:
+    if not optimizer_state_fits(saved, params):
         raise InputError(f"cannot start from this run's optimiser state: it holds {len(ids)} "
                          f"parameters, not shaped like the model's {len(params)}; start from its "
                          "weights only (no --carry-optimizer)", path=path)
@@ -312,6 +310,16 @@ def carried_optimizer_state(model: torch.nn.Module, saved: dict | None, path: Pa
         else:
             state[i] = entry
     return {"state": state, "param_groups": saved["param_groups"]}, fresh
+
+
+def optimizer_state_fits(saved: dict, params: list[torch.Tensor]) -> bool:
+    """Whether the Adam ``state_dict`` ``saved`` holds one entry per parameter of ``params``,
+    each moment shaped like its parameter (K-Planes' planes are stored (1, H, W, F) since
+    issue 40; a checkpoint's Adam state from before holds them (1, F, H, W))."""
+    ids = [i for g in saved["param_groups"] for i in g["params"]]
+    return len(ids) == len(params) and all(
+        i not in saved["state"] or saved["state"][i]["exp_avg"].shape == p.shape
+        for i, p in zip(ids, params, strict=True))
 
 
 def train(spec: ModelSpec, data_path: str | Path, out: str | Path, size: str = "small",
@@ -335,6 +343,7 @@ def train(spec: ModelSpec, data_path: str | Path, out: str | Path, size: str = "
     """
     out = Path(out)
     device = resolve_device(device)
+    keep_freed_memory()
     if resume:
         cfg, model, ckpt = load_run(out, spec, device)
         train_cfg = _from_dict(TrainConfig, {**cfg["train_config"], **(overrides or {})})
@@ -405,6 +414,11 @@ def _loop(model: DynamicRadianceModel, data: Dataset, cfg: TrainConfig, out: Pat
         optim.load_state_dict(init_state)
     step, seconds, cpu_seconds = 0, 0.0, 0.0
     if ckpt is not None:
+        if not optimizer_state_fits(ckpt["optimizer"], list(model.parameters())):
+            raise InputError("cannot resume: the checkpoint's optimiser state is not shaped like "
+                             "the model's parameters (written by an older version of the "
+                             "reference models?); resume with the code its train.json names "
+                             "('code'), or train again", path=out / "checkpoint.pt")
         optim.load_state_dict(ckpt["optimizer"])
         step, seconds = int(ckpt["step"]), float(ckpt["train_seconds"])
         cpu_seconds = float(ckpt.get("train_cpu_seconds", 0.0))
@@ -497,6 +511,7 @@ def render_run(spec: ModelSpec, run: str | Path, data_path: str | Path | None = 
 
     run = Path(run)
     device = resolve_device(device)
+    keep_freed_memory()
     cfg, model, _ = load_run(run, spec, device)
     data = load_dataset(data_path or cfg["data"])
     if data.eval is None:

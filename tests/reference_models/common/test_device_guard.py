@@ -46,6 +46,10 @@ ALLOWED = {
         "a plane's initial values, made an nn.Parameter (moved with the model)",
     ("common/encodings.py", "PlaneEncoding.__init__", "empty"):
         "a plane's initial values, made an nn.Parameter (moved with the model)",
+    ("common/plane_kernels.py", "_PlaneTV.forward", "tensor"):
+        "the compiled plane TV's value: plane_tv takes CPU planes only (torch's path elsewhere)",
+    ("common/plane_kernels.py", "_PlaneTV.backward", "empty"):
+        "the compiled plane TV's gradient, on the CPU like the planes plane_tv accepts",
     ("common/plane_kernels.py", "_PlaneProduct.forward", "empty"):
         "the compiled look-up runs for CPU tensors only (uses_fused_lookup); its outputs are CPU",
     ("common/plane_kernels.py", "_PlaneProduct.backward", "empty"):

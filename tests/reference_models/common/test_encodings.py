@@ -23,7 +23,7 @@ def test_time_planes_start_at_one_so_features_ignore_time():
     x2 = x.clone()
     x2[:, 3] = -x2[:, 3]
     np.testing.assert_allclose(enc(x), enc(x2), rtol=1e-6)
-    space = [p for p, (_, b) in zip(enc.planes, enc.plane_pairs, strict=True) if b != 3]
+    space = [p for p, (_, b) in zip(enc.views(), enc.plane_pairs, strict=True) if b != 3]
     assert all(0.1 <= float(p.min()) and float(p.max()) <= 0.5 for p in space)
     reg = enc.regularizers()
     assert float(reg["time_l1"]) == 0.0 and float(reg["time_smooth"]) == 0.0 and float(reg["tv"]) > 0
@@ -33,7 +33,7 @@ def test_corners_of_minus_one_to_one_hit_the_corner_texels():
     """grid_sample takes [-1, 1] (align_corners): -1 and 1 are the first and last texels; a
     [0, 1] convention would read the middle of the plane at 0."""
     enc = PlaneEncoding(4, 3, (1,), 1, planes="space")
-    for p in enc.planes:
+    for p in enc.views():
         p.copy_(torch.arange(16.0).view(1, 1, 4, 4) + 1.0)
     got = enc(torch.tensor([[-1.0, -1.0, -1.0, 0.0], [1.0, 1.0, 1.0, 0.0]])).squeeze(-1)
     np.testing.assert_allclose(got.numpy(), [1.0, 16.0 ** 3])
@@ -41,18 +41,18 @@ def test_corners_of_minus_one_to_one_hit_the_corner_texels():
 
 def test_features_multiply_across_planes_and_concatenate_across_scales():
     enc = PlaneEncoding(4, 3, (1, 2), 2)
-    for k, p in enumerate(enc.planes):
+    for k, p in enumerate(enc.views()):
         p.fill_(2.0 if k < 6 else 3.0)
     out = enc(torch.zeros(1, 4))
     np.testing.assert_allclose(out.numpy(), [[64, 64, 729, 729]])
-    assert enc.planes[6].shape[-1] == 8 and enc.planes[5].shape[-2] == 3  # scale 2; time stays 3
+    assert enc.plane(6).shape[-1] == 8 and enc.plane(5).shape[-2] == 3  # scale 2; time stays 3
 
 
 def test_regularizers_see_what_they_penalise():
     enc = PlaneEncoding(4, 5, (1,), 1)
     for p in enc.planes:
         p.fill_(1.0)
-    enc.planes[5][0, 0, :, 0] = torch.tensor([1.0, 2.0, 3.0, 4.0, 5.0])  # zt plane, linear in t
+    enc.plane(5)[0, 0, :, 0] = torch.tensor([1.0, 2.0, 3.0, 4.0, 5.0])  # zt plane, linear in t
     reg = enc.regularizers()
     assert float(reg["time_smooth"]) == pytest.approx(0.0, abs=1e-12)  # linear: no 2nd difference
     assert float(reg["time_l1"]) > 0 and float(reg["tv"]) > 0

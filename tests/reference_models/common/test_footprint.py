@@ -156,7 +156,7 @@ def test_planes_take_one_resolution_per_axis():
     from reference_models.common.encodings import PlaneEncoding
 
     enc = PlaneEncoding((8, 16, 4), 5, (1, 2), 3, max_resolution=(16, 32, 6))
-    shapes = {(a, b, tuple(p.shape[-2:])) for (a, b), p in zip(enc.plane_pairs, enc.planes,
+    shapes = {(a, b, tuple(p.shape[-2:])) for (a, b), p in zip(enc.plane_pairs, enc.views(),
                                                                 strict=True)}
     # rows run along b, columns along a; scale 2 doubles x and y, z is capped at 6
     assert (0, 1, (16, 8)) in shapes and (0, 1, (32, 16)) in shapes
@@ -181,7 +181,7 @@ def test_a_footprint_preset_records_its_cells_and_builds_planes_of_that_size(tin
     assert cfg["model_config"]["footprint_views"] >= 1
     assert cfg["model_config"]["footprint_quantile"] == 0.75
     _, model, _ = load_run(tmp_path / "run", SPEC)
-    top = {tuple(p.shape[-2:]) for p, (a, b) in zip(model.encoding.planes,
+    top = {tuple(p.shape[-2:]) for p, (a, b) in zip(model.encoding.views(),
                                                      model.encoding.plane_pairs, strict=True)
            if (a, b) == (0, 1)}
     assert (cells[1], cells[0]) in top  # the xy plane of the finest scale: rows y, columns x

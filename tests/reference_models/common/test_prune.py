@@ -21,7 +21,7 @@ def _model(prune: float) -> DynamicRadianceModel:
     net = DynamicRadianceModel(PlaneEncoding(16, 4, (1, 2), 8), torch.tensor([[-2.0] * 3, [2.0] * 3]),
                                4, cfg)
     with torch.no_grad():  # a peaked proposal: a dense slab around x = 0, empty elsewhere
-        for p in net.proposals[0].planes:
+        for p in net.proposals[0].views():
             if p.shape[-1] == 16 and p.shape[-2] == 16:
                 p[..., :, 6:10] += 3.0
         net.proposal_heads[0].bias.fill_(-6.0)

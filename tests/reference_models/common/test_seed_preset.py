@@ -33,10 +33,10 @@ def test_the_budget_is_the_seed_studys():
 
 def test_kplanes_seed_planes_run_from_2_6_to_2_11_cells():
     enc = _meta_encoding(KPLANES)
-    space = [tuple(p.shape[-2:]) for p, (a, b) in zip(enc.planes, enc.plane_pairs, strict=True)
+    space = [tuple(p.shape[-2:]) for p, (a, b) in zip(enc.views(), enc.plane_pairs, strict=True)
              if b != 3]
     assert sorted({s[0] for s in space}) == [2 ** k for k in range(6, 12)]
-    assert all(p.shape[1] == 16 for p in enc.planes) and enc.out_dim == 16 * 6
+    assert all(p.shape[1] == 16 for p in enc.views()) and enc.out_dim == 16 * 6
     assert round(sum(p.numel() for p in enc.parameters()) / 1e6) == 273
 
 

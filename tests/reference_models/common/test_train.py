@@ -52,6 +52,12 @@ def test_errors(tiny_data, tmp_path):
         render_run(SPEC, tmp_path)
     with pytest.raises(InputError, match="every must be >= 1"):
         render_run(SPEC, run, every=0)
+    # a checkpoint of the planes' old layout: its weights load, its Adam state is refused clearly
+    ckpt = torch.load(run / "checkpoint.pt", weights_only=False)
+    ckpt["optimizer"]["state"][0]["exp_avg"] = ckpt["optimizer"]["state"][0]["exp_avg"].permute(0, 3, 1, 2)
+    torch.save(ckpt, run / "checkpoint.pt")
+    with pytest.raises(InputError, match="optimiser state is not shaped like the model"):
+        train(SPEC, tiny_data, run, resume=True, progress=False)
     written = render_run(SPEC, run, progress=False, every=3)
     assert [p.name for p in written] == ["0000.png", "0003.png", "0006.png"]
     with pytest.raises(InputError, match="unknown size 'huge'"):
@@ -131,7 +137,7 @@ def test_static_warmup_keeps_time_planes_at_one_then_uses_them(tiny_data, tmp_pa
     train(SPEC, tiny_data, tmp_path / "w", size="tiny", iters=3, progress=False, overrides=warm | {
         "static_warmup": 0.99})
     _, model, _ = load_run(tmp_path / "w", SPEC)
-    times = [p for p, (_, b) in zip(model.encoding.planes, model.encoding.plane_pairs, strict=True)
+    times = [p for p, (_, b) in zip(model.encoding.views(), model.encoding.plane_pairs, strict=True)
              if b == 3]
     assert times and all(bool((p == 1.0).all()) for p in times)  # untouched: exactly one
     with pytest.raises(InputError, match="static_warmup needs a field with a static part"):

@@ -20,7 +20,7 @@ def test_tiny_run_beats_a_constant_colour_and_scores(tiny_data, tmp_path):
 def test_time_resolution_defaults_to_the_frames():
     enc = build_encoding(KPlanesConfig(resolution=8, scales=(1, 2), features=4, max_resolution=12),
                          {"n_frames": 24})
-    shapes = [tuple(p.shape[-2:]) for p in enc.planes]
+    shapes = [tuple(p.shape[-2:]) for p in enc.views()]
     assert shapes[5] == (24, 8) and shapes[11] == (24, 12)  # zt plane at both scales; space capped
     assert enc.out_dim == 8 and sum(p.numel() for p in enc.parameters()) > 0
     assert isinstance(enc(torch.zeros(3, 4)), torch.Tensor)
@@ -50,7 +50,7 @@ def test_dynamic_box_encoding_is_static_outside_and_starts_static_inside():
     x = torch.tensor([[0.0, 0.0, 0.0, -1.0], [0.0, 0.0, 0.0, 1.0], [0.4, 0.0, 0.0, 0.5]])
     with torch.no_grad():
         np.testing.assert_allclose(enc(x), enc.static(x), rtol=1e-6)  # time planes start at 1
-        for p in enc.time.planes:
+        for p in enc.time.views():
             p.mul_(torch.linspace(0.5, 2.0, 5).view(1, 1, 5, 1))  # vary along time
         f = enc(x)
         assert not torch.allclose(f[0], f[1])  # inside the moving box time matters ...
@@ -83,7 +83,7 @@ def test_fine_dynamic_box_adds_its_own_space_planes_starting_at_one():
     with torch.no_grad():
         np.testing.assert_allclose(enc(x), enc.static(x), rtol=1e-6)  # a factor of ones
         assert enc.time.plane_pairs[0] == (0, 1)
-        enc.time.planes[0].mul_(torch.linspace(0.5, 2.0, 4).view(1, 1, 1, 4))  # xy varies along x
+        enc.time.plane(0).mul_(torch.linspace(0.5, 2.0, 4).view(1, 1, 1, 4))  # xy varies along x
         f = enc(x)
         np.testing.assert_allclose(f[0], f[1], rtol=1e-6)  # a space plane: no change in time
         assert not torch.allclose(f[0] / enc.static(x)[0], f[2] / enc.static(x)[2])  # but in x
