@@ -27,7 +27,7 @@ import ast
 import functools
 import json
 from collections.abc import Callable, Iterable, Iterator, Mapping
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -175,6 +175,10 @@ class Detections:
     """``(N,)`` int64 class ids in the model's own numbering."""
     classes: tuple[str, ...]
     """Class name of each box, after ``DetectorConfig.aliases`` (e.g. ``"ball"``)."""
+    input_scale: float | None = None
+    """Model-input pixels per image pixel of the image searched (``Detector.input_scale``; None
+    when not known): presence trusts the detector only for objects at least
+    ``PresenceConfig.detector_min_input_side`` input pixels on their shorter side."""
 
     def __len__(self) -> int:
         return int(self.boxes.shape[0])
@@ -225,6 +229,7 @@ class Detector:
         self.outputs = self.session.get_outputs()
         self.convention = self._infer_convention()
         self._decoder = DECODERS[self.convention]
+        self._scales: dict[tuple[int, int], float] = {}  # input_scale per image size
         self.output_roles, self.outputs_note = self._decoder.output_roles(self.outputs)
         """Graph output index of each role (``boxes``/``scores``/``labels``, or YOLO's
         ``output``), and the note saying the output names were overruled (else None)."""
@@ -374,6 +379,21 @@ class Detector:
         """``(N, 4)`` boxes from the model's input pixels to the image's (unclipped)."""
         return self._decoder.to_image(boxes, geometry)
 
+    def input_scale(self, hw: tuple[int, int]) -> float:
+        """Model-input pixels per image pixel for an image of ``hw = (H, W)`` (letterboxed:
+        the input side over the longer image side for a square YOLO input)."""
+        h, w = int(hw[0]), int(hw[1])
+        if (h, w) not in self._scales:
+            _, geometry = self._decoder.prepare(np.zeros((h, w, 3), np.uint8), self._input_hw(),
+                                                self.config.input_size)
+            self._scales[(h, w)] = self._scale_of(geometry)
+        return self._scales[(h, w)]
+
+    def _scale_of(self, geometry: Any) -> float:
+        """Model-input pixels per image pixel of the mapping ``geometry`` (``to_image``'s)."""
+        box = self.to_image(np.array([[0.0, 0.0, 100.0, 100.0]]), geometry)
+        return 100.0 / float(box[0, 2] - box[0, 0])
+
     def raw(self, image: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Decoded candidates before filtering: float64 ``(N, 4)`` xyxy boxes in *original image*
         pixels (unclipped), ``(N,)`` scores and ``(N,)`` int64 class ids (see ``candidates``)."""
@@ -396,7 +416,8 @@ class Detector:
         boxes, scores, cls, geometry = self.candidates(image)
         found = postprocess(boxes, scores, cls, self.config, self.selected_ids, self.class_names,
                             h, w, to_image=lambda b: self.to_image(b, geometry))
-        return with_class_thresholds(found, self.class_thresholds)
+        return replace(with_class_thresholds(found, self.class_thresholds),
+                       input_scale=self._scale_of(geometry))
 
 
 def _grey_to_rgb(image: object) -> object:

@@ -381,16 +381,16 @@ def _gt_flicker(pairs: list[FramePair], regions: list[FrameRegions], plan: RunPl
     camera's static pixels, whole and inside the union of the frames' regions, as
     ``SequenceFlicker`` takes them: ``gt_means``) with the digest of the static mask they
     follow, or None when the camera has no static pixels to follow."""
-    static = static_pixels(regions, plan.focus)
-    if static is None:
+    if not plan.focus.masked:
         return None
-    acc, shape = None, None
+    acc, shape, static = None, None, None
     for p in pairs:
         with values_known_in(1.0, finite=True):  # read by dynaeval.io.images: no NaN/Inf pass
             frame = as_image(plan.read_gt(p, cache))
         if acc is None:
             shape = frame.shape
-            if static.shape != shape[:2]:
+            static = static_pixels(regions, plan.focus, shape)
+            if static is None or static.shape != shape[:2]:
                 return None
             acc = TemporalStd(check_static(static, shape[:2]))
         elif frame.shape != shape:  # frames of several sizes: the temporal terms are null

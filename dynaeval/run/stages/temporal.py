@@ -103,13 +103,21 @@ def _small_for_tlp(plan: RunPlan, h: int, w: int) -> str | None:
             f"got {w}x{h}")
 
 
-def static_pixels(regions: list[FrameRegions], focus: FocusConfig) -> np.ndarray | None:
-    """The camera's static pixels, ``(H, W)`` bool: never moving in any frame's motion mask
-    (None: no masked metrics, or no frame has a mask)."""
+def static_pixels(regions: list[FrameRegions], focus: FocusConfig,
+                  shape: tuple[int, ...]) -> np.ndarray | None:
+    """The camera's static pixels, ``(H, W) = shape[:2]`` bool: never moving in any frame's
+    motion mask. A static camera whose motion masks are all empty (nothing moves: a fact, not a
+    missing mask) is static everywhere. None: no masked metrics, no motion masks (too few frames,
+    frames that differ in shape), or a camera that does not look static with no moving pixel."""
     if not focus.masked:
         return None
     moving = union(r.packed_mask for r in regions if r.packed_mask is not None)
-    return None if moving is None else ~moving
+    if moving is not None:
+        return ~moving
+    nothing_moves = bool(regions) and all(
+        r.mask_status is Status.EMPTY_REGION and r.camera_motion is not None
+        and r.camera_motion["reason"] is None for r in regions)
+    return np.ones(shape[:2], dtype=bool) if nothing_moves else None
 
 
 def region_items(regions: list[FrameRegions], focus: FocusConfig) -> list | None:
@@ -125,7 +133,7 @@ def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], plan
     its ground truth of ``shape`` (the first frame's); tLP null with the reason when the frames
     are smaller than LPIPS accepts."""
     cache, prepared = work.cache, plan.prepared
-    static = static_pixels(regions, plan.focus)
+    static = static_pixels(regions, plan.focus, shape)
     region_masks = region_items(regions, plan.focus)  # a frame's None: its pairs' focused: None
     small = _small_for_tlp(plan, *shape[:2])
     tcfg = plan.temporal if "lpips" in plan.fns and small is None else replace(plan.temporal, tlp=False)

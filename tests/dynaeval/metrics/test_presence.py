@@ -229,11 +229,48 @@ def test_frame_presence_erased_ghost_and_missing_class(rng):
 def test_frame_presence_detector_test(rng):
     gt, _, _, inner = _disk_scene(rng)
     objects = [{"class": "ball", "box": inner.tolist()}, {"class": "person", "box": [2, 2, 6, 20]}]
-    found = SimpleNamespace(boxes=np.array([inner]), classes=("ball",), scores=np.array([0.9]))
+    found = SimpleNamespace(boxes=np.array([inner]), classes=("ball",), scores=np.array([0.9]),
+                            input_scale=4.0)  # 4 model-input px per image px: both >= 12 there
     fp = frame_presence(gt, gt, objects, detections=found)
     assert [o["detected"] for o in fp.objects] == [True, False]
+    assert [o["decided_by"] for o in fp.objects] == ["region+detector"] * 2
     # the person passes the region test (identical pixels) but the detector missed it
     assert fp.values["presence_ball"] == 1.0 and fp.values["presence_person"] == 0.0
+
+
+def test_a_small_object_the_detector_misses_is_present_when_its_crop_nearly_equals(rng):
+    """Issue 43: a 6-px person the detector does not re-find on a near-perfect prediction is not
+    called missing on the detector's word alone (below ``detector_min_input_side`` at the
+    input, a near-identical crop overrules the miss); erased, or only roughly alike, it is
+    missing. Without ``input_scale`` sizes are image px."""
+    gt, bg, _, inner = _disk_scene(rng)
+    person = [{"class": "person", "box": inner.tolist()}]
+    side = float(min(inner[2] - inner[0], inner[3] - inner[1]))
+    near = np.clip(gt + 0.01 * rng.standard_normal(gt.shape), 0, 1)  # about 40 dB
+    rough = np.clip(gt + 0.04 * rng.standard_normal(gt.shape), 0, 1)  # about 28 dB
+
+    def missed(scale):  # the detector found nothing on the prediction
+        return SimpleNamespace(boxes=np.zeros((0, 4), np.int64), classes=(), scores=np.zeros(0),
+                               input_scale=scale)
+
+    for scale in (1.0, None, 11.9 / side):  # below 12 px at the input
+        fp = frame_presence(near, gt, person, detections=missed(scale))
+        assert fp.objects[0]["decided_by"] == "appearance" and fp.objects[0]["detected"] is False
+        assert fp.values["presence_person"] == 1.0
+        for pred in (bg, rough):
+            assert frame_presence(pred, gt, person, detections=missed(scale)).values[
+                "presence_person"] == 0.0
+    assert frame_presence(rough, gt, person).values["presence_person"] == 1.0  # region test alone
+    at_12 = frame_presence(near, gt, person, detections=missed(12.0 / side))
+    assert at_12.values["presence_person"] == 0.0  # 12 px at the input: the detector's word counts
+    assert at_12.objects[0]["decided_by"] == "region+detector"
+    assert frame_presence(near, gt, person).objects[0]["decided_by"] == "region"
+    strict = PresenceConfig(detector_min_input_side=0.0)
+    assert frame_presence(near, gt, person, detections=missed(1.0), config=strict).values[
+        "presence_person"] == 0.0
+    for bad in ({"detector_min_input_side": -1.0}, {"sure_ncc": 2.0}, {"sure_psnr": float("nan")}):
+        with pytest.raises(InputError, match=next(iter(bad))):
+            PresenceConfig(**bad)
 
 
 def test_frame_presence_thresholds_per_class_and_fallback(rng):

@@ -74,3 +74,13 @@ def test_bad_threshold_metadata_is_an_input_error(tmp_path):
     write_onnx_metadata(path, {"score_thresholds": "ball=0.4"})
     with pytest.raises(InputError, match="not a {class: score} mapping"):
         Detector(DetectorConfig(model=path))
+
+
+def test_detections_say_how_many_input_pixels_an_image_pixel_is():
+    """The bundled detector letterboxes a frame into 416 x 416: a 320 x 180 frame is scaled by
+    1.3, a 1920 x 1080 one by 416 / 1920; presence's small-object rule reads it (issue 43)."""
+    det = Detector()
+    assert det.input_scale((180, 320)) == pytest.approx(416 / 320)
+    assert det.input_scale((1080, 1920)) == pytest.approx(416 / 1920)
+    found = det(np.zeros((180, 320, 3), np.uint8))
+    assert found.input_scale == pytest.approx(416 / 320)

@@ -16,6 +16,7 @@ from dynaeval.regions import write_boxes_file
 from dynaeval.regions.focus import FocusConfig
 from dynaeval.report import schema_path
 from dynaeval.run.evaluate import ScoreConfig
+from dynaeval.run.prepare import prepare
 
 from ..helpers import moving_square_scene, write_frames
 
@@ -131,6 +132,29 @@ def test_temporal_terms_grow_with_flicker(tmp_path, scene):
         vals.append((res["summary"]["warp_error"], res["summary"]["flicker"]))
     assert vals[0][0] < vals[1][0] < vals[2][0]
     assert vals[0][1] < vals[1][1] < vals[2][1]
+
+
+@pytest.mark.parametrize("prepared", [False, True])
+def test_a_static_camera_where_nothing_moves_has_flicker_over_the_whole_frame(tmp_path, prepared):
+    """Six identical ground-truth frames (a static camera, nothing moves: every motion mask
+    empty) against a prediction whose brightness flickers by +-0.05: flicker is a value over the
+    whole frame, not null for a "missing" static mask (issue 43); a steady prediction scores 0."""
+    rng = np.random.default_rng(0)
+    still = rng.integers(40, 200, (48, 64, 3), dtype=np.uint8)
+    write_frames(tmp_path / "gt", "cam00", [still] * 6)
+    write_frames(tmp_path / "steady", "cam00", [still] * 6)
+    write_frames(tmp_path / "flicker", "cam00", [np.clip(still.astype(int) + (13 if t % 2 else -13),
+                                                         0, 255).astype(np.uint8) for t in range(6)])
+    gt = tmp_path / "gt"
+    kwargs = {"metrics": ("psnr", "ssim"), "focus": FocusConfig(source="motion"), "progress": False}
+    if prepared:
+        prepare(gt, tmp_path / "prep", config=ScoreConfig(**kwargs))
+        kwargs["prepared"] = tmp_path / "prep"
+    flicker = dynaeval.score(tmp_path / "flicker", gt, **kwargs)
+    steady = dynaeval.score(tmp_path / "steady", gt, **kwargs)
+    assert flicker["regions"]["cameras"]["cam00"]["global_motion_px"] == 0.0
+    assert flicker["summary"]["flicker"] > 0.02 and steady["summary"]["flicker"] == 0.0
+    assert flicker["summary"]["masked_psnr"] is None  # no moving pixel: the masked terms stay null
 
 
 def test_size_mismatch_names_both_files(tmp_path, scene):
