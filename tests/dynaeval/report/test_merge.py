@@ -107,13 +107,18 @@ def test_merge_equals_unsharded_when_a_frame_equals_its_ground_truth(tmp_path, s
     capsys.readouterr()
 
 
-def test_merge_refuses_overlapping_shards_naming_both_files(tmp_path, scene, capsys):
-    """Issue 16 item 2: the same camera in two files was merged (frames twice, exit 0)."""
+def _two_shards(tmp_path, scene) -> None:
+    """Shards 1/2 and 2/2 of ``scene`` (no regions, masks or temporal terms) as p1.json, p2.json."""
     pred, gt = scene
     common = ["--no-lpips", "-q", "--focus", "none", "--no-temporal", "--no-masked"]
     for i in (1, 2):
         assert main(["score", str(pred), str(gt), "-o", str(tmp_path / f"p{i}.json"), "--shard",
                      f"{i}/2", *common]) == 0
+
+
+def test_merge_refuses_overlapping_shards_naming_both_files(tmp_path, scene, capsys):
+    """Issue 16 item 2: the same camera in two files was merged (frames twice, exit 0)."""
+    _two_shards(tmp_path, scene)
     doc = json.loads((tmp_path / "p1.json").read_text())
     doc["inputs"]["shard"]["index"] = 2  # shard 1's cameras under shard 2's name
     (tmp_path / "copy.json").write_text(json.dumps(doc))
@@ -152,11 +157,7 @@ def test_merge_checks_a_shards_rows_against_its_own_counts(tmp_path, scene, caps
                                                            message):
     """Issue 42 item 1: a duplicated frame row was counted twice (the summary over 13 frames
     where 12 were scored), a removed one merged as a frame fewer; exit 2 names file and frame."""
-    pred, gt = scene
-    common = ["--no-lpips", "-q", "--focus", "none", "--no-temporal", "--no-masked"]
-    for i in (1, 2):
-        assert main(["score", str(pred), str(gt), "-o", str(tmp_path / f"p{i}.json"), "--shard",
-                     f"{i}/2", *common]) == 0
+    _two_shards(tmp_path, scene)
     doc = json.loads((tmp_path / "p1.json").read_text())
     rows = doc["frames"]
     if damage == "duplicate":
