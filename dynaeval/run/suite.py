@@ -139,6 +139,9 @@ class SuiteOutcome:
     """Scenes whose ground truth this run prepared (the others were reused or not needed)."""
     failed: dict[str, str] = field(default_factory=dict)
     """Pair (or ``<scene>`` for a failed prepare) -> the error, one line."""
+    repaired: list[str] = field(default_factory=list)
+    """What this run found damaged or left over in its own output folder and redid or removed
+    (a truncated results file, a prepared file changed since, an interrupted prepare's folder)."""
     results: list[Path] = field(default_factory=list)
     """Results files of every scored pair (this run's and earlier ones), in pair order."""
     leaderboard: list[Path] = field(default_factory=list)
@@ -528,16 +531,26 @@ def _run_held(suite: Suite, executor: Any, progress: bool,
     """``run_suite``'s work, while this process holds ``suite.out``."""
     out = suite.out
     outcome = SuiteOutcome()
+    outcome.repaired += _remove_leftovers(out)
     settings = config_key(suite.config)
     gt_digests = {s: folder_digests(g) for s, g in suite.scenes.items()}
     keys = {p.name: pair_key(p, settings, gt_digests[p.scene]) for p in suite.pairs}
+    for p in suite.pairs:
+        damage = _result_damage(out, p, keys[p.name])
+        if damage:
+            outcome.repaired.append(f"results/{p.name}.json {damage}: scored again")
+            (out / "results" / f"{p.name}.key").unlink(missing_ok=True)
     todo = [p for p in suite.pairs if not _done(out, p, keys[p.name])]
     outcome.skipped = [p.name for p in suite.pairs if p not in todo]
     scenes = {p.scene: p.gt for p in todo}
     prep_keys = {s: prepare_key(settings, gt_digests[s]) for s in scenes}
-    to_prepare = {s: g for s, g in scenes.items()
-                  if _read_key(out / "prepared" / f"{s}.key") != prep_keys[s]
-                  or not (out / "prepared" / s / "manifest.json").is_file()}
+    to_prepare = {}
+    for s, g in scenes.items():
+        if _read_key(out / "prepared" / f"{s}.key") != prep_keys[s]:
+            to_prepare[s] = g
+        elif (damage := _prepared_damage(out / "prepared" / s)) is not None:
+            outcome.repaired.append(f"prepared/{s} {damage}: prepared again")
+            to_prepare[s] = g
     bar = Progress({"regions": sum(len(gt_digests[s]) for s in to_prepare),
                     "frames": sum(len(gt_digests[p.scene]) for p in todo)},
                    enabled=progress and bool(todo), desc="suite")
@@ -559,6 +572,47 @@ def _run_held(suite: Suite, executor: Any, progress: bool,
                        if _done(out, p, keys[p.name])]
     _write_summaries(suite, outcome)
     return outcome
+
+
+def _remove_leftovers(out: Path) -> list[str]:
+    """Remove the folders an interrupted prepare left in ``out/prepared`` (``.<scene>.*.tmp``;
+    no other run writes there while this one holds ``out``); what was removed."""
+    import shutil
+
+    gone = []
+    for tmp in sorted((out / "prepared").glob(".*.tmp")):
+        if tmp.is_dir():
+            shutil.rmtree(tmp, ignore_errors=True)
+            gone.append(f"prepared/{tmp.name} (left by an interrupted prepare) removed")
+    return gone
+
+
+def _result_damage(out: Path, pair: SuitePair, key: str) -> str | None:
+    """Why the pair's results file, whose key file says it is done, cannot be read (truncated,
+    edited, damaged), or None (fine, or not done: nothing to repair)."""
+    if not _done(out, pair, key):
+        return None
+    try:
+        load_results(out / "results" / f"{pair.name}.json")
+    except InputError as err:
+        return f"is damaged ({str(err).split(': ', 1)[-1]})"
+    return None
+
+
+def _prepared_damage(folder: Path) -> str | None:
+    """Why the suite's prepared folder cannot be used as it is (no or a damaged manifest, a file
+    missing or changed since it was written), or None."""
+    from dynaeval.io.prepared import read_manifest
+
+    try:
+        manifest = read_manifest(folder)
+    except InputError as err:
+        return f"is damaged ({str(err).split(': ', 1)[-1]})"
+    for rel, digest in manifest.get("hashes", {}).items():
+        path = folder / rel
+        if not path.is_file() or file_digest(path) != digest:
+            return f"is damaged ({rel} missing or changed since it was written)"
+    return None
 
 
 def _done(out: Path, pair: SuitePair, key: str) -> bool:
@@ -651,6 +705,7 @@ def summary_lines(outcome: SuiteOutcome) -> list[str]:
     lines = [f"{len(outcome.scored)} pair(s) scored, {len(outcome.skipped)} already scored "
              f"(skipped), {len(outcome.failed)} failed; {len(outcome.prepared)} scene(s) prepared"]
     lines += [f"failed: {name}: {err}" for name, err in outcome.failed.items()]
+    lines += [f"repaired: {what}" for what in outcome.repaired]
     if outcome.leaderboard:
         lines.append(f"leaderboard: {', '.join(map(str, outcome.leaderboard))}")
     if outcome.page is not None:

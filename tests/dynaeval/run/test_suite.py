@@ -402,3 +402,29 @@ def test_an_output_folder_inside_an_input_is_refused_before_any_work(tree, capsy
     assert main(["suite", str(tree / "nonexist.toml"), "-q"]) == 2
     assert "nonexist.toml: no such file or folder" in capsys.readouterr().err
 
+
+
+def test_the_suite_repairs_what_it_owns(tree, capsys):
+    """Issue 42 item 4: a truncated OUT/results/*.json (key file intact) made every later run
+    exit 2; a damaged OUT/prepared/<scene> file failed the scene on every rerun; a kill during
+    prepare left a .tmp folder forever. Each is named on the console and redone or removed."""
+    args = ["suite", str(tree / "root"), "--gt", str(tree / "gt"), "-o", str(tree / "out"),
+            "--settings", str(tree / "settings.toml"), "-q"]
+    assert main(args) == 0
+    capsys.readouterr()
+    out = tree / "out"
+    before = _numbers(out / "results" / "sample__m2.json")
+    text = (out / "results" / "sample__m2.json").read_text()
+    (out / "results" / "sample__m2.json").write_text(text[: len(text) // 2])
+    manifest = json.loads((out / "prepared" / "sample" / "manifest.json").read_text())
+    damaged = out / "prepared" / "sample" / next(iter(manifest["hashes"]))
+    damaged.write_bytes(damaged.read_bytes()[:-1] + b"\0")
+    (out / "prepared" / ".sample.abc123.tmp").mkdir()
+    assert main(args) == 0
+    said = capsys.readouterr().out
+    assert "repaired: results/sample__m2.json is damaged" in said
+    assert "repaired: prepared/sample is damaged" in said
+    assert "repaired: prepared/.sample.abc123.tmp (left by an interrupted prepare) removed" in said
+    assert not (out / "prepared" / ".sample.abc123.tmp").exists()
+    assert _numbers(out / "results" / "sample__m2.json") == before
+    assert main(args) == 0 and "repaired" not in capsys.readouterr().out  # all well again
