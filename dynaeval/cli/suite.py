@@ -47,17 +47,23 @@ def add(sub: Any) -> None:
     s.add_argument("--scheduler", metavar="tcp://HOST:PORT",
                    help="run the tasks on this Dask scheduler (pip install 'dynaeval[dist]'; "
                         "every worker must see the folders at the same paths)")
+    s.add_argument("--overwrite", action="store_true",
+                   help="write into an output folder that holds other files than a suite's "
+                        "own (its index.html and leaderboard.* are replaced)")
     s.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
 
 
 def _suite_of(args: argparse.Namespace) -> Any:
     path = Path(args.suite)
+    if not path.exists():
+        raise InputError("no such file or folder (a SUITE.toml, or ROOT of the folder form)",
+                         path=path)
     if path.is_file():
         for flag, given in (("gt", args.gt), ("settings", args.settings)):
             if given:
                 raise InputError(f"--{flag} is for the folder form (ROOT --gt GT -o OUT); "
                                  f"{path} is a suite file: put it there", path=path)
-        return load_suite(path, out=args.output)
+        return load_suite(path, out=args.output, overwrite=args.overwrite)
     if not (args.gt and args.output):
         raise InputError("not a suite file; the folder form needs --gt GT and -o OUT", path=path)
     config = None
@@ -65,7 +71,7 @@ def _suite_of(args: argparse.Namespace) -> Any:
         spath = Path(args.settings)
         doc = read_toml(spath)
         config = settings_config(doc.get("settings", doc), str(spath), spath.resolve().parent)
-    return folder_suite(path, args.gt, args.output, config)
+    return folder_suite(path, args.gt, args.output, config, overwrite=args.overwrite)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -36,8 +36,9 @@ def merge_results(paths: list[str | Path]) -> dict[str, Any]:
     Raises:
         InputError: a file is unreadable, damaged (``load_results``) or not a shard, holds a
             metric this dynaeval does not know, the shards come from different runs
-            (method, scene, inputs or settings differ), a shard is missing or given twice, or
-            two files hold the same camera (both named).
+            (method, scene, inputs or settings differ), a shard is missing or given twice,
+            two files hold the same camera (both named), or a shard's frame rows disagree with
+            its own counts (a frame twice, a row removed; the file and frame named).
     """
     if not paths:
         raise InputError("merge needs the results files of the shards")
@@ -61,6 +62,7 @@ def merge_results(paths: list[str | Path]) -> dict[str, Any]:
                              "and merge takes each metric's direction and unit from its registry: "
                              "install the package that adds it (a plugin?) or remove it",
                              path=path)
+        _check_rows(path, doc)
         cameras = [*doc["inputs"]["cameras"], *(f["camera"] for f in doc["frames"])]
         for cam in dict.fromkeys(cameras):
             if cam in owner:
@@ -122,6 +124,35 @@ def merge_results(paths: list[str | Path]) -> dict[str, Any]:
         temporal_parts={c: t for _, doc in docs for c, t in doc.get("temporal_parts", {}).items()},
         inputs_extra={"temporal_pairs": pairs} if pairs else None,
     ))
+
+
+def _check_rows(path: Path, doc: dict[str, Any]) -> None:
+    """A shard's frame rows agree with its own counts: each frame once, every row's camera one
+    of its ``cameras`` with as many rows as its ``n_frames``, ``summary.n_frames`` rows in all.
+    Raises InputError naming the file and the frame or camera (a duplicated row was counted
+    twice in the merged summary, a removed one merged as a frame fewer)."""
+    seen: set[tuple[str, str]] = set()
+    per_camera: dict[str, int] = {}
+    for row in doc["frames"]:
+        key = (row["camera"], row["frame"])
+        if key in seen:
+            raise InputError(f"frame {row['camera']}/{row['frame']} has two rows in 'frames'; a "
+                             "shard holds each frame once (a damaged or hand-edited file?)",
+                             path=path)
+        seen.add(key)
+        if row["camera"] not in doc["cameras"]:
+            raise InputError(f"frame {row['camera']}/{row['frame']}: its camera is not in "
+                             "'cameras' (a damaged or hand-edited file?)", path=path)
+        per_camera[row["camera"]] = per_camera.get(row["camera"], 0) + 1
+    for cam, entry in doc["cameras"].items():
+        if per_camera.get(cam, 0) != entry["n_frames"]:
+            raise InputError(f"camera {cam!r} has {per_camera.get(cam, 0)} frame rows but "
+                             f"cameras.{cam}.n_frames says {entry['n_frames']} (a damaged or "
+                             "hand-edited file?)", path=path)
+    if len(doc["frames"]) != doc["summary"].get("n_frames", len(doc["frames"])):
+        raise InputError(f"'frames' holds {len(doc['frames'])} rows but summary.n_frames says "
+                         f"{doc['summary']['n_frames']} (a damaged or hand-edited file?)",
+                         path=path)
 
 
 def _made_again(w: dict, doc: dict[str, Any]) -> bool:

@@ -60,7 +60,7 @@ from dynaeval.core.errors import InputError
 from dynaeval.core.progress import Progress
 from dynaeval.core.version import VERSION
 from dynaeval.io.atomic import check_writable, write_text_atomic
-from dynaeval.io.lock import hold_folder
+from dynaeval.io.lock import LOCK_NAME, hold_folder
 from dynaeval.io.prepared import FORMAT_VERSION, file_digest, folder_digests, json_digest
 from dynaeval.report.leaderboard import build_leaderboard, render
 from dynaeval.report.results import load_results, results_text
@@ -139,6 +139,9 @@ class SuiteOutcome:
     """Scenes whose ground truth this run prepared (the others were reused or not needed)."""
     failed: dict[str, str] = field(default_factory=dict)
     """Pair (or ``<scene>`` for a failed prepare) -> the error, one line."""
+    repaired: list[str] = field(default_factory=list)
+    """What this run found damaged or left over in its own output folder and redid or removed
+    (a truncated results file, a prepared file changed since, an interrupted prepare's folder)."""
     results: list[Path] = field(default_factory=list)
     """Results files of every scored pair (this run's and earlier ones), in pair order."""
     leaderboard: list[Path] = field(default_factory=list)
@@ -227,7 +230,8 @@ def _folder(path: Path, what: str, where: str) -> str:
     return str(path.resolve())
 
 
-def load_suite(path: str | Path, *, out: str | Path | None = None) -> Suite:
+def load_suite(path: str | Path, *, out: str | Path | None = None,
+               overwrite: bool = False) -> Suite:
     """Read and check a SUITE.toml (layout: module docstring). ``out`` overrides its
     ``output``.
 
@@ -265,7 +269,7 @@ def load_suite(path: str | Path, *, out: str | Path | None = None) -> Suite:
     if not isinstance(output, str | Path) or not str(output):
         raise InputError("no output folder: set output = \"FOLDER\" or pass -o OUT", path=where)
     out_dir = Path(output) if out is not None else base / output
-    return _checked(Suite(tuple(pairs), config, out_dir, where))
+    return _checked(Suite(tuple(pairs), config, out_dir, where), overwrite=overwrite)
 
 
 def _method_folders(method: str, spec: Any, gts: dict[str, str], where: str) -> dict[str, str]:
@@ -290,7 +294,7 @@ def _method_folders(method: str, spec: Any, gts: dict[str, str], where: str) -> 
 
 
 def folder_suite(root: str | Path, gt: str | Path, out: str | Path,
-                 config: ScoreConfig | None = None) -> Suite:
+                 config: ScoreConfig | None = None, *, overwrite: bool = False) -> Suite:
     """The suite of the folder convention: ``ROOT/<method>/<scene>`` scored against
     ``GT/<scene>`` (hidden folders and the output folder are no method).
 
@@ -319,20 +323,56 @@ def folder_suite(root: str | Path, gt: str | Path, out: str | Path,
         raise InputError("no ROOT/<method>/<scene> folder: the folder form expects one "
                          "folder per method holding one folder per scene", path=root)
     config = replace(config or ScoreConfig(), progress=False)
-    return _checked(Suite(tuple(pairs), config, out, where))
+    return _checked(Suite(tuple(pairs), config, out, where), overwrite=overwrite, roots=(root,))
 
 
-def _checked(suite: Suite) -> Suite:
-    """``suite`` once its output folder can be written and no scene has two GT folders."""
+MARKER = ".dynaeval-suite"
+"""The file a suite writes into its output folder: the folder is the suite's own (its
+``results/``, ``prepared/``, leaderboards and page may be replaced and repaired)."""
+
+
+def _checked(suite: Suite, *, overwrite: bool = False, roots: tuple[Path, ...] = ()) -> Suite:
+    """``suite`` once its output folder can be written, no scene has two GT folders, no two
+    pairs write one results file, and the output folder is the suite's own (or empty, or
+    ``overwrite``) and inside none of its inputs (nor equal to a folder form's ``roots``).
+    Raises InputError naming the suite (or the folder) and the problem."""
     seen: dict[str, str] = {}
+    names: dict[str, SuitePair] = {}
     for p in suite.pairs:
         if seen.setdefault(p.scene, p.gt) != p.gt:
             raise InputError(f"scene {p.scene!r} has two ground-truth folders", path=suite.source)
+        other = names.setdefault(p.name, p)
+        if other is not p:
+            raise InputError(f"scene {other.scene!r} with method {other.method!r} and scene "
+                             f"{p.scene!r} with method {p.method!r} would both write "
+                             f"results/{p.name}.json; rename one ('__' joins scene and method)",
+                             path=suite.source)
     if not suite.pairs:
         raise InputError("the suite has no (method, scene) pair", path=suite.source)
-    check_writable(suite.out, overwrite=True, what="suite output folder",
-                   inputs=[*{p.pred for p in suite.pairs}, *seen.values()], folder=True)
+    inputs = [*{p.pred for p in suite.pairs}, *seen.values()]
+    check_writable(suite.out, overwrite=True, what="suite output folder", inputs=inputs,
+                   folder=True)
+    out = suite.out.resolve()
+    for folder in [*inputs, *roots]:
+        inside = Path(folder).resolve()
+        if out == inside or (folder in inputs and inside in out.parents):
+            raise InputError(f"the suite output folder is inside an input of the suite ({folder}): "
+                             "its own files would be read as frames or methods and hashed into "
+                             "every rerun's keys; choose a folder outside", path=suite.out)
+    if not overwrite and not _own_or_empty(suite.out):
+        raise InputError("the suite output folder holds files that are not a suite's output (no "
+                         f"{MARKER}): pass --overwrite to let the suite write its results, "
+                         "leaderboards and index.html there, or choose an empty or new folder",
+                         path=suite.out)
     return suite
+
+
+def _own_or_empty(out: Path) -> bool:
+    """Whether ``out`` is missing, empty, or a suite's output (its marker, or the ``results/
+    *.key`` files every suite wrote before the marker existed)."""
+    if not out.is_dir() or not any(p.name != LOCK_NAME for p in out.iterdir()):
+        return True  # a lock file alone: another run's, refused when it is taken
+    return (out / MARKER).is_file() or any((out / "results").glob("*.key"))
 
 
 # --------------------------------------------------------------------------------------------
@@ -478,6 +518,10 @@ def run_suite(suite: Suite, executor: Any = None, *, progress: bool = True,
     """
     (suite.out / "results").mkdir(parents=True, exist_ok=True)
     (suite.out / "prepared").mkdir(exist_ok=True)
+    if not (suite.out / MARKER).is_file():
+        write_text_atomic(suite.out / MARKER, "This folder is the output of `dynaeval suite`; "
+                          "a suite run into it replaces and repairs its files.\n",
+                          overwrite=True, what="suite marker file")
     with hold_folder(suite.out, "suite output folder"):
         return _run_held(suite, executor or InlineExecutor(), progress, on_result)
 
@@ -487,16 +531,26 @@ def _run_held(suite: Suite, executor: Any, progress: bool,
     """``run_suite``'s work, while this process holds ``suite.out``."""
     out = suite.out
     outcome = SuiteOutcome()
+    outcome.repaired += _remove_leftovers(out)
     settings = config_key(suite.config)
     gt_digests = {s: folder_digests(g) for s, g in suite.scenes.items()}
     keys = {p.name: pair_key(p, settings, gt_digests[p.scene]) for p in suite.pairs}
+    for p in suite.pairs:
+        damage = _result_damage(out, p, keys[p.name])
+        if damage:
+            outcome.repaired.append(f"results/{p.name}.json {damage}: scored again")
+            (out / "results" / f"{p.name}.key").unlink(missing_ok=True)
     todo = [p for p in suite.pairs if not _done(out, p, keys[p.name])]
     outcome.skipped = [p.name for p in suite.pairs if p not in todo]
     scenes = {p.scene: p.gt for p in todo}
     prep_keys = {s: prepare_key(settings, gt_digests[s]) for s in scenes}
-    to_prepare = {s: g for s, g in scenes.items()
-                  if _read_key(out / "prepared" / f"{s}.key") != prep_keys[s]
-                  or not (out / "prepared" / s / "manifest.json").is_file()}
+    to_prepare = {}
+    for s, g in scenes.items():
+        if _read_key(out / "prepared" / f"{s}.key") != prep_keys[s]:
+            to_prepare[s] = g
+        elif (damage := _prepared_damage(out / "prepared" / s)) is not None:
+            outcome.repaired.append(f"prepared/{s} {damage}: prepared again")
+            to_prepare[s] = g
     bar = Progress({"regions": sum(len(gt_digests[s]) for s in to_prepare),
                     "frames": sum(len(gt_digests[p.scene]) for p in todo)},
                    enabled=progress and bool(todo), desc="suite")
@@ -518,6 +572,47 @@ def _run_held(suite: Suite, executor: Any, progress: bool,
                        if _done(out, p, keys[p.name])]
     _write_summaries(suite, outcome)
     return outcome
+
+
+def _remove_leftovers(out: Path) -> list[str]:
+    """Remove the folders an interrupted prepare left in ``out/prepared`` (``.<scene>.*.tmp``;
+    no other run writes there while this one holds ``out``); what was removed."""
+    import shutil
+
+    gone = []
+    for tmp in sorted((out / "prepared").glob(".*.tmp")):
+        if tmp.is_dir():
+            shutil.rmtree(tmp, ignore_errors=True)
+            gone.append(f"prepared/{tmp.name} (left by an interrupted prepare) removed")
+    return gone
+
+
+def _result_damage(out: Path, pair: SuitePair, key: str) -> str | None:
+    """Why the pair's results file, whose key file says it is done, cannot be read (truncated,
+    edited, damaged), or None (fine, or not done: nothing to repair)."""
+    if not _done(out, pair, key):
+        return None
+    try:
+        load_results(out / "results" / f"{pair.name}.json")
+    except InputError as err:
+        return f"is damaged ({str(err).split(': ', 1)[-1]})"
+    return None
+
+
+def _prepared_damage(folder: Path) -> str | None:
+    """Why the suite's prepared folder cannot be used as it is (no or a damaged manifest, a file
+    missing or changed since it was written), or None."""
+    from dynaeval.io.prepared import read_manifest
+
+    try:
+        manifest = read_manifest(folder)
+    except InputError as err:
+        return f"is damaged ({str(err).split(': ', 1)[-1]})"
+    for rel, digest in manifest.get("hashes", {}).items():
+        path = folder / rel
+        if not path.is_file() or file_digest(path) != digest:
+            return f"is damaged ({rel} missing or changed since it was written)"
+    return None
 
 
 def _done(out: Path, pair: SuitePair, key: str) -> bool:
@@ -610,6 +705,7 @@ def summary_lines(outcome: SuiteOutcome) -> list[str]:
     lines = [f"{len(outcome.scored)} pair(s) scored, {len(outcome.skipped)} already scored "
              f"(skipped), {len(outcome.failed)} failed; {len(outcome.prepared)} scene(s) prepared"]
     lines += [f"failed: {name}: {err}" for name, err in outcome.failed.items()]
+    lines += [f"repaired: {what}" for what in outcome.repaired]
     if outcome.leaderboard:
         lines.append(f"leaderboard: {', '.join(map(str, outcome.leaderboard))}")
     if outcome.page is not None:

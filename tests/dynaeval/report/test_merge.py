@@ -107,13 +107,18 @@ def test_merge_equals_unsharded_when_a_frame_equals_its_ground_truth(tmp_path, s
     capsys.readouterr()
 
 
-def test_merge_refuses_overlapping_shards_naming_both_files(tmp_path, scene, capsys):
-    """Issue 16 item 2: the same camera in two files was merged (frames twice, exit 0)."""
+def _two_shards(tmp_path, scene) -> None:
+    """Shards 1/2 and 2/2 of ``scene`` (no regions, masks or temporal terms) as p1.json, p2.json."""
     pred, gt = scene
     common = ["--no-lpips", "-q", "--focus", "none", "--no-temporal", "--no-masked"]
     for i in (1, 2):
         assert main(["score", str(pred), str(gt), "-o", str(tmp_path / f"p{i}.json"), "--shard",
                      f"{i}/2", *common]) == 0
+
+
+def test_merge_refuses_overlapping_shards_naming_both_files(tmp_path, scene, capsys):
+    """Issue 16 item 2: the same camera in two files was merged (frames twice, exit 0)."""
+    _two_shards(tmp_path, scene)
     doc = json.loads((tmp_path / "p1.json").read_text())
     doc["inputs"]["shard"]["index"] = 2  # shard 1's cameras under shard 2's name
     (tmp_path / "copy.json").write_text(json.dumps(doc))
@@ -141,3 +146,31 @@ def test_merge_of_allow_missing_shards_equals_unsharded(tmp_path, scene, capsys)
         assert merged[key] == whole[key], key
     assert sorted(map(json.dumps, merged["warnings"])) == sorted(map(json.dumps, whole["warnings"]))
     capsys.readouterr()
+
+
+@pytest.mark.parametrize("damage,message", [
+    ("duplicate", r"p1\.json: frame cam0/0002 has two rows"),
+    ("remove", r"p1\.json: camera 'cam0' has 3 frame rows but cameras\.cam0\.n_frames says 4"),
+    ("stray", r"p1\.json: frame camX/0002: its camera is not in 'cameras'"),
+])
+def test_merge_checks_a_shards_rows_against_its_own_counts(tmp_path, scene, capsys, damage,
+                                                           message):
+    """Issue 42 item 1: a duplicated frame row was counted twice (the summary over 13 frames
+    where 12 were scored), a removed one merged as a frame fewer; exit 2 names file and frame."""
+    _two_shards(tmp_path, scene)
+    doc = json.loads((tmp_path / "p1.json").read_text())
+    rows = doc["frames"]
+    if damage == "duplicate":
+        rows.insert(3, dict(rows[2]))
+    elif damage == "remove":
+        del rows[2]
+    else:
+        rows[2]["camera"] = "camX"
+    (tmp_path / "p1.json").write_text(json.dumps(doc))
+    with pytest.raises(InputError, match=message):
+        merge_results([tmp_path / "p1.json", tmp_path / "p2.json"])
+    code = main(["merge", str(tmp_path / "p1.json"), str(tmp_path / "p2.json"), "-o",
+                 str(tmp_path / "m.json")])
+    assert code == 2 and not (tmp_path / "m.json").exists()
+    capsys.readouterr()
+

@@ -6,6 +6,7 @@ finish, bad input refused before any work (exit 2)."""
 from __future__ import annotations
 
 import json
+import os
 import shutil
 from pathlib import Path
 
@@ -359,3 +360,71 @@ def test_a_scene_prepared_in_an_older_format_is_prepared_again(tree, monkeypatch
     assert outcome.prepared == ["sample"] and not outcome.failed
     assert outcome.scored == ["sample__m1"]
     assert json.loads(path.read_text())["format_version"] == FORMAT_VERSION
+
+
+def test_two_pairs_that_would_write_one_results_file_are_refused_before_any_work(tree, capsys):
+    """Issue 42 item 2: scene 'a' + method 'x__m' and scene 'a__x' + method 'm' wrote one file."""
+    path = _toml(tree, "output = 'o'\n[scenes]\na = 'gt/sample'\na__x = 'gt/sample'\n"
+                       "[methods]\nx__m = {a = 'root/m1/sample'}\nm = {a__x = 'root/m2/sample'}\n")
+    with pytest.raises(InputError, match=r"would both write results/a__x__m\.json"):
+        load_suite(path)
+    assert main(["suite", str(path), "-q"]) == 2
+    assert "would both write" in capsys.readouterr().err and not (tree / "o").exists()
+
+
+def test_an_output_folder_of_the_users_own_files_needs_overwrite(tree, capsys):
+    """Issue 42 item 3: `suite -o DIR` replaced the user's own index.html and leaderboard.md."""
+    out = tree / "mine"
+    out.mkdir()
+    (out / "index.html").write_text("my page")
+    args = ["suite", str(tree / "root"), "--gt", str(tree / "gt"), "-o", str(out), "--settings",
+            str(tree / "settings.toml"), "-q"]
+    assert main(args) == 2
+    assert "--overwrite" in capsys.readouterr().err
+    assert (out / "index.html").read_text() == "my page" and sorted(os.listdir(out)) == ["index.html"]
+    assert main([*args, "--overwrite"]) == 0
+    assert (out / ".dynaeval-suite").is_file()
+    assert main(args) == 0  # the suite's own folder now: a rerun needs no --overwrite
+    capsys.readouterr()
+
+
+def test_an_output_folder_inside_an_input_is_refused_before_any_work(tree, capsys):
+    """Issue 42 item 5: an OUT inside a ground truth or prediction folder was hashed into the
+    skip keys (every rerun redid everything); OUT = ROOT read OUT/prepared as a method."""
+    for out in (tree / "gt" / "sample" / "out", tree / "root" / "m1" / "sample" / "out",
+                tree / "root"):
+        with pytest.raises(InputError, match="inside an input of the suite"):
+            folder_suite(tree / "root", tree / "gt", out)
+        assert main(["suite", str(tree / "root"), "--gt", str(tree / "gt"), "-o", str(out),
+                     "-q"]) == 2
+        assert "inside an input" in capsys.readouterr().err
+    assert not (tree / "gt" / "sample" / "out").exists()
+    assert main(["suite", str(tree / "nonexist.toml"), "-q"]) == 2
+    assert "nonexist.toml: no such file or folder" in capsys.readouterr().err
+
+
+
+def test_the_suite_repairs_what_it_owns(tree, capsys):
+    """Issue 42 item 4: a truncated OUT/results/*.json (key file intact) made every later run
+    exit 2; a damaged OUT/prepared/<scene> file failed the scene on every rerun; a kill during
+    prepare left a .tmp folder forever. Each is named on the console and redone or removed."""
+    args = ["suite", str(tree / "root"), "--gt", str(tree / "gt"), "-o", str(tree / "out"),
+            "--settings", str(tree / "settings.toml"), "-q"]
+    assert main(args) == 0
+    capsys.readouterr()
+    out = tree / "out"
+    before = _numbers(out / "results" / "sample__m2.json")
+    text = (out / "results" / "sample__m2.json").read_text()
+    (out / "results" / "sample__m2.json").write_text(text[: len(text) // 2])
+    manifest = json.loads((out / "prepared" / "sample" / "manifest.json").read_text())
+    damaged = out / "prepared" / "sample" / next(iter(manifest["hashes"]))
+    damaged.write_bytes(damaged.read_bytes()[:-1] + b"\0")
+    (out / "prepared" / ".sample.abc123.tmp").mkdir()
+    assert main(args) == 0
+    said = capsys.readouterr().out
+    assert "repaired: results/sample__m2.json is damaged" in said
+    assert "repaired: prepared/sample is damaged" in said
+    assert "repaired: prepared/.sample.abc123.tmp (left by an interrupted prepare) removed" in said
+    assert not (out / "prepared" / ".sample.abc123.tmp").exists()
+    assert _numbers(out / "results" / "sample__m2.json") == before
+    assert main(args) == 0 and "repaired" not in capsys.readouterr().out  # all well again
