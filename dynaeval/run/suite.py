@@ -158,7 +158,8 @@ def read_toml(path: str | Path) -> dict[str, Any]:
     """The TOML file ``path`` parsed (``tomllib``, Python >= 3.11; else the ``tomli`` package).
 
     Raises:
-        InputError: unreadable file, invalid TOML, or neither parser there (naming the file).
+        InputError: unreadable file, invalid TOML, nested deeper than the JSON reader's
+            ``MAX_DEPTH``, or neither parser there (naming the file).
     """
     path = Path(path)
     try:
@@ -173,10 +174,18 @@ def read_toml(path: str | Path) -> dict[str, Any]:
         raise InputError("reading SUITE.toml needs Python >= 3.11 or the tomli package: "
                          f"{DEPENDENCIES['tomli'].install} (or use the folder form, dynaeval suite ROOT "
                          "--gt GT -o OUT)", path=path) from None
+    from dynaeval.io.jsonfile import MAX_DEPTH, nesting_depth
+
+    if nesting_depth(text) > MAX_DEPTH:  # the parser recurses per level: a RecursionError
+        raise InputError(f"nested deeper than {MAX_DEPTH} levels of arrays and tables (a suite "
+                         "file needs 3); not a suite file", path=path)
     try:
         return toml.loads(text)
     except toml.TOMLDecodeError as err:
         raise InputError(f"not valid TOML: {err}", path=path) from None
+    except RecursionError:
+        raise InputError("nested too deeply for the TOML parser; not a suite file",
+                         path=path) from None
 
 
 def settings_config(settings: Any, where: str, base: Path | None = None) -> ScoreConfig:

@@ -16,7 +16,7 @@ import pytest
 from dynaeval.cli import main, sample_dir
 from dynaeval.errors import InputError
 from dynaeval.run.evaluate import score
-from dynaeval.run.suite import folder_suite, load_suite, run_suite, settings_config
+from dynaeval.run.suite import folder_suite, load_suite, read_toml, run_suite, settings_config
 
 METRICS = ["psnr", "ssim"]
 NUMBERS = ("frames", "cameras", "summary", "counts", "metrics", "method", "scene")
@@ -428,3 +428,18 @@ def test_the_suite_repairs_what_it_owns(tree, capsys):
     assert not (out / "prepared" / ".sample.abc123.tmp").exists()
     assert _numbers(out / "results" / "sample__m2.json") == before
     assert main(args) == 0 and "repaired" not in capsys.readouterr().out  # all well again
+
+
+def test_a_deep_toml_and_bad_scheduler_addresses_are_exit_2_not_tracebacks(tree, capsys):
+    """Issue 42 item 10: a 100,000-deep TOML was a RecursionError traceback; --scheduler
+    notanaddress, tcp://host:notaport and foo://... were ValueError tracebacks."""
+    deep = _toml(tree, "a = " + "[" * 100_000 + "]" * 100_000 + "\n")
+    with pytest.raises(InputError, match="nested deeper than 64 levels"):
+        read_toml(deep)
+    assert main(["suite", str(deep), "-q"]) == 2
+    assert "nested deeper" in capsys.readouterr().err
+    suite = _toml(tree, "output = 'o'\n" + GOOD)
+    for address in ("notanaddress", "tcp://host:notaport", "foo://x:1"):
+        assert main(["suite", str(suite), "--scheduler", address, "-q"]) == 2
+        err = capsys.readouterr().err
+        assert address in err and "Traceback" not in err
