@@ -219,7 +219,12 @@ def settings_config(settings: Any, where: str, base: Path | None = None) -> Scor
         if isinstance(kw.get("masks"), str):
             kw["masks"] = str(base / kw["masks"])
     try:
-        return ScoreConfig(progress=False, **kw)
+        config = ScoreConfig(progress=False, **kw)
+        if config.focus.kind.reads_file:  # every task reads it: a bad one is refused here
+            from dynaeval.regions.boxes_file import read_boxes_file
+
+            read_boxes_file(config.focus.boxes_file)
+        return config
     except InputError as err:
         raise InputError(f"[settings]: {err}", path=where) from None
     except TypeError as err:  # a value of the wrong type where ScoreConfig does not check it

@@ -15,6 +15,7 @@ import pytest
 
 from dynaeval.cli import main, sample_dir
 from dynaeval.errors import InputError
+from dynaeval.run.config import ScoreConfig
 from dynaeval.run.evaluate import score
 from dynaeval.run.suite import folder_suite, load_suite, read_toml, run_suite, settings_config
 
@@ -443,3 +444,25 @@ def test_a_deep_toml_and_bad_scheduler_addresses_are_exit_2_not_tracebacks(tree,
         assert main(["suite", str(suite), "--scheduler", address, "-q"]) == 2
         err = capsys.readouterr().err
         assert address in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize(("setting", "match"), [
+    ("allow_missing = 'false'", r"allow_missing must be true or false \(a boolean\), got 'false' \(str\)"),
+    ("temporal = 'no'", r"temporal must be true or false \(a boolean\), got 'no' \(str\)"),
+    ("presence = 1", r"presence must be true or false \(a boolean\), got 1 \(int\)"),
+    ("focus = 'boxes:bad.json'", r"\[settings\]: .*bad\.json"),
+])
+def test_settings_are_type_checked_once_before_any_work(tree, capsys, setting, match):
+    """Issue 42 item 6: `allow_missing = "false"` counted as true, `temporal = "no"` still
+    computed temporal terms, a bad boxes file failed every task (exit 1) after the work started."""
+    (tree / "bad.json").write_text("{not json")
+    path = _toml(tree, f"output = 'o'\n[settings]\n{setting}\n" + GOOD)
+    with pytest.raises(InputError, match=match):
+        load_suite(path)
+    assert main(["suite", str(path), "-q"]) == 2
+    assert not (tree / "o").exists()
+    capsys.readouterr()
+    if "boolean" in match:
+        key, value = setting.split(" = ")
+        with pytest.raises(InputError, match=match):  # the library refuses it the same way
+            ScoreConfig(**{key: json.loads(value.replace("'", '"'))})
