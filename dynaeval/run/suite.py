@@ -61,7 +61,15 @@ from dynaeval.core.progress import Progress
 from dynaeval.core.version import VERSION
 from dynaeval.io.atomic import check_writable, write_text_atomic
 from dynaeval.io.lock import LOCK_NAME, hold_folder
-from dynaeval.io.prepared import FORMAT_VERSION, file_digest, folder_digests, json_digest
+from dynaeval.io.jsonfile import MAX_DEPTH, nesting_depth
+from dynaeval.io.prepared import (
+    FORMAT_VERSION,
+    file_digest,
+    folder_digests,
+    json_digest,
+    read_manifest,
+)
+from dynaeval.regions.boxes_file import read_boxes_file
 from dynaeval.report.leaderboard import build_leaderboard, render
 from dynaeval.report.results import load_results, results_text
 from dynaeval.report.suite_page import render_suite_page
@@ -174,8 +182,6 @@ def read_toml(path: str | Path) -> dict[str, Any]:
         raise InputError("reading SUITE.toml needs Python >= 3.11 or the tomli package: "
                          f"{DEPENDENCIES['tomli'].install} (or use the folder form, dynaeval suite ROOT "
                          "--gt GT -o OUT)", path=path) from None
-    from dynaeval.io.jsonfile import MAX_DEPTH, nesting_depth
-
     if nesting_depth(text) > MAX_DEPTH:  # the parser recurses per level: a RecursionError
         raise InputError(f"nested deeper than {MAX_DEPTH} levels of arrays and tables (a suite "
                          "file needs 3); not a suite file", path=path)
@@ -221,8 +227,6 @@ def settings_config(settings: Any, where: str, base: Path | None = None) -> Scor
     try:
         config = ScoreConfig(progress=False, **kw)
         if config.focus.kind.reads_file:  # every task reads it: a bad one is refused here
-            from dynaeval.regions.boxes_file import read_boxes_file
-
             read_boxes_file(config.focus.boxes_file)
         return config
     except InputError as err:
@@ -616,8 +620,6 @@ def _result_damage(out: Path, pair: SuitePair, key: str) -> str | None:
 def _prepared_damage(folder: Path) -> str | None:
     """Why the suite's prepared folder cannot be used as it is (no or a damaged manifest, a file
     missing or changed since it was written), or None."""
-    from dynaeval.io.prepared import read_manifest
-
     try:
         manifest = read_manifest(folder)
     except InputError as err:
