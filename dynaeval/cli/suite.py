@@ -87,6 +87,9 @@ def run(args: argparse.Namespace) -> int:
             client = Client(args.scheduler, timeout=30)
         except OSError as err:
             raise InputError(f"cannot reach the Dask scheduler {args.scheduler}: {err}") from None
+        except (ValueError, TypeError) as err:  # an address Dask cannot parse
+            raise InputError(f"--scheduler {args.scheduler!r} is not a Dask scheduler address "
+                             f"(tcp://HOST:PORT): {err}") from None
     try:
         outcome = run_suite(suite, client, progress=not args.quiet)
     except KeyboardInterrupt:

@@ -394,12 +394,28 @@ def _header(board: dict[str, Any]) -> list[str]:
     return cols
 
 
+def md_cell(text: str) -> str:
+    """``text`` as one Markdown table cell: ``|`` escaped, line breaks and other control
+    characters as spaces (a name with either put numbers under the wrong headings)."""
+    clean = "".join(" " if ch < " " or ch == "\x7f" else ch for ch in str(text))
+    return clean.replace("\\", "\\\\").replace("|", "\\|")
+
+
+def csv_text(text: str) -> str:
+    """A text cell for a CSV a spreadsheet opens: one starting with ``=``, ``+``, ``-``, ``@``
+    (or a tab or carriage return) gets a leading ``'`` so it is not run as a formula (OWASP's
+    CSV-injection rule). Numbers are written as numbers, never through this."""
+    text = str(text)
+    return "'" + text if text[:1] in ("=", "+", "-", "@", "\t", "\r") else text
+
+
 def to_markdown(board: dict[str, Any], by: str = "method") -> str:
-    """The leaderboard as a Markdown table: mean [95 % interval] per metric."""
+    """The leaderboard as a Markdown table: mean [95 % interval] per metric; names escaped
+    (``md_cell``)."""
     head = ["method", "scene", "frames", *_header(board)]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in _ordered_rows(board, by):
-        cells = [r["method"], r["scene"], str(r["n_frames"])]
+        cells = [md_cell(r["method"]), md_cell(r["scene"]), str(r["n_frames"])]
         cells += [_cell(n, r["values"][n]) for n in board["metrics"]]
         lines.append("| " + " | ".join(cells) + " |")
     b = board["bootstrap"]
@@ -423,7 +439,8 @@ def to_csv(board: dict[str, Any], by: str = "method") -> str:
     """Long-format CSV: one line per (method, scene, metric) with mean, ci_low, ci_high, n,
     higher_is_better and ``settings_differ``: the settings that differ between the files the
     table combines (``--force``), joined by ``"; "``, the same on every line; empty when they
-    agree. A plain column, so every CSV reader keeps it (``pandas.read_csv`` as it is)."""
+    agree. A plain column, so every CSV reader keeps it (``pandas.read_csv`` as it is). Names
+    that a spreadsheet would run as a formula are written as text (``csv_text``)."""
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(["method", "scene", "n_frames", "metric", "mean", "ci_low", "ci_high", "n",
@@ -432,7 +449,7 @@ def to_csv(board: dict[str, Any], by: str = "method") -> str:
     for r in _ordered_rows(board, by):
         for n, inf in board["metrics"].items():
             e = r["values"][n]
-            w.writerow([r["method"], r["scene"], r["n_frames"], n,
+            w.writerow([csv_text(r["method"]), csv_text(r["scene"]), r["n_frames"], n,
                         *("" if e[k] is None else repr(e[k]) for k in ("mean", "ci_low", "ci_high")),
                         e["n"], inf["higher_is_better"], differ])
     return buf.getvalue()

@@ -159,6 +159,17 @@ class ScoreConfig:
                              f"{self.split!r}")
         if not (self.device in DEVICES or str(self.device).startswith("cuda:")):
             raise InputError(f"device must be cpu, cuda, cuda:N or auto, got {self.device!r}")
+        for name in ("allow_missing", "presence", "temporal", "progress"):
+            value = getattr(self, name)
+            if not isinstance(value, bool):  # "false" or "no" read as true before
+                raise InputError(f"{name} must be true or false (a boolean), got {value!r} "
+                                 f"({type(value).__name__})")
+            setattr(self, name, bool(value))
+        for name in ("method", "scene"):
+            value = getattr(self, name)
+            if value is not None and not isinstance(value, str):
+                raise InputError(f"{name} must be a name (a string) or None, got {value!r} "
+                                 f"({type(value).__name__})")
         for name, low in (("workers", 1), ("cache_mb", 0)):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < low:

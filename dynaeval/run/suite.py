@@ -61,7 +61,15 @@ from dynaeval.core.progress import Progress
 from dynaeval.core.version import VERSION
 from dynaeval.io.atomic import check_writable, write_text_atomic
 from dynaeval.io.lock import LOCK_NAME, hold_folder
-from dynaeval.io.prepared import FORMAT_VERSION, file_digest, folder_digests, json_digest
+from dynaeval.io.jsonfile import MAX_DEPTH, nesting_depth
+from dynaeval.io.prepared import (
+    FORMAT_VERSION,
+    file_digest,
+    folder_digests,
+    json_digest,
+    read_manifest,
+)
+from dynaeval.regions.boxes_file import read_boxes_file
 from dynaeval.report.leaderboard import build_leaderboard, render
 from dynaeval.report.results import load_results, results_text
 from dynaeval.report.suite_page import render_suite_page
@@ -158,7 +166,8 @@ def read_toml(path: str | Path) -> dict[str, Any]:
     """The TOML file ``path`` parsed (``tomllib``, Python >= 3.11; else the ``tomli`` package).
 
     Raises:
-        InputError: unreadable file, invalid TOML, or neither parser there (naming the file).
+        InputError: unreadable file, invalid TOML, nested deeper than the JSON reader's
+            ``MAX_DEPTH``, or neither parser there (naming the file).
     """
     path = Path(path)
     try:
@@ -173,10 +182,16 @@ def read_toml(path: str | Path) -> dict[str, Any]:
         raise InputError("reading SUITE.toml needs Python >= 3.11 or the tomli package: "
                          f"{DEPENDENCIES['tomli'].install} (or use the folder form, dynaeval suite ROOT "
                          "--gt GT -o OUT)", path=path) from None
+    if nesting_depth(text) > MAX_DEPTH:  # the parser recurses per level: a RecursionError
+        raise InputError(f"nested deeper than {MAX_DEPTH} levels of arrays and tables (a suite "
+                         "file needs 3); not a suite file", path=path)
     try:
         return toml.loads(text)
     except toml.TOMLDecodeError as err:
         raise InputError(f"not valid TOML: {err}", path=path) from None
+    except RecursionError:
+        raise InputError("nested too deeply for the TOML parser; not a suite file",
+                         path=path) from None
 
 
 def settings_config(settings: Any, where: str, base: Path | None = None) -> ScoreConfig:
@@ -210,7 +225,10 @@ def settings_config(settings: Any, where: str, base: Path | None = None) -> Scor
         if isinstance(kw.get("masks"), str):
             kw["masks"] = str(base / kw["masks"])
     try:
-        return ScoreConfig(progress=False, **kw)
+        config = ScoreConfig(progress=False, **kw)
+        if config.focus.kind.reads_file:  # every task reads it: a bad one is refused here
+            read_boxes_file(config.focus.boxes_file)
+        return config
     except InputError as err:
         raise InputError(f"[settings]: {err}", path=where) from None
     except TypeError as err:  # a value of the wrong type where ScoreConfig does not check it
@@ -602,8 +620,6 @@ def _result_damage(out: Path, pair: SuitePair, key: str) -> str | None:
 def _prepared_damage(folder: Path) -> str | None:
     """Why the suite's prepared folder cannot be used as it is (no or a damaged manifest, a file
     missing or changed since it was written), or None."""
-    from dynaeval.io.prepared import read_manifest
-
     try:
         manifest = read_manifest(folder)
     except InputError as err:

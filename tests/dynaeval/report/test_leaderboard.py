@@ -277,3 +277,21 @@ def test_no_masked_run_beside_a_full_run_is_comparable(tmp_path, capsys):
     b = _write(tmp_path / "b.json", "B", "s", [29.0, 30.0])
     assert main(["leaderboard", a, b]) == 0
     assert "| A | s |" in capsys.readouterr().out
+
+
+def test_names_with_pipes_newlines_or_formulas_cannot_move_numbers_or_run(tmp_path):
+    """Issue 42 item 7: a `|` or a newline in a name put numbers under the wrong headings of
+    the Markdown leaderboard; a CSV cell starting with = + - @ is run by spreadsheets."""
+    paths = [_write(tmp_path / "a.json", "we|ird\nname", "s", [20.0, 21.0]),
+             _write(tmp_path / "b.json", "=HYPERLINK(\"x\")", "-s", [22.0, 23.0])]
+    board = build_leaderboard(paths)
+    md = render(board, "md").split("\n\n")[0].splitlines()
+    assert len(md) == 2 + 2 + 2  # header, rule, 2 methods x (scene + all scenes); no broken row
+    for line in md:
+        cells = [c for c in line.strip().strip("|").replace("\\|", "").split("|")]
+        assert len(cells) == 4  # method, scene, frames, psnr: no cell moved
+    assert any("we\\|ird name" in line for line in md)
+    rows = list(csv.reader(io.StringIO(render(board, "csv"))))
+    assert {r[0] for r in rows[1:]} == {"we|ird\nname", "'=HYPERLINK(\"x\")"}
+    assert {r[1] for r in rows[1:]} >= {"'-s"}
+    assert all(not r[4] or float(r[4]) for r in rows[1:])  # numbers stay numbers

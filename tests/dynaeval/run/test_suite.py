@@ -15,8 +15,9 @@ import pytest
 
 from dynaeval.cli import main, sample_dir
 from dynaeval.errors import InputError
+from dynaeval.run.config import ScoreConfig
 from dynaeval.run.evaluate import score
-from dynaeval.run.suite import folder_suite, load_suite, run_suite, settings_config
+from dynaeval.run.suite import folder_suite, load_suite, read_toml, run_suite, settings_config
 
 METRICS = ["psnr", "ssim"]
 NUMBERS = ("frames", "cameras", "summary", "counts", "metrics", "method", "scene")
@@ -428,3 +429,40 @@ def test_the_suite_repairs_what_it_owns(tree, capsys):
     assert not (out / "prepared" / ".sample.abc123.tmp").exists()
     assert _numbers(out / "results" / "sample__m2.json") == before
     assert main(args) == 0 and "repaired" not in capsys.readouterr().out  # all well again
+
+
+def test_a_deep_toml_and_bad_scheduler_addresses_are_exit_2_not_tracebacks(tree, capsys):
+    """Issue 42 item 10: a 100,000-deep TOML was a RecursionError traceback; --scheduler
+    notanaddress, tcp://host:notaport and foo://... were ValueError tracebacks."""
+    deep = _toml(tree, "a = " + "[" * 100_000 + "]" * 100_000 + "\n")
+    with pytest.raises(InputError, match="nested deeper than 64 levels"):
+        read_toml(deep)
+    assert main(["suite", str(deep), "-q"]) == 2
+    assert "nested deeper" in capsys.readouterr().err
+    suite = _toml(tree, "output = 'o'\n" + GOOD)
+    for address in ("notanaddress", "tcp://host:notaport", "foo://x:1"):
+        assert main(["suite", str(suite), "--scheduler", address, "-q"]) == 2
+        err = capsys.readouterr().err
+        assert address in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize(("setting", "match"), [
+    ("allow_missing = 'false'", r"allow_missing must be true or false \(a boolean\), got 'false' \(str\)"),
+    ("temporal = 'no'", r"temporal must be true or false \(a boolean\), got 'no' \(str\)"),
+    ("presence = 1", r"presence must be true or false \(a boolean\), got 1 \(int\)"),
+    ("focus = 'boxes:bad.json'", r"\[settings\]: .*bad\.json"),
+])
+def test_settings_are_type_checked_once_before_any_work(tree, capsys, setting, match):
+    """Issue 42 item 6: `allow_missing = "false"` counted as true, `temporal = "no"` still
+    computed temporal terms, a bad boxes file failed every task (exit 1) after the work started."""
+    (tree / "bad.json").write_text("{not json")
+    path = _toml(tree, f"output = 'o'\n[settings]\n{setting}\n" + GOOD)
+    with pytest.raises(InputError, match=match):
+        load_suite(path)
+    assert main(["suite", str(path), "-q"]) == 2
+    assert not (tree / "o").exists()
+    capsys.readouterr()
+    if "boolean" in match:
+        key, value = setting.split(" = ")
+        with pytest.raises(InputError, match=match):  # the library refuses it the same way
+            ScoreConfig(**{key: json.loads(value.replace("'", '"'))})
