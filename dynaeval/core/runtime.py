@@ -176,9 +176,11 @@ _MALLOC_ENV = ("MALLOC_MMAP_THRESHOLD_", "MALLOC_TRIM_THRESHOLD_", "MALLOC_ARENA
                "GLIBC_TUNABLES")
 
 
-def keep_freed_memory(workers: int = 1) -> bool:
+def keep_freed_memory(workers: int = 1, largest: int = MMAP_THRESHOLD) -> bool:
     """Let glibc reuse the memory of freed frame-sized arrays instead of unmapping it; True when
-    set. The ``dynaeval`` command calls it once at start, before any thread.
+    set. The ``dynaeval`` command calls it once at start, before any thread; the reference
+    models' training with ``largest`` = 1 GiB (a 768 x 768 x 16 plane's gradient is 37.7 MB,
+    above ``MMAP_THRESHOLD``), falling back to ``MMAP_THRESHOLD`` where glibc refuses more.
 
     A run allocates and frees arrays of 6-50 MB per frame (decoded images, float32 frames,
     flows). glibc serves such sizes with ``mmap`` and returns them on ``free``, so every frame
@@ -205,8 +207,9 @@ def keep_freed_memory(workers: int = 1) -> bool:
     except (OSError, AttributeError):  # not glibc (musl, ...)
         return False
     m_trim_threshold, m_mmap_threshold, m_arena_max = -1, -3, -8  # glibc's <malloc.h>
-    ok = bool(mallopt(m_mmap_threshold, MMAP_THRESHOLD)) and bool(
-        mallopt(m_trim_threshold, TRIM_THRESHOLD))
+    below = bool(mallopt(m_mmap_threshold, largest)) or bool(
+        mallopt(m_mmap_threshold, min(largest, MMAP_THRESHOLD)))
+    ok = below and bool(mallopt(m_trim_threshold, max(TRIM_THRESHOLD, 2 * largest)))
     return ok and (workers <= 1 or bool(mallopt(m_arena_max, 1)))
 
 

@@ -47,26 +47,3 @@ def check_clock(device: str, clock: str, minutes: float | None) -> None:
                          "the kernel launches, not the training; use --clock wall (elapsed "
                          "seconds) on a GPU, or --device cpu")
 
-
-def keep_freed_memory() -> bool:
-    """Let this process reuse the memory it frees instead of returning it to the system (glibc:
-    no ``mmap`` for blocks under 1 GiB, no trimming of the heap's top under 2 GiB).
-
-    A training step allocates and frees the same large tensors every time (a 768 x 768 x 16
-    plane's gradient is 37 MB); above glibc's 32 MB ``mmap`` ceiling each is fresh memory, and
-    touching it first costs a page fault per 4 KiB: 12 ms to zero one such plane against 1 ms
-    reused; a 2,048-ray close-up study step 0.22 -> 0.19 s CPU (issue 40). The process keeps its
-    peak footprint (which it reaches every step anyway). Returns whether it took effect: False
-    without glibc (another C library, macOS, Windows), where nothing changes."""
-    import ctypes
-    import ctypes.util
-
-    name = ctypes.util.find_library("c")
-    try:
-        libc = ctypes.CDLL(name or "libc.so.6")
-        mallopt = libc.mallopt
-    except (OSError, AttributeError):
-        return False
-    m_trim_threshold, m_mmap_threshold = -1, -3
-    return bool(mallopt(m_mmap_threshold, 1 << 30)) and bool(mallopt(m_trim_threshold, 1 << 31))
-
