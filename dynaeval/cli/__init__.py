@@ -61,7 +61,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``dynaeval`` command; returns the exit code."""
-    args = build_parser().parse_args(argv)
+    try:
+        args = build_parser().parse_args(argv)
+    except KeyboardInterrupt:
+        print("dynaeval: interrupted; nothing done", file=sys.stderr)
+        return 130
     given = vars(args)  # the run-wide checks, for the commands that have these options
     keep_freed_memory(given.get("workers") or 1)
     try:

@@ -89,8 +89,8 @@ def read_manifest(folder: str | Path) -> dict[str, Any]:
     """The checked manifest of a prepared folder.
 
     Raises:
-        InputError: no such folder or manifest, unreadable JSON, another format version, or an
-            id that does not match the content (edited by hand).
+        InputError: no such folder or manifest, unreadable JSON, another format version, an
+            id that does not match the content (edited by hand), or tables of the wrong type.
     """
     path = Path(folder) / MANIFEST
     if not path.is_file():
@@ -106,7 +106,31 @@ def read_manifest(folder: str | Path) -> dict[str, Any]:
     if manifest.get("id") != manifest_id(manifest):
         raise InputError("the prepared ground truth's manifest was changed after it was written "
                          "(its id does not match): prepare it again", path=path)
+    _check_shapes(manifest, path)
     return manifest
+
+
+_DIGEST_TABLES = ("files", "hashes")
+"""Manifest keys that map a relative path to a digest (both strings)."""
+_TABLES = ("settings", "cameras", "decoded")
+"""Manifest keys that hold an object."""
+
+
+def _check_shapes(manifest: dict[str, Any], path: Path) -> None:
+    """Refuse a manifest whose tables have the wrong types (hand-edited with its id computed
+    again): they were a ValueError or TypeError deep in a run. InputError names the key."""
+    for key in _DIGEST_TABLES:
+        table = manifest.get(key)
+        if not isinstance(table, dict) or not all(
+                isinstance(k, str) and isinstance(v, str) for k, v in table.items()):
+            raise InputError(f"the manifest's {key!r} must map file paths to digests (strings), "
+                             f"got {type(table).__name__}; prepare it again ('dynaeval prepare GT "
+                             "-o PREP --overwrite')", path=path)
+    for key in _TABLES:
+        if key in manifest and not isinstance(manifest[key], dict):
+            raise InputError(f"the manifest's {key!r} must be an object, got "
+                             f"{type(manifest[key]).__name__}; prepare it again ('dynaeval "
+                             "prepare GT -o PREP --overwrite')", path=path)
 
 
 def write_folder_atomic(out: str | Path, fill: Callable[[Path], None], *,
@@ -349,7 +373,12 @@ class PreparedFiles:
         if not target.is_file():
             raise InputError("this prepared file is missing (deleted after 'dynaeval prepare'?); "
                              f"{PREPARE_AGAIN}", path=target)
-        if file_digest(target) != self.digests[rel]:
+        try:
+            digest = file_digest(target)
+        except OSError as err:  # no read permission, an I/O error: the user's to fix
+            raise InputError(f"cannot read this prepared file ({err.strerror or err}); make it "
+                             f"readable, or {PREPARE_AGAIN}", path=target) from None
+        if digest != self.digests[rel]:
             raise InputError("this prepared file was changed or truncated after 'dynaeval "
                              f"prepare' (its digest differs from the manifest's); {PREPARE_AGAIN}",
                              path=target)

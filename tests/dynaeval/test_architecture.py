@@ -363,6 +363,8 @@ LAZY_INTERNAL = {
     "dynaeval.metrics.gather_kernels": "compiles its numba kernels at import",
     "dynaeval.metrics.structural_kernels": "compiles its numba kernels at import",
     "dynaeval.regions.motion_kernels": "compiles its numba kernels at import",
+    "dynaeval.cli": "the command line, loaded by the entry point (dynaeval.__main__) inside a "
+                    "guard: Ctrl-C while it loads is exit 130, not a traceback (issue 43)",
 }
 """The dynaeval modules imported inside functions, and why: only those heavy at import."""
 

@@ -191,3 +191,40 @@ def test_a_second_prepared_run_in_one_process_does_not_hash_the_folder_again(tmp
     os.utime(tmp_path / "b.npy", ns=(st.st_atime_ns, st.st_mtime_ns))
     with pytest.raises(InputError, match="changed or truncated"):
         prepared.PreparedFiles(tmp_path, digests).load("b.npy")
+
+
+def test_an_unreadable_prepared_file_is_exit_2_naming_it(tmp_path, monkeypatch):
+    """Issue 43 item 4: a prepared file without read permission was a PermissionError
+    traceback. (Tests may run as root, where chmod does not stop a read: the open is made to
+    fail as it does for another user.)"""
+    from dynaeval.errors import InputError
+
+    target = tmp_path / "a.npy"
+    np.save(target, np.zeros(3))
+    files = prepared.PreparedFiles(tmp_path, {"a.npy": file_digest(target)})
+    real_open = open
+
+    def no_permission(path, *args, **kwargs):  # noqa: ANN001, ANN002, ANN003
+        if str(path) == str(target):
+            raise PermissionError(errno.EACCES, "Permission denied", str(path))
+        return real_open(path, *args, **kwargs)
+
+    monkeypatch.setattr("builtins.open", no_permission)
+    prepared._DIGESTS.clear()
+    with pytest.raises(InputError, match=r"a\.npy: cannot read this prepared file \(Permission denied\)"):
+        files.path("a.npy")
+
+
+@pytest.mark.parametrize("hashes", ["abc", None, 5, {"a.npy": 5}])
+def test_a_manifest_with_tables_of_the_wrong_type_is_refused_naming_the_key(tmp_path, hashes):
+    """Issue 43 item 4: a manifest whose `hashes` had the wrong type (its id computed again) was
+    a ValueError or TypeError deep in a run."""
+    import json
+
+    from dynaeval.errors import InputError
+
+    manifest = {"format_version": prepared.FORMAT_VERSION, "files": {}, "hashes": hashes}
+    manifest["id"] = prepared.manifest_id(manifest)
+    (tmp_path / prepared.MANIFEST).write_text(json.dumps(manifest))
+    with pytest.raises(InputError, match="the manifest's 'hashes' must map file paths to digests"):
+        prepared.read_manifest(tmp_path)
