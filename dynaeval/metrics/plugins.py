@@ -49,8 +49,8 @@ def _specs_of(ep: EntryPoint, spec_type: type) -> list[Any]:
 
 def plugin_specs(spec_type: type, taken: dict[str, str],
                  keys_of: Callable[[Any], list[str]],
-                 found: Callable[[], Any] = lambda: entry_points(group=ENTRY_POINT_GROUP)
-                 ) -> list[Any]:
+                 found: Callable[[], Any] = lambda: entry_points(group=ENTRY_POINT_GROUP),
+                 kinds: tuple[str, ...] = ()) -> list[Any]:
     """The metrics the installed plugins declare, checked, in entry-point name order.
 
     Args:
@@ -59,20 +59,30 @@ def plugin_specs(spec_type: type, taken: dict[str, str],
             with the plugins' own).
         keys_of: a spec's base name and result keys.
         found: the entry points to read (tests pass their own).
+        kinds: the metric kinds dynaeval runs (a spec of another kind is refused); empty: any.
 
     Warns:
-        MetricPluginWarning: per plugin that fails to load or is not a MetricSpec, and per
-            metric whose name or key is taken (it is refused, the others are kept).
+        MetricPluginWarning: per plugin that fails to load (an exception or ``sys.exit`` on
+            import) or is not a MetricSpec, and per metric of an unknown kind or whose name or
+            key is taken, by dynaeval's metrics or a field of the results (it is refused, the
+            others are kept).
     """
     out = []
     for ep in sorted(found(), key=lambda e: e.name):
         try:
             specs = _specs_of(ep, spec_type)
-        except Exception as err:  # a broken plugin must not break dynaeval
+        except (Exception, SystemExit) as err:  # a broken plugin must not break dynaeval
+            # (sys.exit() on import made every command, --version too, exit silently)
             warnings.warn(f"{_where(ep)} could not be loaded and is skipped: "
                           f"{type(err).__name__}: {err}", MetricPluginWarning, stacklevel=2)
             continue
         for spec in specs:
+            if kinds and spec.kind not in kinds:
+                warnings.warn(f"{_where(ep)} declares the metric {spec.name!r} of kind "
+                              f"{spec.kind!r}, which dynaeval does not run (kinds: "
+                              f"{', '.join(kinds)}): it is refused", MetricPluginWarning,
+                              stacklevel=2)
+                continue
             clash = next((k for k in keys_of(spec) if k in taken), None)
             if clash is not None:
                 warnings.warn(f"{_where(ep)} declares the metric {spec.name!r}, whose key "

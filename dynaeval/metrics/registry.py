@@ -377,11 +377,22 @@ def _keys_of(spec: MetricSpec) -> list[str]:
     return [spec.name, *(spec.key(r) for r in spec.regions), *(spec.key(c) for c in spec.classes)]
 
 
+RESULTS_FIELDS = ("camera", "frame", "index", "pred", "gt", "objects", "n_frames", "status",
+                  "reason", "schema", "method", "scene", "inputs", "settings", "metrics",
+                  "frames", "cameras", "summary", "summary_status", "counts", "timing",
+                  "warnings", "regions", "temporal_parts", "created", "provenance",
+                  "dynaeval_version", "temporal")
+"""Names the results document uses for its own fields (a frame row's ``camera`` ... ``objects``,
+``n_frames`` of a camera and the summary, the document's keys): no metric may take one (a plugin
+metric named ``gt`` overwrote each row's ground-truth path)."""
+
+
 def _with_plugins(specs: dict[str, MetricSpec]) -> dict[str, MetricSpec]:
     """``specs`` and, after them, the metrics of installed plugins (entry-point group
     ``dynaeval.metrics``: ``dynaeval.metrics.plugins``)."""
     taken = {key: f"dynaeval's {s.name}" for s in specs.values() for key in _keys_of(s)}
-    extra = plugin_specs(MetricSpec, taken, _keys_of)
+    taken.update({key: "a field of the results document" for key in RESULTS_FIELDS})
+    extra = plugin_specs(MetricSpec, taken, _keys_of, kinds=KINDS)
     return {**specs, **{s.name: s for s in extra}}
 
 

@@ -140,3 +140,37 @@ def test_a_plugin_that_is_not_a_metric_spec_is_skipped(obj, message):
     with pytest.warns(MetricPluginWarning, match=re.escape(
             "metric plugin 'x' (pkg:x) could not be loaded and is skipped: " + message)):
         assert plugin_specs(MetricSpec, {}, _keys, found=lambda: [_EntryPoint("x", obj)]) == []
+
+
+def test_a_plugin_metric_named_like_a_results_field_or_of_an_unknown_kind_is_refused():
+    """Issue 43 item 3: a plugin metric named `gt` or `n_frames` overwrote each frame's `gt`
+    path and `summary.n_frames`; an unknown kind got a flag that then raised TypeError."""
+    from dynaeval.metrics.registry import KINDS, RESULTS_FIELDS
+    from dynaeval.report.results_check import FRAME_FIELDS
+
+    assert set(FRAME_FIELDS) <= set(RESULTS_FIELDS)
+    taken = {key: "a field of the results document" for key in RESULTS_FIELDS}
+    odd = MetricSpec("odd", "video", True, (0.0, 1.0), "", "toy", build="x:y")
+    found = [_EntryPoint("a", _spec("gt")), _EntryPoint("b", _spec("n_frames")),
+             _EntryPoint("c", odd), _EntryPoint("d", _spec("fine"))]
+    with pytest.warns(MetricPluginWarning) as caught:
+        specs = plugin_specs(MetricSpec, taken, _keys, found=lambda: found, kinds=KINDS)
+    assert [s.name for s in specs] == ["fine"]
+    messages = [str(w.message) for w in caught]
+    assert "whose key 'gt' is already a field of the results document's" in messages[0]
+    assert "whose key 'n_frames' is already a field of the results document's" in messages[1]
+    assert "of kind 'video', which dynaeval does not run" in messages[2]
+
+
+def test_a_plugin_that_exits_on_import_is_skipped_and_every_command_still_runs(tmp_path):
+    """Issue 43 item 3: a plugin calling sys.exit(3) on import made every command, --version
+    included, exit 3 silently."""
+    site = _install(tmp_path / "site", "toy_mae = toy_metric_pkg:SPEC",
+                    code="import sys\nsys.exit(3)\n")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(site), os.environ.get("PYTHONPATH", "")])}
+    version = subprocess.run([sys.executable, "-m", "dynaeval", "--version"], capture_output=True,
+                             text=True, timeout=120, env=env)
+    assert version.returncode == 0 and "dynaeval" in version.stdout
+    run = _score(site, tmp_path / "r.json", "--metrics", "psnr")
+    assert run.returncode == 0, run.stderr
+    assert "could not be loaded and is skipped: SystemExit: 3" in run.stderr
