@@ -27,6 +27,9 @@ def add(sub: Any) -> None:
                     help="group rows by method (default) or by scene")
     lb.add_argument("--metrics", nargs="+", metavar="NAME",
                     help="metrics to show (default: every metric of the files)")
+    lb.add_argument("--sort", metavar="METRIC",
+                    help="rank each scene's methods by this metric, in its direction (default: "
+                         "the first whole-frame metric)")
     lb.add_argument("--force", action="store_true",
                     help="combine files even when settings differ (the differences are recorded)")
     lb.add_argument("-o", "--output", metavar="FILE",
@@ -37,7 +40,8 @@ def add(sub: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     check_writable(args.output, overwrite=args.overwrite, what="leaderboard file",
                    inputs=args.results)
-    board = build_leaderboard(args.results, force=args.force, metrics=args.metrics)
+    board = build_leaderboard(args.results, force=args.force, metrics=args.metrics,
+                              sort=args.sort)
     text = render(board, args.format, args.by)
     for f in forced_fields(board):
         print(f"dynaeval: warning: combined despite differing setting {f!r} (--force)",

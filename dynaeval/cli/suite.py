@@ -15,6 +15,8 @@ from typing import Any
 
 from dynaeval.core.deps import MissingDependency, load
 from dynaeval.core.errors import InputError
+from dynaeval.core.outcome import warning_line
+from dynaeval.report.results import load_results
 from dynaeval.run.suite import (
     folder_suite,
     load_suite,
@@ -99,6 +101,24 @@ def run(args: argparse.Namespace) -> int:
     finally:
         if client is not None:
             client.close()
+    _print_run_warnings(outcome)
     for line in summary_lines(outcome):
         print(line, file=sys.stderr if line.startswith("failed") else sys.stdout)
     return EXIT_FAILED if outcome.failed else EXIT_OK
+
+
+def _print_run_warnings(outcome: Any) -> None:
+    """The run-level warnings of the pairs this run scored, as ``dynaeval score`` prints them
+    (e.g. LPIPS not computed), each once with the pairs it concerns (the suite kept them in the
+    results files only)."""
+    seen: dict[str, list[str]] = {}
+    for path in outcome.results:
+        if path.stem in outcome.scored:
+            for w in load_results(path)["warnings"]:
+                if "camera" not in w:
+                    seen.setdefault(warning_line(w), []).append(path.stem)
+    for text, names in seen.items():
+        more = " …" if len(names) > 4 else ""
+        print(f"dynaeval: warning: {text} ({len(names)} pair(s): {', '.join(names[:4])}{more})",
+              file=sys.stderr)
+

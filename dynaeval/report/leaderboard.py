@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.core.errors import InputError
+from dynaeval.core.errors import InputError, did_you_mean
 from dynaeval.core.version import VERSION
 from dynaeval.metrics.registry import METRICS, SPECS
 from dynaeval.report.results import load_results, strict
@@ -298,12 +298,48 @@ def _selected_metrics(docs: list[dict[str, Any]], metrics: list[str] | None) -> 
     return list(metrics)
 
 
+def _default_sort(names: list[str]) -> str:
+    """The first whole-frame metric of ``names`` (else the first)."""
+    return next((n for n in names if n in METRICS and METRICS[n].variant == "whole"), names[0])
+
+
+def _ranking(rows: list[dict[str, Any]], info: dict[str, Any], sort: str) -> dict[str, Any]:
+    """Each row's ``rank`` within its scene by ``sort`` (1 the best, ties share; None without a
+    value), and per scene and metric the best method(s) and whether the runner-up's mean lies
+    inside the best's bootstrap interval (their difference is within the noise)."""
+    best: dict[str, dict[str, Any]] = {}
+    for scene in dict.fromkeys(r["scene"] for r in rows):
+        mine = [r for r in rows if r["scene"] == scene]
+        for n in info:
+            sign = 1.0 if info[n]["higher_is_better"] else -1.0
+            scored = sorted((r for r in mine if r["values"][n]["mean"] is not None),
+                            key=lambda r: -sign * r["values"][n]["mean"])
+            if n == sort:
+                for r in mine:
+                    mean = r["values"][n]["mean"]
+                    r["rank"] = None if mean is None else 1 + sum(
+                        sign * (o["values"][n]["mean"] - mean) > 0 for o in scored)
+            if not scored:
+                continue
+            top = scored[0]["values"][n]
+            winners = [r["method"] for r in scored if r["values"][n]["mean"] == top["mean"]]
+            rest = [r for r in scored if r["method"] not in winners]
+            inside = None
+            if rest and top["ci_low"] is not None:
+                inside = bool(top["ci_low"] <= rest[0]["values"][n]["mean"] <= top["ci_high"])
+            best.setdefault(scene, {})[n] = {"methods": winners,
+                                              "next": rest[0]["method"] if rest else None,
+                                              "next_within_interval": inside}
+    return {"metric": sort, "higher_is_better": info[sort]["higher_is_better"], "best": best}
+
+
 def build_leaderboard(
     paths: list[str | Path],
     *,
     force: bool = False,
     bootstrap: BootstrapConfig | None = None,
     metrics: list[str] | None = None,
+    sort: str | None = None,
 ) -> dict[str, Any]:
     """Combine results files into a leaderboard document (layout: module docstring).
 
@@ -312,10 +348,13 @@ def build_leaderboard(
         force: combine even when number-changing settings differ (listed under ``forced``).
         bootstrap: interval settings (default: percentile, 1000 replicates, 95 %, seed 0).
         metrics: metric names to keep (default: every metric of any file, in file order).
+        sort: the metric that ranks the methods of each scene (``rank``; default the first
+            whole-frame metric), in its registry direction.
 
     Raises:
         InputError: no file, unreadable or old-schema file, a (method, scene) pair twice,
-            incompatible settings without ``force``, or an unknown metric asked for.
+            incompatible settings without ``force``, or an unknown metric asked for (or to
+            sort by).
     """
     if not paths:
         raise InputError("leaderboard needs at least one results file")
@@ -334,7 +373,12 @@ def build_leaderboard(
         for n in names:
             if n in d["metrics"]:
                 info.setdefault(n, d["metrics"][n])
+    sort = sort or _default_sort(names)
+    if sort not in names:
+        raise InputError(f"cannot sort by {sort!r}: not a metric of the table{did_you_mean(sort, names)}; "
+                         f"available: {', '.join(names)}")
     rows, methods, scenes = _board_rows(docs, str_paths, names, bootstrap)
+    ranking = _ranking(rows, {n: info[n] for n in names if n in info}, sort)
     covered = {m: sorted(r["scene"] for r in rows if r["method"] == m and r["scene"] != ALL_SCENES)
                for m in methods}
     notes = []
@@ -350,6 +394,7 @@ def build_leaderboard(
                      "dynaeval_version": d["dynaeval_version"], "created": d["created"]}
                     for d, p in zip(docs, str_paths, strict=True)],
         "rows": rows,
+        "ranking": ranking,
         "notes": notes,
     })
 
@@ -362,6 +407,14 @@ def _ordered_rows(board: dict[str, Any], by: str) -> list[dict[str, Any]]:
         raise InputError(f"--by must be 'method' or 'scene', got {by!r}")
     scene_order = {s: i for i, s in enumerate([*board["scenes"], ALL_SCENES])}
     method_order = {m: i for i, m in enumerate(board["methods"])}
+    if "ranking" in board:  # methods by their overall rank (ties: input order)
+        overall = {r["method"]: r.get("rank") or math.inf for r in board["rows"]
+                   if r["scene"] == ALL_SCENES}
+        method_order = {m: (overall.get(m, math.inf), i) for m, i in method_order.items()}
+        if by == "scene":
+            key = lambda r: (scene_order[r["scene"]], r.get("rank") or math.inf,  # noqa: E731
+                             method_order[r["method"]])
+            return sorted(board["rows"], key=key)
     if by == "method":
         key = lambda r: (method_order[r["method"]], scene_order[r["scene"]])  # noqa: E731
     else:
@@ -379,11 +432,27 @@ def _fmt(name: str, v: float | None) -> str:
     return f"{v:.4f}" if abs(v) >= 0.01 or v == 0 else f"{v:.3g}"
 
 
-def _cell(name: str, entry: dict[str, Any]) -> str:
+def _cell(name: str, entry: dict[str, Any], mark: str = "") -> str:
+    """Mean [interval]; ``mark`` the best value's marker (``*`` ... ``*``, ``≈`` when the
+    runner-up is inside its interval), as ``_best_mark`` gives it."""
     text = _fmt(name, entry["mean"])
+    if mark:
+        text = f"**{text}**{'≈' if mark == 'tie' else ''}"
     if entry["ci_low"] is not None:
         text += f" [{_fmt(name, entry['ci_low'])}, {_fmt(name, entry['ci_high'])}]"
     return text
+
+
+def _best_mark(board: dict[str, Any], row: dict[str, Any], name: str) -> str:
+    """``best``, ``tie`` (best, the runner-up's mean inside its interval) or ``""``."""
+    best = board.get("ranking", {}).get("best", {}).get(row["scene"], {}).get(name)
+    if not best or row["method"] not in best["methods"]:
+        return ""
+    return "tie" if best["next_within_interval"] else "best"
+
+
+def _rank(row: dict[str, Any]) -> str:
+    return "" if row.get("rank") is None else str(row["rank"])
 
 
 def _header(board: dict[str, Any]) -> list[str]:
@@ -412,16 +481,22 @@ def csv_text(text: str) -> str:
 def to_markdown(board: dict[str, Any], by: str = "method") -> str:
     """The leaderboard as a Markdown table: mean [95 % interval] per metric; names escaped
     (``md_cell``)."""
-    head = ["method", "scene", "frames", *_header(board)]
+    head = ["method", "scene", "rank", "frames", *_header(board)]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in _ordered_rows(board, by):
-        cells = [md_cell(r["method"]), md_cell(r["scene"]), str(r["n_frames"])]
-        cells += [_cell(n, r["values"][n]) for n in board["metrics"]]
+        cells = [md_cell(r["method"]), md_cell(r["scene"]), _rank(r), str(r["n_frames"])]
+        cells += [_cell(n, r["values"][n], _best_mark(board, r, n)) for n in board["metrics"]]
         lines.append("| " + " | ".join(cells) + " |")
     b = board["bootstrap"]
     lines += ["", f"Means of per-frame values; [{b['confidence']:.0%} bootstrap interval over frames "
               f"({b['method']}, {b['n_boot']} replicates, seed {b['seed']})]. `{ALL_SCENES}`: "
               "mean of the per-scene means."]
+    if "ranking" in board:
+        rk = board["ranking"]
+        lines.append(f"Rank: within each scene by `{rk['metric']}` "
+                     f"({'higher' if rk['higher_is_better'] else 'lower'} is better). Bold: the "
+                     "best value of each column within a scene; ≈ after it: the runner-up's mean "
+                     "lies inside the best's interval (their difference is within the noise).")
     lines += [f"Note: {n}" for n in board["notes"]]
     if board["forced"]:
         lines.append(f"Warning: combined with --force although these settings differ: "
@@ -443,15 +518,15 @@ def to_csv(board: dict[str, Any], by: str = "method") -> str:
     that a spreadsheet would run as a formula are written as text (``csv_text``)."""
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
-    w.writerow(["method", "scene", "n_frames", "metric", "mean", "ci_low", "ci_high", "n",
-                "higher_is_better", "settings_differ"])
+    w.writerow(["method", "scene", "rank", "n_frames", "metric", "mean", "ci_low", "ci_high",
+                "n", "higher_is_better", "best", "settings_differ"])
     differ = "; ".join(forced_fields(board))
     for r in _ordered_rows(board, by):
         for n, inf in board["metrics"].items():
             e = r["values"][n]
-            w.writerow([csv_text(r["method"]), csv_text(r["scene"]), r["n_frames"], n,
+            w.writerow([csv_text(r["method"]), csv_text(r["scene"]), _rank(r), r["n_frames"], n,
                         *("" if e[k] is None else repr(e[k]) for k in ("mean", "ci_low", "ci_high")),
-                        e["n"], inf["higher_is_better"], differ])
+                        e["n"], inf["higher_is_better"], _best_mark(board, r, n), differ])
     return buf.getvalue()
 
 
@@ -459,21 +534,32 @@ def to_html(board: dict[str, Any], by: str = "method") -> str:
     """A self-contained HTML page with the leaderboard table (no script, no network)."""
     from html import escape
 
-    head = ["method", "scene", "frames", *_header(board)]
+    head = ["method", "scene", "rank", "frames", *_header(board)]
     out = ["<!DOCTYPE html>", "<html><head><meta charset='utf-8'><title>dynaeval leaderboard</title>",
            f"<style>{TABLE_CSS}</style></head><body>", "<h1>dynaeval leaderboard</h1>",
            "<table><thead><tr>" + "".join(f"<th>{escape(h)}</th>" for h in head)
            + "</tr></thead><tbody>"]
     for r in _ordered_rows(board, by):
         cls = " class='overall'" if r["scene"] == ALL_SCENES else ""
-        cells = [r["method"], r["scene"], str(r["n_frames"])]
-        cells += [_cell(n, r["values"][n]) for n in board["metrics"]]
-        out.append(f"<tr{cls}>" + "".join(f"<td>{escape(c)}</td>" for c in cells) + "</tr>")
+        cells = [escape(c) for c in (r["method"], r["scene"], _rank(r), str(r["n_frames"]))]
+        cells += [_html_cell(n, r["values"][n], _best_mark(board, r, n)) for n in board["metrics"]]
+        out.append(f"<tr{cls}>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
     out.append("</tbody></table>")
     md_notes = to_markdown(board, by).split("\n\n", 1)[1].strip().splitlines()
     out += [f"<p>{escape(line.replace('`', ''))}</p>" for line in md_notes]
     out.append("</body></html>")
     return "\n".join(out) + "\n"
+
+
+def _html_cell(name: str, entry: dict[str, Any], mark: str) -> str:
+    """``_cell`` as HTML: the best value in ``<strong>``."""
+    from html import escape
+
+    text = escape(_cell(name, entry))
+    if mark:
+        mean = escape(_fmt(name, entry["mean"]))
+        text = text.replace(mean, f"<strong>{mean}</strong>{'≈' if mark == 'tie' else ''}", 1)
+    return text
 
 
 TABLE_CSS = (

@@ -77,7 +77,10 @@ def render_suite_page(docs: list[dict[str, Any]], board: dict[str, Any]) -> str:
         InputError: a frame listed in the results is gone.
     """
     table = render(board, "html")
-    body = table[table.index("<table>"):table.index("</body>")]
+    end = table.index("</table>") + len("</table>")
+    # the table in its own scrolling box, as the report's tables (it ran off a 1400 px page)
+    body = (f"<div class='table'>{table[table.index('<table>'):end]}</div>"
+            + table[end:table.index("</body>")])
     parts = ["<!DOCTYPE html>", "<html><head><meta charset='utf-8'><title>dynaeval suite</title>",
              f"<style>{TABLE_CSS}{REPORT_CSS}</style></head><body>", "<h1>dynaeval suite</h1>",
              f"<p>{len(board['methods'])} method(s) x {len(board['scenes'])} scene(s).</p>", body]

@@ -289,9 +289,32 @@ def test_names_with_pipes_newlines_or_formulas_cannot_move_numbers_or_run(tmp_pa
     assert len(md) == 2 + 2 + 2  # header, rule, 2 methods x (scene + all scenes); no broken row
     for line in md:
         cells = [c for c in line.strip().strip("|").replace("\\|", "").split("|")]
-        assert len(cells) == 4  # method, scene, frames, psnr: no cell moved
+        assert len(cells) == 5  # method, scene, rank, frames, psnr: no cell moved
     assert any("we\\|ird name" in line for line in md)
     rows = list(csv.reader(io.StringIO(render(board, "csv"))))
     assert {r[0] for r in rows[1:]} == {"we|ird\nname", "'=HYPERLINK(\"x\")"}
     assert {r[1] for r in rows[1:]} >= {"'-s"}
-    assert all(not r[4] or float(r[4]) for r in rows[1:])  # numbers stay numbers
+    assert all(not r[5] or float(r[5]) for r in rows[1:])  # numbers stay numbers
+
+
+def test_rows_are_ranked_by_the_sort_metric_and_the_best_marked(tmp_path):
+    """Issue 42 item 8: rows followed input order, with no sort option and no best marked."""
+    paths = [_write(tmp_path / "c.json", "C", "s", [20.0, 20.2, 19.8], ssim=[0.9, 0.9, 0.9]),
+             _write(tmp_path / "a.json", "A", "s", [26.0, 26.2, 25.8], ssim=[0.5, 0.5, 0.5]),
+             _write(tmp_path / "b.json", "B", "s", [26.1, 26.0, 26.2], ssim=[0.7, 0.7, 0.7])]
+    board = build_leaderboard(paths)
+    assert board["ranking"]["metric"] == "psnr"
+    assert {r["method"]: r["rank"] for r in board["rows"] if r["scene"] == "s"} == \
+        {"B": 1, "A": 2, "C": 3}
+    best = board["ranking"]["best"]["s"]
+    assert best["psnr"] == {"methods": ["B"], "next": "A", "next_within_interval": True}
+    assert best["ssim"]["methods"] == ["C"] and best["ssim"]["next_within_interval"] is False
+    md = render(board, "md")
+    assert [line.split("|")[1].strip() for line in md.splitlines()[2:5]] == ["B", "B", "A"]
+    assert "**26.10**≈" in md and "**0.9000**" in md
+    by_ssim = build_leaderboard(paths, sort="ssim")
+    assert [r["method"] for r in by_ssim["rows"] if r["scene"] == "s" and r["rank"] == 1] == ["C"]
+    with pytest.raises(InputError, match=r"cannot sort by 'ssm'.*did you mean 'ssim'"):
+        build_leaderboard(paths, sort="ssm")
+    rows = list(csv.DictReader(io.StringIO(render(board, "csv"))))
+    assert {(r["method"], r["metric"]): r["best"] for r in rows if r["scene"] == "s"}[("B", "psnr")] == "tie"

@@ -466,3 +466,32 @@ def test_settings_are_type_checked_once_before_any_work(tree, capsys, setting, m
         key, value = setting.split(" = ")
         with pytest.raises(InputError, match=match):  # the library refuses it the same way
             ScoreConfig(**{key: json.loads(value.replace("'", '"'))})
+
+
+def test_a_suite_of_three_methods_and_two_scenes_is_ranked_with_the_best_marked(tree, capsys):
+    """Issue 42 item 8's done-when: a known quality order (m2: noise +-8 grey levels, m3: +-12,
+    m1: the sample's blurred stand-in) is the leaderboard's order, the best marked; the suite
+    prints the run's warnings as `score` does; its page's table scrolls in its own box."""
+    shutil.copytree(tree / "gt" / "sample", tree / "gt" / "sample2")
+    for m in ("m1", "m2", "m3"):
+        shutil.copytree(tree / "root" / m / "sample", tree / "root" / m / "sample2")
+    out = tree / "out"
+    code = main(["suite", str(tree / "root"), "--gt", str(tree / "gt"), "-o", str(out),
+                 "--settings", str(tree / "settings.toml"), "-q"])
+    assert code == 0
+    capsys.readouterr()
+    md = (out / "leaderboard.md").read_text().splitlines()
+    methods = [line.split("|")[1].strip() for line in md[2:] if line.startswith("| m")]
+    assert methods == ["m2"] * 3 + ["m3"] * 3 + ["m1"] * 3  # 2 scenes + (all), best first
+    assert all("**" in line.split("|")[5] for line in md[2:5])  # m2's PSNR: the best, bold
+    assert "<div class='table'><table>" in (out / "index.html").read_text()
+    (tree / "default.toml").write_text(f'[settings]\nfocus = "boxes:{_boxes()}"\n')
+    main(["suite", str(tree / "root"), "--gt", str(tree / "gt"), "-o", str(tree / "out2"),
+          "--settings", str(tree / "default.toml"), "-q"])
+    err = capsys.readouterr().err
+    lpips = [line for line in err.splitlines() if "LPIPS" in line and "warning" in line]
+    if not (out.parent / "out2" / "results" / "sample__m1.json").is_file():
+        pytest.fail(err)
+    if "lpips" not in json.loads((tree / "out2" / "results" / "sample__m1.json").read_text())[
+            "summary"]:  # no LPIPS weights on this machine: the suite says so, once
+        assert len(lpips) == 1 and "(6 pair(s)" in lpips[0], err
