@@ -45,6 +45,9 @@ class Status(str, Enum):
     frame smaller than a window, a summary over values that are all null for several reasons)."""
     MISSING_FRAMES = "missing-frames"
     """Run-level: ground-truth frames with no prediction were left out (``--allow-missing``)."""
+    PLUGIN_FAILED = "plugin-failed"
+    """A metric plugin gave no usable number: it raised, or returned NaN, -infinity or a
+    magnitude beyond the results' limit (null; the plugin and what it did named)."""
     NOTE = "note"
     """A warning that explains no null: about the inputs, the regions, the protocol."""
 

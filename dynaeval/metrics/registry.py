@@ -396,7 +396,11 @@ def _with_plugins(specs: dict[str, MetricSpec]) -> dict[str, MetricSpec]:
     return {**specs, **{s.name: s for s in extra}}
 
 
+_OWN = frozenset(SPECS)
 SPECS = _with_plugins(SPECS)
+PLUGIN_METRICS = frozenset(SPECS) - _OWN
+"""Names of the metrics installed plugins declare (``dynaeval.metrics.plugins``): their values
+are checked as they are computed (``run.stages.frame_metrics.plugin_outcome``)."""
 
 
 def _ordered(specs: list[MetricSpec]) -> list[tuple[MetricSpec, str]]:

@@ -174,3 +174,44 @@ def test_a_plugin_that_exits_on_import_is_skipped_and_every_command_still_runs(t
     run = _score(site, tmp_path / "r.json", "--metrics", "psnr")
     assert run.returncode == 0, run.stderr
     assert "could not be loaded and is skipped: SystemExit: 3" in run.stderr
+
+
+BAD = '''
+import math
+
+from dynaeval.metrics.registry import MetricSpec
+
+SPEC = MetricSpec("toy_bad", "frame", False, (0.0, 1.0), "", "a plugin that misbehaves",
+                  default=False, build="toy_metric_pkg:build")
+VALUES = iter([-math.inf, math.nan, 1e301, "raise", 0.25, 0.5, 0.75, 1.0])
+
+
+def build(ctx):
+    def fn(pred, gt, region):
+        value = next(VALUES)
+        if value == "raise":
+            raise ZeroDivisionError("the plugin divided by zero")
+        return value
+    return fn
+'''
+
+
+def test_a_plugins_bad_values_and_exceptions_are_its_own_nulls_not_dynaevals_bug(tmp_path):
+    """Issue 43 item 3: a plugin's -inf was recorded as "+infinity" (merge restored +inf), NaN
+    and an exception were "internal error (a bug)", a value beyond 1e300 was written and then
+    refused by merge and the leaderboard. Each is now a null with status plugin-failed naming
+    the plugin and what it did; the run exits 0 and its file reads back."""
+    from dynaeval.report.results import load_results
+
+    site = _install(tmp_path / "site", "toy_bad = toy_metric_pkg:SPEC", code=BAD)
+    run = _score(site, tmp_path / "r.json", "--metrics", "psnr", "toy_bad")
+    assert run.returncode == 0, run.stderr
+    assert "internal error" not in run.stderr and "Traceback" not in run.stderr
+    doc = load_results(tmp_path / "r.json")
+    assert [f["toy_bad"] for f in doc["frames"]] == [None] * 4 + [0.25, 0.5, 0.75, 1.0]
+    failed = [w for w in doc["warnings"] if w.get("metric") == "toy_bad"]
+    assert [w["status"] for w in failed] == ["plugin-failed"] * 4
+    reasons = " ".join(w["reason"] for w in failed)
+    for said in ("returned -inf", "returned nan", "returned 1e+301", "raised ZeroDivisionError"):
+        assert f"the metric plugin of 'toy_bad' {said}" in reasons
+    assert doc["summary"]["toy_bad"] == 0.625
