@@ -68,12 +68,14 @@ def _suite_of(args: argparse.Namespace) -> Any:
         return load_suite(path, out=args.output, overwrite=args.overwrite)
     if not (args.gt and args.output):
         raise InputError("not a suite file; the folder form needs --gt GT and -o OUT", path=path)
-    config = None
+    config, costs = None, None
     if args.settings:
         spath = Path(args.settings)
         doc = read_toml(spath)
+        costs = doc.pop("costs", None) if "settings" in doc else None
         config = settings_config(doc.get("settings", doc), str(spath), spath.resolve().parent)
-    return folder_suite(path, args.gt, args.output, config, overwrite=args.overwrite)
+    return folder_suite(path, args.gt, args.output, config, overwrite=args.overwrite,
+                        costs=costs)
 
 
 def run(args: argparse.Namespace) -> int:

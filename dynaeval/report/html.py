@@ -135,7 +135,7 @@ def _png_uri(png: bytes) -> str:
     return "data:image/png;base64," + base64.b64encode(png).decode("ascii")
 
 
-def _figure_uri(fig: Any) -> str:
+def figure_uri(fig: Any) -> str:
     """A matplotlib figure as a PNG ``data:`` URI; the figure is closed."""
     import matplotlib.pyplot as plt
 
@@ -178,7 +178,7 @@ def _curves(results: dict[str, Any]) -> list[tuple[str, str]]:
     """(metric, PNG ``data:`` URI) of each per-frame metric's curve."""
     frames = results["frames"]
     names = [m for m in results["metrics"] if any(m in f for f in frames)]
-    return [(name, _figure_uri(curve_figure(results, name))) for name in names]
+    return [(name, figure_uri(curve_figure(results, name))) for name in names]
 
 
 def _draw_regions(ax: Any, boxes: np.ndarray | None, outlines: list[np.ndarray] | None) -> None:
@@ -228,7 +228,7 @@ def _frame_figure(row: dict[str, Any], metric: str, results: dict[str, Any],
     fig.suptitle(f"camera {camera_label(results, row['camera'])}, frame {row['frame']}: "
                  f"{metric} = {value:.2f} dB", fontsize=10)
     fig.tight_layout()
-    return _figure_uri(fig)
+    return figure_uri(fig)
 
 
 def missing_objects(results: dict[str, Any], n: int = 8) -> list[tuple[dict, dict]]:

@@ -37,6 +37,12 @@ from dynaeval.core.version import VERSION
 from dynaeval.metrics.registry import METRICS, SPECS
 from dynaeval.report.results import load_results, strict
 
+COSTS = {"train_minutes": ("train min", False), "render_fps": ("render fps", True),
+         "memory_gb": ("memory GB", False)}
+"""What a method costs, as its authors or its runs report it (SUITE.toml ``[costs.METHOD]``):
+field -> (column heading, higher is better). Shown beside the metrics, blank when not given,
+never guessed."""
+
 SCHEMA = "dynaeval/leaderboard/v1"
 ALL_SCENES = "(all)"
 FORMATS = ("md", "csv", "json", "html")
@@ -340,6 +346,7 @@ def build_leaderboard(
     bootstrap: BootstrapConfig | None = None,
     metrics: list[str] | None = None,
     sort: str | None = None,
+    costs: dict[str, dict[str, float]] | None = None,
 ) -> dict[str, Any]:
     """Combine results files into a leaderboard document (layout: module docstring).
 
@@ -350,6 +357,8 @@ def build_leaderboard(
         metrics: metric names to keep (default: every metric of any file, in file order).
         sort: the metric that ranks the methods of each scene (``rank``; default the first
             whole-frame metric), in its registry direction.
+        costs: method -> its ``COSTS`` fields given (train minutes, render fps, memory GB), for
+            the cost columns and the suite page's quality-vs-cost plot.
 
     Raises:
         InputError: no file, unreadable or old-schema file, a (method, scene) pair twice,
@@ -395,6 +404,7 @@ def build_leaderboard(
                     for d, p in zip(docs, str_paths, strict=True)],
         "rows": rows,
         "ranking": ranking,
+        **({"costs": {m: dict(costs[m]) for m in methods if costs.get(m)}} if costs else {}),
         "notes": notes,
     })
 
@@ -451,6 +461,24 @@ def _best_mark(board: dict[str, Any], row: dict[str, Any], name: str) -> str:
     return "tie" if best["next_within_interval"] else "best"
 
 
+def _costs_of(board: dict[str, Any], method: str) -> list[float | None]:
+    """The method's ``COSTS`` values (None where not given)."""
+    mine = board.get("costs", {}).get(method, {})
+    return [mine.get(k) for k in COSTS]
+
+
+def _cost_header(board: dict[str, Any]) -> list[str]:
+    """The cost columns' headings, when any method has a cost."""
+    return [head for head, _ in COSTS.values()] if board.get("costs") else []
+
+
+def _cost_cells(board: dict[str, Any], method: str) -> list[str]:
+    """The method's cost cells (blank where not given), when the board has cost columns."""
+    if not board.get("costs"):
+        return []
+    return ["" if v is None else f"{v:g}" for v in _costs_of(board, method)]
+
+
 def _rank(row: dict[str, Any]) -> str:
     return "" if row.get("rank") is None else str(row["rank"])
 
@@ -481,11 +509,12 @@ def csv_text(text: str) -> str:
 def to_markdown(board: dict[str, Any], by: str = "method") -> str:
     """The leaderboard as a Markdown table: mean [95 % interval] per metric; names escaped
     (``md_cell``)."""
-    head = ["method", "scene", "rank", "frames", *_header(board)]
+    head = ["method", "scene", "rank", "frames", *_header(board), *_cost_header(board)]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in _ordered_rows(board, by):
         cells = [md_cell(r["method"]), md_cell(r["scene"]), _rank(r), str(r["n_frames"])]
         cells += [_cell(n, r["values"][n], _best_mark(board, r, n)) for n in board["metrics"]]
+        cells += _cost_cells(board, r["method"])
         lines.append("| " + " | ".join(cells) + " |")
     b = board["bootstrap"]
     lines += ["", f"Means of per-frame values; [{b['confidence']:.0%} bootstrap interval over frames "
@@ -519,14 +548,15 @@ def to_csv(board: dict[str, Any], by: str = "method") -> str:
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(["method", "scene", "rank", "n_frames", "metric", "mean", "ci_low", "ci_high",
-                "n", "higher_is_better", "best", "settings_differ"])
+                "n", "higher_is_better", "best", "settings_differ", *COSTS])
     differ = "; ".join(forced_fields(board))
     for r in _ordered_rows(board, by):
         for n, inf in board["metrics"].items():
             e = r["values"][n]
             w.writerow([csv_text(r["method"]), csv_text(r["scene"]), _rank(r), r["n_frames"], n,
                         *("" if e[k] is None else repr(e[k]) for k in ("mean", "ci_low", "ci_high")),
-                        e["n"], inf["higher_is_better"], _best_mark(board, r, n), differ])
+                        e["n"], inf["higher_is_better"], _best_mark(board, r, n), differ,
+                        *(repr(v) if v is not None else "" for v in _costs_of(board, r["method"]))])
     return buf.getvalue()
 
 
@@ -534,7 +564,7 @@ def to_html(board: dict[str, Any], by: str = "method") -> str:
     """A self-contained HTML page with the leaderboard table (no script, no network)."""
     from html import escape
 
-    head = ["method", "scene", "rank", "frames", *_header(board)]
+    head = ["method", "scene", "rank", "frames", *_header(board), *_cost_header(board)]
     out = ["<!DOCTYPE html>", "<html><head><meta charset='utf-8'><title>dynaeval leaderboard</title>",
            f"<style>{TABLE_CSS}</style></head><body>", "<h1>dynaeval leaderboard</h1>",
            "<table><thead><tr>" + "".join(f"<th>{escape(h)}</th>" for h in head)
@@ -543,6 +573,7 @@ def to_html(board: dict[str, Any], by: str = "method") -> str:
         cls = " class='overall'" if r["scene"] == ALL_SCENES else ""
         cells = [escape(c) for c in (r["method"], r["scene"], _rank(r), str(r["n_frames"]))]
         cells += [_html_cell(n, r["values"][n], _best_mark(board, r, n)) for n in board["metrics"]]
+        cells += [escape(c) for c in _cost_cells(board, r["method"])]
         out.append(f"<tr{cls}>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
     out.append("</tbody></table>")
     md_notes = to_markdown(board, by).split("\n\n", 1)[1].strip().splitlines()

@@ -17,8 +17,8 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.report.html import REPORT_CSS, crop_window, read_frame, tiles_uri
-from dynaeval.report.leaderboard import TABLE_CSS, render
+from dynaeval.report.html import REPORT_CSS, figure_uri, crop_window, read_frame, tiles_uri
+from dynaeval.report.leaderboard import COSTS, TABLE_CSS, render
 from dynaeval.report.table import fmt
 
 TILE_HEIGHT = 200
@@ -84,8 +84,62 @@ def render_suite_page(docs: list[dict[str, Any]], board: dict[str, Any]) -> str:
     parts = ["<!DOCTYPE html>", "<html><head><meta charset='utf-8'><title>dynaeval suite</title>",
              f"<style>{TABLE_CSS}{REPORT_CSS}</style></head><body>", "<h1>dynaeval suite</h1>",
              f"<p>{len(board['methods'])} method(s) x {len(board['scenes'])} scene(s).</p>", body]
+    if board.get("costs"):
+        parts.append("<h2>Quality against cost</h2><p>Per scene, each method's ranking metric "
+                     "against what it costs (SUITE.toml <code>[costs]</code>); the Pareto front "
+                     "(no other method both cheaper and better) is joined and ringed.</p>")
+        parts += [f"<img alt='{escape(scene)} quality against cost' "
+                  f"src='{figure_uri(quality_cost_figure(board, scene))}'>"
+                  for scene in board["scenes"]]
     for scene in board["scenes"]:
         order = {m: i for i, m in enumerate(board["methods"])}
         shown = sorted((d for d in docs if d["scene"] == scene), key=lambda d: order[d["method"]])
         parts += scene_html(scene, shown)
     return "\n".join([*parts, "</body></html>"]) + "\n"
+
+
+def pareto_front(points: list[tuple[float, float]], cheaper_is_lower: bool,
+                 better_is_higher: bool) -> list[int]:
+    """Indices of the (cost, quality) points no other point dominates (at least as cheap and as
+    good, one of them strictly), in order of cost."""
+    c = [(x if cheaper_is_lower else -x, -y if better_is_higher else y) for x, y in points]
+    front = [i for i, (a, b) in enumerate(c)
+             if not any(a2 <= a and b2 <= b and (a2, b2) != (a, b) for a2, b2 in c)]
+    return sorted(front, key=lambda i: c[i][0])
+
+
+def quality_cost_figure(board: dict[str, Any], scene: str) -> Any:
+    """The matplotlib figure of ``scene``: the ranking metric's mean per method against each
+    cost some method has (one panel per cost), the Pareto front marked."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    metric, higher = board["ranking"]["metric"], board["ranking"]["higher_is_better"]
+    given = [k for k in COSTS if any(k in c for c in board["costs"].values())]
+    fig, axes = plt.subplots(1, len(given), figsize=(4.2 * len(given), 3.2), dpi=100,
+                             squeeze=False)
+    quality = {r["method"]: r["values"][metric]["mean"] for r in board["rows"]
+               if r["scene"] == scene}
+    for ax, key in zip(axes[0], given, strict=True):
+        pts = [(m, board["costs"].get(m, {}).get(key), q) for m, q in quality.items()]
+        pts = [(m, x, y) for m, x, y in pts if x is not None and y is not None]
+        head, cost_higher = COSTS[key]
+        for m, x, y in pts:
+            ax.scatter([x], [y], color="#4477aa", zorder=2)
+            ax.annotate(m, (x, y), textcoords="offset points", xytext=(4, 4), fontsize=8)
+        front = [pts[i] for i in pareto_front([(x, y) for _, x, y in pts], not cost_higher,
+                                              higher)]
+        if front:
+            ax.plot([x for _, x, _ in front], [y for _, _, y in front], color="#cc3311",
+                    lw=1, zorder=1)
+            ax.scatter([x for _, x, _ in front], [y for _, _, y in front], s=120,
+                       facecolors="none", edgecolors="#cc3311", zorder=3)
+        ax.set_xlabel(f"{head} (higher is better)" if cost_higher else f"{head} (lower is better)")
+        ax.set_ylabel(f"{metric} ({'higher' if higher else 'lower'} is better)")
+        ax.set_title(scene, fontsize=10)
+        ax.grid(alpha=0.3)
+    fig.tight_layout()
+    return fig
+

@@ -47,6 +47,7 @@ from __future__ import annotations
 import collections
 import concurrent.futures
 import json
+import math
 import re
 import sys
 import warnings
@@ -70,7 +71,7 @@ from dynaeval.io.prepared import (
     read_manifest,
 )
 from dynaeval.regions.boxes_file import read_boxes_file
-from dynaeval.report.leaderboard import build_leaderboard, render
+from dynaeval.report.leaderboard import COSTS, build_leaderboard, render
 from dynaeval.report.results import load_results, results_text
 from dynaeval.report.suite_page import render_suite_page
 from dynaeval.run.config import ScoreConfig
@@ -88,7 +89,7 @@ its own bar): refused in ``[settings]``."""
 NEVER_CHANGE = ("workers", "cache_mb", "progress")
 """``ScoreConfig`` fields that never change a number: left out of a pair's key."""
 
-TOP_KEYS = ("output", "settings", "scenes", "methods")
+TOP_KEYS = ("output", "settings", "scenes", "methods", "costs")
 NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
 
 
@@ -123,6 +124,9 @@ class Suite:
     """Output folder: ``prepared/``, ``results/``, ``leaderboard.*``, ``index.html``."""
     source: str = ""
     """Where the suite was read from (the TOML file, or ROOT and GT), for messages."""
+    costs: dict[str, dict[str, float]] = field(default_factory=dict)
+    """Method -> what it costs (``[costs.METHOD]``: ``leaderboard.COSTS`` fields), for the
+    leaderboard's cost columns and the page's quality-vs-cost plot."""
 
     @property
     def scenes(self) -> dict[str, str]:
@@ -283,11 +287,38 @@ def load_suite(path: str | Path, *, out: str | Path | None = None,
         for scene, pred in _method_folders(method, spec, gts, where).items():
             pairs.append(SuitePair(method, scene, _folder(base / pred, f"[methods] {method} "
                                                           f"(scene {scene})", where), gts[scene]))
+    costs = read_costs(doc.get("costs", {}), list(methods), where)
     output = out if out is not None else doc.get("output")
     if not isinstance(output, str | Path) or not str(output):
         raise InputError("no output folder: set output = \"FOLDER\" or pass -o OUT", path=where)
     out_dir = Path(output) if out is not None else base / output
-    return _checked(Suite(tuple(pairs), config, out_dir, where), overwrite=overwrite)
+    return _checked(Suite(tuple(pairs), config, out_dir, where, costs), overwrite=overwrite)
+
+
+def read_costs(table: Any, methods: list[str], where: str) -> dict[str, dict[str, float]]:
+    """A ``[costs]`` table (``[costs.METHOD]`` with ``leaderboard.COSTS`` fields, numbers >= 0)
+    as method -> costs. Raises InputError naming the key: not a table, a method the suite does
+    not score, an unknown field, or a value that is not a number >= 0."""
+    if not isinstance(table, dict):
+        raise InputError("[costs] must be a table of [costs.METHOD] tables", path=where)
+    out = {}
+    for method, fields_ in table.items():
+        if method not in methods:
+            raise InputError(f"[costs] {method}: not a method of the suite "
+                             f"({', '.join(methods)})", path=where)
+        if not isinstance(fields_, dict):
+            raise InputError(f"[costs.{method}] must be a table of {', '.join(COSTS)}",
+                             path=where)
+        for key, value in fields_.items():
+            if key not in COSTS:
+                raise InputError(f"[costs.{method}] {key}: not a cost; costs are "
+                                 f"{', '.join(COSTS)}", path=where)
+            if isinstance(value, bool) or not isinstance(value, int | float) \
+                    or not math.isfinite(value) or value < 0:
+                raise InputError(f"[costs.{method}] {key} must be a number >= 0, got {value!r}",
+                                 path=where)
+        out[method] = {k: float(v) for k, v in fields_.items()}
+    return out
 
 
 def _method_folders(method: str, spec: Any, gts: dict[str, str], where: str) -> dict[str, str]:
@@ -312,7 +343,8 @@ def _method_folders(method: str, spec: Any, gts: dict[str, str], where: str) -> 
 
 
 def folder_suite(root: str | Path, gt: str | Path, out: str | Path,
-                 config: ScoreConfig | None = None, *, overwrite: bool = False) -> Suite:
+                 config: ScoreConfig | None = None, *, overwrite: bool = False,
+                 costs: Any = None) -> Suite:
     """The suite of the folder convention: ``ROOT/<method>/<scene>`` scored against
     ``GT/<scene>`` (hidden folders and the output folder are no method).
 
@@ -341,7 +373,9 @@ def folder_suite(root: str | Path, gt: str | Path, out: str | Path,
         raise InputError("no ROOT/<method>/<scene> folder: the folder form expects one "
                          "folder per method holding one folder per scene", path=root)
     config = replace(config or ScoreConfig(), progress=False)
-    return _checked(Suite(tuple(pairs), config, out, where), overwrite=overwrite, roots=(root,))
+    methods = list(dict.fromkeys(p.method for p in pairs))
+    return _checked(Suite(tuple(pairs), config, out, where, read_costs(costs or {}, methods, where)),
+                    overwrite=overwrite, roots=(root,))
 
 
 MARKER = ".dynaeval-suite"
@@ -705,7 +739,7 @@ def _write_summaries(suite: Suite, outcome: SuiteOutcome) -> None:
     """The leaderboard (md, csv, json) and the page of every pair with results."""
     if not outcome.results:
         return
-    board = build_leaderboard(outcome.results)
+    board = build_leaderboard(outcome.results, costs=suite.costs)
     for fmt in ("md", "csv", "json"):
         path = suite.out / f"leaderboard.{fmt}"
         write_text_atomic(path, render(board, fmt), overwrite=True, what="leaderboard file")

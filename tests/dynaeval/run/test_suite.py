@@ -495,3 +495,40 @@ def test_a_suite_of_three_methods_and_two_scenes_is_ranked_with_the_best_marked(
     if "lpips" not in json.loads((tree / "out2" / "results" / "sample__m1.json").read_text())[
             "summary"]:  # no LPIPS weights on this machine: the suite says so, once
         assert len(lpips) == 1 and "(6 pair(s)" in lpips[0], err
+
+
+def test_costs_are_columns_and_the_page_plots_quality_against_cost(tree, capsys):
+    """Issue 42 item 9: methods are compared by quality and cost; the leaderboard shows the
+    costs SUITE.toml gives (blank when not given, never guessed) and the page plots quality
+    against cost per scene with the Pareto front."""
+    text = ("output = 'o'\n" + _settings_toml() + "[scenes]\nsample = 'gt/sample'\n[methods]\n"
+            "m1 = 'root/m1/{scene}'\nm2 = 'root/m2/{scene}'\nm3 = 'root/m3/{scene}'\n"
+            "[costs.m1]\ntrain_minutes = 5\nrender_fps = 30\n"
+            "[costs.m2]\ntrain_minutes = 60\nmemory_gb = 7.5\n"
+            "[costs.m3]\ntrain_minutes = 90\n")
+    path = _toml(tree, text)
+    assert main(["suite", str(path), "-q"]) == 0
+    md = (tree / "o" / "leaderboard.md").read_text()
+    assert "| train min | render fps | memory GB |" in md.splitlines()[0] + " |"
+    row = next(line for line in md.splitlines() if line.startswith("| m2 | sample |"))
+    assert [c.strip() for c in row.rstrip(" |").split("|")[-3:]] == ["60", "", "7.5"]
+    board = json.loads((tree / "o" / "leaderboard.json").read_text())
+    assert board["costs"] == {"m1": {"train_minutes": 5.0, "render_fps": 30.0},
+                              "m2": {"train_minutes": 60.0, "memory_gb": 7.5},
+                              "m3": {"train_minutes": 90.0}}
+    page = (tree / "o" / "index.html").read_text()
+    assert "Quality against cost" in page and "quality against cost' src='data:image/png" in page
+    capsys.readouterr()
+    for bad, match in (("[costs.m9]\ntrain_minutes = 1\n", r"\[costs\] m9: not a method"),
+                       ("[costs.m1]\ntrain_hours = 1\n", r"\[costs.m1\] train_hours: not a cost"),
+                       ("[costs.m1]\ntrain_minutes = -1\n", r"must be a number >= 0")):
+        with pytest.raises(InputError, match=match):
+            load_suite(_toml(tree, "output = 'o2'\n" + GOOD + bad))
+
+
+def test_the_pareto_front_is_what_no_other_method_beats_on_both():
+    from dynaeval.report.suite_page import pareto_front
+
+    pts = [(5.0, 20.0), (60.0, 30.0), (90.0, 25.0), (60.0, 29.0), (1.0, 10.0)]
+    assert pareto_front(pts, cheaper_is_lower=True, better_is_higher=True) == [4, 0, 1]
+    assert pareto_front(pts, cheaper_is_lower=False, better_is_higher=True) == [2, 1]
