@@ -37,6 +37,7 @@ from dynaeval.core.validation import (
     values_known_in,
 )
 from dynaeval.io.masks import THRESHOLD
+from dynaeval.metrics.perceptual import CLI_WITHOUT
 from dynaeval.metrics.protocols import get_protocol
 from dynaeval.metrics.registry import (
     FrameContext,
@@ -175,6 +176,22 @@ class ImageMetrics:
         self._fns: dict[str, FrameFn] | None = None
         self._values: dict[str, list[float | None]] = {k: [] for k, _, _ in self.keys}
         self._count = 0
+        if pretrained_backbone:
+            self._check_available()
+
+    def _check_available(self) -> None:
+        """Refuse, at construction, a metric that cannot run on this machine (LPIPS without its
+        backbone weights): it failed at the first ``update``, naming the CLI's ``--no-lpips``.
+        The message gives the library's fix, the metrics without it."""
+        ctx = FrameContext(data_range=self.data_range, protocol=self.protocol, device="cpu",
+                           lpips_net=self.lpips_net, pretrained_backbone=True)
+        for s in frame_specs(self.metrics):
+            why = s.load("requires")(ctx) if s.requires else None
+            if why:
+                keep = tuple(m for m in self.metrics if m != s.name)
+                fix = f"ImageMetrics(metrics={keep!r})" if keep else "another metric"
+                raise InputError(f"{s.title} cannot run here: {why.removesuffix(CLI_WITHOUT)}; "
+                                 f"or leave it out: {fix}")
 
     def reset(self) -> None:
         """Forget every value seen so far."""

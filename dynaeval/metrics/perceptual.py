@@ -70,7 +70,12 @@ def _weights_absent(net: str) -> str | None:
         return None
     return (f"LPIPS ({net}) needs torchvision's pretrained {net} backbone, which is not on this "
             f"machine: place {path.name} (from {_backbone_url(net)}) in {path.parent} "
-            "(set TORCH_HOME to use another cache directory), or score without LPIPS (--no-lpips)")
+            f"(set TORCH_HOME to use another cache directory){CLI_WITHOUT}")
+
+
+CLI_WITHOUT = ", or score without LPIPS (--no-lpips)"
+"""How the command line scores without LPIPS, at the end of ``missing_package``'s text (the
+library says its own: ``ImageMetrics(metrics=...)`` without ``lpips``)."""
 
 
 def missing_package(ctx: Any) -> str | None:

@@ -213,3 +213,17 @@ def test_a_protocol_that_clips_takes_overshooting_floats_but_not_uint8(rng):
     for protocol in ("nerfbaselines", "kplanes", "dycheck"):  # 0..255 floats: white, silently
         with pytest.raises(InputError, match=r"pred holds values in \[0, 25\d\].*data_range=255"):
             ImageMetrics(("psnr",), protocol=protocol).update(a * 1.0, b / 255)
+
+
+def test_without_lpips_weights_the_library_says_so_at_construction_with_its_own_fix(tmp_path,
+                                                                                   monkeypatch):
+    """Issue 43 item 5: the README's `ImageMetrics()` failed at the first update() without the
+    AlexNet weights, naming the CLI's --no-lpips."""
+    pytest.importorskip("lpips")
+    monkeypatch.setenv("TORCH_HOME", str(tmp_path / "empty"))
+    with pytest.raises(InputError) as err:
+        ImageMetrics()
+    text = str(err.value)
+    assert "LPIPS cannot run here" in text and "ImageMetrics(metrics=('psnr', 'ssim'))" in text
+    assert "--no-lpips" not in text
+    assert ImageMetrics(metrics=("psnr", "ssim")).metrics == ("psnr", "ssim")
