@@ -80,6 +80,11 @@ class Outcome:
         return None if self.status is Status.OK else reason_text(self.status, self.detail)
 
 
+VALUE_LIMIT = 1e300
+"""Largest magnitude of a metric value or a time a results file holds: no metric comes near it,
+and sums over up to 1e8 frames of values below it stay finite (a mean over 1e308 would
+overflow). Read by the results check and by the check of a plugin's values."""
+
 PAIR_UNDEFINED = "undefined for the pair (previous frame, this frame)"
 """The detail of a null per-pair value that nothing else explains."""
 

@@ -45,7 +45,7 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 from dynaeval.core.errors import InputError
-from dynaeval.core.outcome import Status
+from dynaeval.core.outcome import VALUE_LIMIT, Status
 
 RESULTS_REQUIRED = {
     "": ("schema", "dynaeval_version", "created", "method", "scene", "inputs", "settings",
@@ -70,9 +70,6 @@ REGION_SOURCES = ("detector", "motion", "boxes", "none")
 """Values of ``regions.source``: the focus sources (``dynaeval.regions.focus.FOCUS_SOURCES``; a
 test holds them together)."""
 
-VALUE_LIMIT = 1e300
-"""Largest magnitude of a metric value or a time read: no metric comes near it, and sums over up
-to 1e8 frames of values below it stay finite (a mean over 1e308 would overflow)."""
 
 _KINDS = {dict: "a JSON object", list: "a JSON array", str: "a JSON string"}
 

@@ -8,10 +8,9 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from dynaeval.core.errors import EmptyRegionError, InputError, UndefinedMetricError
-from dynaeval.core.outcome import Outcome, Status
+from dynaeval.core.outcome import VALUE_LIMIT, Outcome, Status
 from dynaeval.metrics.registry import METRICS, PLUGIN_METRICS, region_argument
 from dynaeval.metrics.structural import reusing_whole_map
-from dynaeval.report.results_check import VALUE_LIMIT
 from dynaeval.run.stages.base import FrameWork, Stage, Value
 
 if TYPE_CHECKING:
