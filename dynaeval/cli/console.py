@@ -7,6 +7,7 @@ from collections import Counter
 
 from dynaeval.core.outcome import warning_line
 from dynaeval.regions.summary import describe_regions
+from dynaeval.report.html import camera_label
 
 
 def print_warnings(results: dict, output: str | None = None) -> None:
@@ -55,7 +56,9 @@ def print_regions(results: dict, most: int = 12) -> None:
     regions = results.get("regions") or {}
     cameras = regions.get("cameras", {}) if regions.get("source") != "none" else {}
     for cam, summary in list(cameras.items())[:most]:
-        print(f"dynaeval: regions: {describe_regions(cam, summary)}", file=sys.stderr)
+        # a flat folder's camera "." named as the report names it (its ground-truth folder)
+        print(f"dynaeval: regions: {describe_regions(camera_label(results, cam), summary)}",
+              file=sys.stderr)
     if len(cameras) > most:
         print(f"dynaeval: regions: {len(cameras) - most} more camera(s) in the results JSON "
               "('regions')", file=sys.stderr)

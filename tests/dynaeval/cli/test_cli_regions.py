@@ -7,7 +7,7 @@ import json
 
 import pytest
 
-from dynaeval.cli import parse_classes
+from dynaeval.cli import main, parse_classes, sample_dir
 from dynaeval.errors import InputError
 
 from .test_cli import run
@@ -93,3 +93,13 @@ def test_detect_motion_on_a_panning_camera_warns(tmp_path, capsys):
     assert code == 0, err
     assert "warning: camera pan: motion masks need a static camera" in err
     assert len(json.loads((tmp_path / "b.json").read_text())["boxes"]) == 5  # written all the same
+
+
+def test_a_flat_folders_regions_line_names_it_as_the_report_does(tmp_path, capsys):
+    """Issue 43 item 5: the console said "regions: .:" for a flat folder (camera "."); it names
+    it after the ground-truth folder, as the report does (``camera_label``)."""
+    s = sample_dir()
+    code = main(["score", str(s / "pred" / "cam07"), str(s / "gt" / "cam07"), "--focus", "motion",
+                 "--no-lpips", "--no-temporal", "-q", "-o", str(tmp_path / "r.json")])
+    err = capsys.readouterr().err
+    assert code == 0 and "regions: cam07:" in err and "regions: .:" not in err
