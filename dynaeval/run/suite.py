@@ -50,6 +50,7 @@ import json
 import math
 import re
 import sys
+import threading
 import warnings
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, fields, replace
@@ -528,10 +529,16 @@ def _run_calls(executor: Any, calls: list[Call],
         return futures
 
     if type(executor).__module__.split(".")[0] == "distributed":
-        done = load("distributed").as_completed(submit(calls))
-        for future in done:
-            for follow in submit(handle(tags.pop(future), future)):
-                done.add(follow)
+        stop = threading.Event()
+        threading.Thread(target=_watch_workers, args=(executor, stop), daemon=True,
+                         name="dynaeval-dask-workers").start()
+        try:
+            done = load("distributed").as_completed(submit(calls))
+            for future in done:
+                for follow in submit(handle(tags.pop(future), future)):
+                    done.add(follow)
+        finally:
+            stop.set()
         return
     pending = set(submit(calls))
     while pending:
@@ -539,6 +546,26 @@ def _run_calls(executor: Any, calls: list[Call],
             pending, return_when=concurrent.futures.FIRST_COMPLETED)
         for future in finished:
             pending.update(submit(handle(tags.pop(future), future)))
+
+
+NO_WORKER_EVERY = 30.0
+"""Seconds between the checks that the Dask scheduler still has a worker, and between the
+warnings while it has none (a client whose only worker died waited without a word)."""
+
+
+def _watch_workers(client: Any, stop: threading.Event) -> None:
+    """While the suite runs on ``client``: every ``NO_WORKER_EVERY`` seconds, say on stderr when
+    the scheduler has no worker. The suite keeps waiting (a worker that starts picks the tasks
+    up); Ctrl-C stops it and keeps what was scored."""
+    while not stop.wait(NO_WORKER_EVERY):
+        try:
+            workers = client.scheduler_info()["workers"]
+        except Exception:  # noqa: BLE001 - the scheduler gone: the client's own error ends the run
+            return
+        if not workers and not stop.is_set():
+            print("dynaeval: warning: the Dask scheduler has no worker: the suite waits for one "
+                  "(start a worker on it, or Ctrl-C: the pairs scored so far are kept)",
+                  file=sys.stderr, flush=True)
 
 
 def _error_line(err: BaseException) -> str:

@@ -128,3 +128,42 @@ def test_cluster_equals_local_and_a_killed_worker_loses_nothing(suite_tree, clus
             for out in ("local", "dask")]
     assert rows[0] == rows[1]
     assert time.monotonic() - t0 < 2 * TIMEOUT
+
+
+def test_a_suite_whose_only_workers_died_says_so_and_finishes_on_a_new_one(suite_tree, cluster,
+                                                                           monkeypatch, capsys):
+    """Issue 42 item 10: if the only Dask worker died the client waited forever without a word.
+    It says so every NO_WORKER_EVERY seconds and goes on once a worker joins."""
+    import dynaeval.run.suite as suite_mod
+
+    monkeypatch.setattr(suite_mod, "NO_WORKER_EVERY", 0.3)
+    address, workers = cluster
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        [str(Path(__file__).resolve().parents[3]), os.environ.get("PYTHONPATH", "")])}
+    late: list[subprocess.Popen] = []
+    with distributed.Client(address, timeout=TIMEOUT) as client:
+
+        def kill_every_worker_then_start_one(_pair: str) -> None:
+            if late:
+                return
+            for proc in workers.values():
+                proc.kill()
+                proc.wait(timeout=TIMEOUT)
+            deadline = time.monotonic() + TIMEOUT
+            while client.scheduler_info()["workers"] and time.monotonic() < deadline:
+                time.sleep(0.1)
+            time.sleep(1.0)  # long enough for the watch to say it (every 0.3 s)
+            late.append(subprocess.Popen(
+                [*_dask(), "worker", address, "--nthreads", "1", "--no-nanny", "--name", "w2",
+                 "--host", "127.0.0.1", "--no-dashboard"], stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL, env=env))
+
+        suite = folder_suite(suite_tree / "root", suite_tree / "gt", suite_tree / "dask", _config())
+        try:
+            outcome = _run_bounded(lambda: run_suite(suite, client, progress=False,
+                                                     on_result=kill_every_worker_then_start_one))
+        finally:
+            for proc in late:
+                proc.kill()
+    assert late and not outcome.failed and len(outcome.scored) == len(METHODS)
+    assert "the Dask scheduler has no worker: the suite waits for one" in capsys.readouterr().err
