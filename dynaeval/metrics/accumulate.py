@@ -37,7 +37,6 @@ from dynaeval.core.validation import (
     values_known_in,
 )
 from dynaeval.io.masks import THRESHOLD
-from dynaeval.metrics.perceptual import CLI_WITHOUT
 from dynaeval.metrics.protocols import get_protocol
 from dynaeval.metrics.registry import (
     FrameContext,
@@ -190,8 +189,7 @@ class ImageMetrics:
             if why:
                 keep = tuple(m for m in self.metrics if m != s.name)
                 fix = f"ImageMetrics(metrics={keep!r})" if keep else "another metric"
-                raise InputError(f"{s.title} cannot run here: {why.removesuffix(CLI_WITHOUT)}; "
-                                 f"or leave it out: {fix}")
+                raise InputError(f"{s.title} cannot run here: {why}; or leave it out: {fix}")
 
     def reset(self) -> None:
         """Forget every value seen so far."""

@@ -70,12 +70,7 @@ def _weights_absent(net: str) -> str | None:
         return None
     return (f"LPIPS ({net}) needs torchvision's pretrained {net} backbone, which is not on this "
             f"machine: place {path.name} (from {_backbone_url(net)}) in {path.parent} "
-            f"(set TORCH_HOME to use another cache directory){CLI_WITHOUT}")
-
-
-CLI_WITHOUT = ", or score without LPIPS (--no-lpips)"
-"""How the command line scores without LPIPS, at the end of ``missing_package``'s text (the
-library says its own: ``ImageMetrics(metrics=...)`` without ``lpips``)."""
+            "(set TORCH_HOME to use another cache directory)")  # how to do without: the caller's
 
 
 def missing_package(ctx: Any) -> str | None:

@@ -181,7 +181,9 @@ def build_plan(config: ScoreConfig, *, scope: Scope | None = None, masks: MaskSe
                *(protocol.mask_regions() if masks is not None else ()))
     built = build_frame_metrics(ctx, protocol.run_metrics(config.metrics), regions)
     warnings = [warning(Status.UNAVAILABLE, metric=name,
-                        reason=unavailable_reason(SPECS[name].title, why))
+                        reason=unavailable_reason(SPECS[name].title, why) + (
+                            f" (to leave it out: {SPECS[name].flag}; in the library, leave "
+                            f"{name!r} out of metrics)" if SPECS[name].default else ""))
                 for name, why in built.unavailable.items()]
     settings = _settings(config, quantize, built.settings, regions, protocol, masks)
     sources = open_sources(focus)

@@ -134,3 +134,17 @@ def test_library_refuses_options_of_a_metric_not_computed():
         ScoreConfig(metric_options={"jod": {"model": "fvvdp"}})
     assert ScoreConfig(metrics=("psnr", "flip"), metric_options={"flip": {"every": 2}}) \
         .metric_options == {"flip": {"every": 2}}
+
+
+def test_lpips_without_its_weights_gives_its_advice_once(tmp_path, monkeypatch, capsys):
+    """Issue 43 item 5: a requested LPIPS without its backbone weights repeated its advice
+    ("or score without LPIPS (--no-lpips); or score without LPIPS (--no-lpips; ...)")."""
+    pytest.importorskip("lpips")
+    from dynaeval.cli import main, sample_dir
+
+    monkeypatch.setenv("TORCH_HOME", str(tmp_path / "empty"))
+    s = sample_dir()
+    assert main(["score", str(s / "pred"), str(s / "gt"), "--metrics", "psnr", "lpips", "-q",
+                 "-o", str(tmp_path / "r.json")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("score without LPIPS") == 1 and err.count("--no-lpips") == 1, err
