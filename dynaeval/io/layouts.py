@@ -282,7 +282,9 @@ def detect_layout(pred: str | Path, gt: str | Path | None = None, *,
         return RenderLayout("folders", pred, pred)
     known = "; ".join([*(f"{n}: {p}/ + {g}/" for n, (p, g) in LAYOUTS.items()),
                        "3dgs: MODEL/<split>/ours_<N>/renders/ + gt/",
-                       "dycheck: renders/novel_view/<split>/<frame>.png"])
+                       "dycheck: renders/novel_view/<split>/<frame>.png",
+                       "kplanes: a log folder with step<N>.mp4 or step<N>-<i>.png, or one such "
+                       "file"])
     if not found:
         raise InputError(
             f"one folder was given but it holds no known render layout ({known}), neither directly "

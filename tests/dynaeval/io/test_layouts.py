@@ -47,7 +47,7 @@ def test_errors(tmp_path, rng):
     _run(out / "train", "rgb", "gt-rgb", rng)
     with pytest.raises(InputError, match=r"several render layouts found: test \(nerfstudio\), train \(nerfstudio\)"):
         detect_layout(out)
-    with pytest.raises(InputError, match="holds no known render layout"):
+    with pytest.raises(InputError, match=r"holds no known render layout .*kplanes: a log folder with step<N>\.mp4"):
         detect_layout(out / "test" / "rgb")
     with pytest.raises(InputError, match="render folder not found"):
         detect_layout(tmp_path / "nope")
