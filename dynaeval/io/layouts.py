@@ -157,6 +157,14 @@ class _DyCheckRenders(LayoutKind):
     def pairing(self, layout: RenderLayout, allow_missing: bool) -> Pairing:
         return pair_renders(layout.pred)
 
+    def run_folder(self, layout: RenderLayout, pred_dir: Path) -> Path:
+        """The experiment folder above ``renders/novel_view/<split>`` (its split was the run's
+        name: "val against val"), else the folder given."""
+        split = Path(layout.pred)
+        if split.parent.name == "novel_view" and split.parent.parent.name == "renders":
+            return split.parent.parent.parent
+        return Path(pred_dir)
+
 
 class _GaussianSplatting(LayoutKind):
     """A 3DGS-family model folder, whose own metrics are its family's protocol."""

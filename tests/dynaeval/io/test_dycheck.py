@@ -104,6 +104,9 @@ def test_dycheck_render_folder_is_scored_panel_2_against_panel_1(tmp_path, maske
     lib = dynaeval.score(split, metrics=("psnr",), focus=FocusConfig(source="none"),
                          progress=False)
     assert [r["psnr"] for r in lib["frames"]] == [r["psnr"] for r in doc["frames"]]
+    # named after the experiment folder above renders/novel_view/<split>, not its split
+    # (the console said "val against val"; issue 43)
+    assert doc["method"] == doc["scene"] == lib["method"] == "work"
 
 
 def test_dycheck_render_of_a_width_not_3_panels_or_another_width_is_exit_2(tmp_path, capsys):
