@@ -218,7 +218,9 @@ def _settings(config: ScoreConfig, quantize: str, metric_settings: dict[str, dic
         **metric_settings,
         "regions": {**REGION_RULES, **({"covisible": COVISIBLE_RULE} if "covisible" in regions else {})},
         "summary": "mean of per-frame values (frames weighted equally, not pooled error)",
-        "protocol": protocol.describe(),
+        # the backbone this run uses (one the protocol accepts), not the protocol's default:
+        # under 4dgaussians it said "vgg" when --lpips-net alex was used
+        "protocol": {**protocol.describe(), "lpips_net": config.resolved_lpips_net()},
     }
     if masks is not None:  # else masked_* are over the motion masks (settings.focus.motion)
         settings["masks"] = masks.describe()

@@ -434,6 +434,12 @@ def test_4dgaussians_run_records_pytorch_msssim(tmp_path):
     assert row["msssim"] == pytest.approx(ref, abs=2e-6)
     assert row["dssim"] == pytest.approx((1 - ref) / 2, abs=1e-6)
     assert res["settings"]["msssim"]["variant"].startswith("pytorch_msssim 1.0 ms_ssim")
+    assert res["settings"]["protocol"]["lpips_net"] == "vgg"  # the protocol's own
+    alex = dynaeval.score(tmp_path / "pred", tmp_path / "gt", protocol="4dgaussians",
+                          lpips_net="alex", metrics=("psnr",), temporal=False, progress=False,
+                          focus=FocusConfig(source="none", masked=False))
+    # issue 43: the protocol block said "vgg" when the run used alex: one truth
+    assert alex["settings"]["protocol"]["lpips_net"] == "alex"
 
 
 def test_4dgaussians_lpips_alex_is_lpipspytorch_alex(random_lpips):
