@@ -92,6 +92,8 @@ class MissingDependency(ImportError):
         self.installed = installed
         what = (f"is installed but does not import ({type(cause).__name__}: {cause})"
                 if installed else "is not installed")
+        if installed and cause is not None and (mismatch := _torchvision_mismatch(cause)):
+            what, self.install = mismatch
         super().__init__(message or f"{dep.needed_for + ' needs ' if dep else ''}the "
                          f"{dep.distribution if dep else module} package, which {what}: "
                          f"{self.install}",
@@ -102,6 +104,28 @@ class MissingDependency(ImportError):
     def saying(self, message: str) -> MissingDependency:
         """The same failure with the caller's own message (which names the install line)."""
         return MissingDependency(self.module, installed=self.installed, message=message)
+
+
+def _torchvision_mismatch(cause: BaseException) -> tuple[str, str] | None:
+    """(what is wrong, the install that fixes it) when ``cause`` is torchvision built for another
+    torch ("operator torchvision::nms does not exist"), which reinstalling dynaeval's extra cannot
+    fix; else None. torchvision 0.(N + 15) is the release for torch 2.N."""
+    if "torchvision::" not in str(cause) or "does not exist" not in str(cause):
+        return None
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        torch, vision = version("torch"), version("torchvision")
+    except PackageNotFoundError:
+        return None
+    major_minor = torch.split("+")[0].split(".")[:2]
+    if len(major_minor) != 2 or major_minor[0] != "2" or not major_minor[1].isdigit():
+        return None
+    want = f"0.{int(major_minor[1]) + 15}"
+    return (f"is installed but built for another torch: torchvision {vision} beside torch {torch} "
+            f"({type(cause).__name__}: {cause})",
+            f"pip install 'torchvision=={want}.*' (the release for torch {'.'.join(major_minor)}; "
+            f"or the torch that torchvision {vision} was built for)")
 
 
 def available(*modules: str) -> bool:

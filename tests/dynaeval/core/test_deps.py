@@ -105,3 +105,23 @@ def test_a_default_metric_whose_package_is_absent_names_the_install_line_once(mo
         flip._package()
     assert str(err.value).count("pip install") == 1
     assert "NVIDIA's flip-evaluator package, which is not installed" in str(err.value)
+
+
+def test_a_torchvision_built_for_another_torch_names_the_mismatch_and_the_matching_install(
+        monkeypatch):
+    """Issue 43 item 5: with torch and torchvision builds that do not match ("operator
+    torchvision::nms does not exist") the fix given was pip install 'dynaeval[lpips]', which
+    cannot help: the mismatch and the matching install are named."""
+    import importlib.metadata
+
+    from dynaeval.core import deps
+
+    versions = {"torch": "2.13.0", "torchvision": "0.29.1"}
+    monkeypatch.setattr(importlib.metadata, "version", versions.__getitem__)
+    err = deps.MissingDependency("lpips", installed=True,
+                                 cause=RuntimeError("operator torchvision::nms does not exist"))
+    assert "built for another torch: torchvision 0.29.1 beside torch 2.13.0" in str(err)
+    assert err.install.startswith("pip install 'torchvision==0.28.*'")
+    assert "dynaeval[lpips]" not in str(err)
+    other = deps.MissingDependency("lpips", installed=True, cause=OSError("libc10.so: not found"))
+    assert "dynaeval[lpips]" in other.install  # any other broken import keeps the extra's line
