@@ -10,6 +10,8 @@ cached per (net, device, spatial, backbone), in eval mode, and run under ``torch
 
 from __future__ import annotations
 
+import os
+import sys
 import threading
 import warnings
 from pathlib import Path
@@ -44,10 +46,28 @@ def _check_net(net: str) -> None:
         raise InputError(f"LPIPS net must be one of {', '.join(LPIPS_NETS)}, got {net!r}")
 
 
+BACKBONE_URLS = {"alex": "https://download.pytorch.org/models/alexnet-owt-7be5be79.pth",
+                 "vgg": "https://download.pytorch.org/models/vgg16-397923af.pth"}
+"""Download URL of each backbone's ImageNet weights: torchvision's weights enum
+(``AlexNet_Weights.IMAGENET1K_V1``, ``VGG16_Weights.IMAGENET1K_V1``; a test holds them equal),
+written here so finding whether the weights are on the machine loads neither torch nor
+torchvision (a requested LPIPS that cannot run was refused only after 4-25 s of loading them)."""
+
+
 def _backbone_url(net: str) -> str:
-    """Download URL of ``net``'s ImageNet weights, from torchvision's weights enum."""
-    models = load("torchvision.models")
-    return (models.AlexNet_Weights if net == "alex" else models.VGG16_Weights).IMAGENET1K_V1.url
+    """Download URL of ``net``'s ImageNet weights (``BACKBONE_URLS``)."""
+    return BACKBONE_URLS[net]
+
+
+def _hub_dir() -> Path:
+    """``torch.hub.get_dir()`` without importing torch: ``$TORCH_HOME/hub``, else
+    ``$XDG_CACHE_HOME/torch/hub`` (``~/.cache`` by default); torch's own answer once it is
+    imported (``torch.hub.set_dir`` may have changed it)."""
+    if "torch" in sys.modules:
+        return Path(load("torch").hub.get_dir())
+    home = os.environ.get("TORCH_HOME") or os.path.join(
+        os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"), "torch")
+    return Path(os.path.expanduser(home)) / "hub"
 
 
 def backbone_weights_file(net: str = "alex") -> Path:
@@ -58,9 +78,7 @@ def backbone_weights_file(net: str = "alex") -> Path:
     honours ``TORCH_HOME``.
     """
     _check_net(net)
-    torch = load("torch")
-
-    return Path(torch.hub.get_dir()) / "checkpoints" / _backbone_url(net).rsplit("/", 1)[-1]
+    return _hub_dir() / "checkpoints" / _backbone_url(net).rsplit("/", 1)[-1]
 
 
 def _weights_absent(net: str) -> str | None:

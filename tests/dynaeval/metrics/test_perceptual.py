@@ -273,3 +273,28 @@ def test_cuda_equals_cpu(pair):
     assert lpips(a, b, device="auto", **RANDOM) == pytest.approx(cpu, abs=1e-4)
     if "CUDAExecutionProvider" in ort.get_available_providers():
         assert lpips(a, b, device="cuda", **ONNX) == pytest.approx(cpu, abs=1e-4)
+
+
+def test_the_backbone_urls_and_the_hub_folder_are_torchvisions_own_without_loading_it(
+        tmp_path, monkeypatch):
+    """Issue 43 item 5: whether LPIPS can run was found by importing torch and torchvision (4-25 s
+    before a requested LPIPS was refused). The URLs and the hub folder are now known without
+    them, and equal torchvision's enum and ``torch.hub.get_dir()``."""
+    import subprocess
+    import sys
+
+    from dynaeval.metrics import perceptual
+
+    models = pytest.importorskip("torchvision.models")
+    assert perceptual.BACKBONE_URLS == {"alex": models.AlexNet_Weights.IMAGENET1K_V1.url,
+                                        "vgg": models.VGG16_Weights.IMAGENET1K_V1.url}
+    code = ("import os, sys; from dynaeval.metrics.perceptual import backbone_weights_file; "
+            "p = backbone_weights_file('alex'); assert 'torch' not in sys.modules, 'torch loaded'; "
+            "import torch; assert str(p.parent) == os.path.join(torch.hub.get_dir(), 'checkpoints'), p; "
+            "print(p)")
+    for env in ({"TORCH_HOME": str(tmp_path / "th")}, {"XDG_CACHE_HOME": str(tmp_path / "xdg")}, {}):
+        base = {k: v for k, v in __import__("os").environ.items()
+                if k not in ("TORCH_HOME", "XDG_CACHE_HOME")}
+        run = subprocess.run([sys.executable, "-c", code], env={**base, **env},
+                             capture_output=True, text=True, timeout=120)
+        assert run.returncode == 0, run.stderr
