@@ -14,8 +14,8 @@ Setup time (loading the metrics) is charged to no phase (:meth:`Progress.restart
   decreasing and below 100 % until :meth:`Progress.close` (the end of the run);
 * the ETA is ``sum((total_p - done_p) * cost_p)``, none before the first unit is done;
 * the bar is drawn when the run starts (before any region is found) and redrawn at least every
-  ``interval`` seconds on a terminal (a ticker thread keeps the elapsed time moving while a
-  long step runs), every ``log_interval`` seconds as a new line elsewhere (logs, pipes).
+  ``interval`` seconds on a terminal, at least every ``log_interval`` seconds as a new line
+  elsewhere (logs, pipes): a ticker thread keeps the elapsed time moving while a long step runs.
 
 ``Progress(enabled=False)`` draws nothing (``-q``). Stdlib only: every layer may use it.
 Thread-safe: workers tick from their threads.
@@ -84,7 +84,8 @@ class Progress:
         self._ticker: threading.Thread | None = None
         if enabled:
             self._draw(force=True)
-            if self.tty and interval is not None:
+            if interval is not None and (self.tty or self.log_interval > 0):  # in logs too: a
+                # line every log_interval while a long step runs (a suite wrote nothing for 40 s)
                 self._ticker = threading.Thread(target=self._tick_loop, daemon=True)
                 self._ticker.start()
 
@@ -179,7 +180,8 @@ class Progress:
         self.stream.flush()
 
     def _tick_loop(self) -> None:
-        while not self._closed.wait(self.interval):
+        period = self.interval if self.tty else self.log_interval
+        while not self._closed.wait(period):
             with self._lock:
                 self._draw()
 

@@ -177,3 +177,17 @@ def test_cli_quiet_draws_no_bar(tmp_path, capsys):
                  "--workers", "2", "-q", "-o", str(tmp_path / "r.json")])
     assert code == 0
     assert "scoring" not in capsys.readouterr().err
+
+
+def test_a_log_gets_a_line_every_log_interval_while_a_long_step_runs():
+    """Issue 43 item 5: written to a log (not a terminal), a suite printed nothing for 40 s: a
+    line came only when a unit was done. A ticker writes one every ``log_interval`` seconds."""
+    import time as real_time
+
+    out = io.StringIO()
+    progress = Progress({"frames": 2}, stream=out, tty=False, log_interval=0.05)
+    real_time.sleep(0.4)  # a long step: no unit done
+    progress.close()
+    lines = out.getvalue().splitlines()
+    assert len(lines) >= 4 and all("frames 0/2" in line for line in lines[:-1])
+    assert progress._ticker is not None and not progress._ticker.is_alive()
