@@ -213,3 +213,25 @@ def test_bfloat16_mlps_stay_close_to_float32(tiny_data):
         assert not torch.equal(c16, c32)  # the bfloat16 path really ran
     else:
         assert torch.equal(c16, c32)  # no native bfloat16: float32
+
+
+def test_the_bar_follows_what_ends_the_run(tiny_data, tmp_path, capsys):
+    """With a time budget the bar counts the budget's seconds (a 30-minute run of at most 100,000
+    steps showed 6.5 hours left); without one, steps."""
+    from tqdm import tqdm
+
+    timed = train_mod.TrainConfig(iters=100_000, minutes=0.5, clock="cpu")
+    bar = train_mod._progress_bar(tqdm, timed, 0, 0.0, show=True)
+    assert (bar.total, bar.unit) == (30, "cpu-s")
+    train_mod._advance(bar, timed, 10, 15.0)
+    assert bar.n == 15  # half the budget used after 10 of 100,000 steps
+    stepped = train_mod.TrainConfig(iters=80)
+    bar.close()
+    bar = train_mod._progress_bar(tqdm, stepped, 5, 99.0, show=True)
+    train_mod._advance(bar, stepped, 40, 99.0)
+    assert (bar.total, bar.n, bar.unit) == (80, 40, "it")
+    bar.close()
+    capsys.readouterr()
+    train(SPEC, tiny_data, tmp_path / "r", size="tiny", iters=1000, progress=True,
+          overrides={"minutes": 1e-9, "batch_rays": 16, "clock": "cpu"})
+    assert "cpu-s" in capsys.readouterr().err
