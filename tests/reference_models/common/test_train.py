@@ -169,12 +169,12 @@ def test_proposals_train_on_the_first_rays_only_and_place_every_ray_s_samples(ti
     torch.testing.assert_close(rgb[0], rgb[None], rtol=0, atol=1e-6)
 
 
-def _tiny_model(tiny_data):
+def _tiny_model(tiny_data, spec=SPEC):
     from reference_models.common.data import load_dataset
     from reference_models.common.train import build_model, scene_info
 
-    model_cfg, render_cfg, _ = SPEC.presets["tiny"]
-    return build_model(SPEC, model_cfg, render_cfg, scene_info(load_dataset(tiny_data)))
+    model_cfg, render_cfg, _ = spec.presets["tiny"]
+    return build_model(spec, model_cfg, render_cfg, scene_info(load_dataset(tiny_data)))
 
 
 def test_regularisers_every_k_steps_at_k_times_the_weight(tiny_data, tmp_path, monkeypatch):
@@ -235,3 +235,27 @@ def test_the_bar_follows_what_ends_the_run(tiny_data, tmp_path, capsys):
     train(SPEC, tiny_data, tmp_path / "r", size="tiny", iters=1000, progress=True,
           overrides={"minutes": 1e-9, "batch_rays": 16, "clock": "cpu"})
     assert "cpu-s" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("spec", [SPEC, NERFPLAYER], ids=["kplanes", "nerfplayer"])
+def test_in_place_relu_changes_no_value_or_gradient(tiny_data, spec):
+    """The decoder MLPs' ReLUs write over their Linear's output (a render 2.38 -> 1.74 CPU s a
+    view): densities, colours and every parameter's gradient equal the out-of-place network's."""
+    torch.manual_seed(0)
+    model = _tiny_model(tiny_data, spec)
+    relus = [m for m in model.modules() if isinstance(m, torch.nn.ReLU)]
+    assert relus and all(m.inplace for m in relus)
+    coords = torch.rand(300, 4) * 2 - 1
+    dirs = torch.nn.functional.normalize(torch.randn(300, 3), dim=-1)
+
+    def run(inplace: bool) -> list[torch.Tensor]:
+        for m in relus:
+            m.inplace = inplace
+        model.zero_grad()
+        density, color = model.density_and_color(coords, dirs)
+        (density.sum() + color.square().sum()).backward()
+        return [density.detach(), color.detach()] + [p.grad.clone() for p in model.parameters()
+                                                     if p.grad is not None]
+
+    for a, b in zip(run(True), run(False), strict=True):
+        assert torch.equal(a, b)
