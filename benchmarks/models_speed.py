@@ -50,9 +50,12 @@ arguments (``supports``) is not measured for that row (—)."""
 _RENDER = """
 import sys, time, importlib, numpy as np, torch
 from reference_models.common.data import load_dataset
-from reference_models.common.train import load_run
+from reference_models.common import train as T
 run, model, n = sys.argv[1], sys.argv[2], int(sys.argv[3])
 torch.set_num_threads(1)
+if hasattr(T, "PLANE_HEAP"):  # this checkout's render_run keeps freed memory: so does its measure
+    T.keep_freed_memory(largest=T.PLANE_HEAP)
+load_run = T.load_run
 cfg, net, _ = load_run(run, importlib.import_module("reference_models." + model).SPEC)
 views = load_dataset(cfg["data"]).eval
 net.eval()
@@ -67,7 +70,10 @@ print((time.perf_counter() - t0) / len(idx))
 """
 """Renders ``n`` eval views of a run with the checkout's own ``render_image`` (its default chunk)
 and prints seconds per view: model and data loading are not counted, nor is a first one-pixel
-render (loading compiled loops: numba's cache, ~0.25 s a function)."""
+render (loading compiled loops: numba's cache, ~0.25 s a function). The allocator is set as the
+checkout's ``render_run`` sets it (``keep_freed_memory(largest=PLANE_HEAP)`` where it has
+``PLANE_HEAP``; before, this measure left glibc returning freed buffers to the kernel, which
+``render_run`` no longer does, so its render column was not what a render costs)."""
 
 
 def _run(code: Path, args: list[str], threads: int) -> str:
