@@ -393,14 +393,15 @@ def _with_plugins(specs: dict[str, MetricSpec]) -> dict[str, MetricSpec]:
     taken = {key: f"dynaeval's {s.name}" for s in specs.values() for key in _keys_of(s)}
     taken.update({key: "a field of the results document" for key in RESULTS_FIELDS})
     extra = plugin_specs(MetricSpec, taken, _keys_of, kinds=KINDS)
+    PLUGIN_METRICS.update({s.name: taken[s.name] for s in extra})
     return {**specs, **{s.name: s for s in extra}}
 
 
-_OWN = frozenset(SPECS)
+PLUGIN_METRICS: dict[str, str] = {}
+"""Name of each metric an installed plugin declares (``dynaeval.metrics.plugins``) -> the plugin,
+as messages name it (``metric plugin 'toy' (toy_pkg:SPEC, package toy-pkg)``): its values are
+checked as they are computed (``run.stages.frame_metrics.plugin_outcome``)."""
 SPECS = _with_plugins(SPECS)
-PLUGIN_METRICS = frozenset(SPECS) - _OWN
-"""Names of the metrics installed plugins declare (``dynaeval.metrics.plugins``): their values
-are checked as they are computed (``run.stages.frame_metrics.plugin_outcome``)."""
 
 
 def _ordered(specs: list[MetricSpec]) -> list[tuple[MetricSpec, str]]:

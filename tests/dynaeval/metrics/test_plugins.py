@@ -215,3 +215,35 @@ def test_a_plugins_bad_values_and_exceptions_are_its_own_nulls_not_dynaevals_bug
     for said in ("returned -inf", "returned nan", "returned 1e+301", "raised ZeroDivisionError"):
         assert f"the metric plugin of 'toy_bad' {said}" in reasons
     assert doc["summary"]["toy_bad"] == 0.625
+
+
+@pytest.mark.parametrize("name,default,flag", [("workers", False, "--workers"),
+                                               ("masked", True, "--no-masked")])
+def test_a_plugin_flag_never_takes_one_of_dynaevals_options(monkeypatch, name, default, flag):
+    """Issue 43: a plugin metric named ``workers`` (flag ``--workers``) broke every command with
+    an argparse traceback. Its metric is skipped on the command line with one warning naming
+    the plugin; every command keeps its own options, a plugin metric that fits keeps its flag."""
+    from dynaeval.cli import build_parser
+    from dynaeval.cli.options import config_from_args
+    from dynaeval.metrics import registry
+
+    for plugin in (name, "toy_fine"):
+        monkeypatch.setitem(registry.SPECS, plugin, MetricSpec(
+            plugin, "frame", True, (0.0, 1.0), "", "toy", default=default, build="x:y"))
+        monkeypatch.setitem(registry.PLUGIN_METRICS, plugin, f"metric plugin {plugin!r} (pkg:x)")
+    with pytest.warns(MetricPluginWarning) as caught:
+        parser = build_parser()
+    assert [str(w.message) for w in caught] == [
+        f"metric plugin {name!r} (pkg:x) declares the metric {name!r}, whose flag ({flag}) is one "
+        "of dynaeval's own options: it is skipped on the command line (rename it in the plugin; "
+        "the library still computes it by name)"]
+    args = parser.parse_args(["score", "p", "g", "--workers", "3", "--no-masked"])
+    assert args.workers == 3 and args.no_masked is True
+    assert name not in config_from_args(args).metrics  # not even on by default
+    assert ("toy_fine" in config_from_args(args).metrics) == default
+    toy = "--no-toy-fine" if default else "--toy-fine"
+    assert parser.parse_args(["demo", toy, "--metrics", "psnr", "toy_fine"]).metrics == [
+        "psnr", "toy_fine"]
+    with pytest.raises(SystemExit):
+        parser.parse_args(["score", "p", "g", "--metrics", name])
+    assert parser.parse_args(["merge", "a.json", "-o", "m.json"]).command == "merge"
