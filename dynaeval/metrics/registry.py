@@ -400,7 +400,7 @@ def _with_plugins(specs: dict[str, MetricSpec]) -> dict[str, MetricSpec]:
 PLUGIN_METRICS: dict[str, str] = {}
 """Name of each metric an installed plugin declares (``dynaeval.metrics.plugins``) -> the plugin,
 as messages name it (``metric plugin 'toy' (toy_pkg:SPEC, package toy-pkg)``): its values are
-checked as they are computed (``run.stages.frame_metrics.plugin_outcome``)."""
+checked as they are computed (``run.stages.base.plugin_outcome``)."""
 SPECS = _with_plugins(SPECS)
 
 

@@ -247,3 +247,35 @@ def test_a_plugin_flag_never_takes_one_of_dynaevals_options(monkeypatch, name, d
     with pytest.raises(SystemExit):
         parser.parse_args(["score", "p", "g", "--metrics", name])
     assert parser.parse_args(["merge", "a.json", "-o", "m.json"]).command == "merge"
+
+
+VIDEO = '''
+import math
+
+from dynaeval.metrics.registry import MetricSpec
+
+SPEC = MetricSpec("toy_video", "camera", True, (0.0, 1.0), "", "a video plugin that fails",
+                  default=False, build="toy_metric_pkg:build")
+
+
+def build(ctx):
+    def fn(pred, gt, fps, region):
+        return math.nan
+    return fn
+'''
+
+
+def test_a_video_plugins_nan_is_its_own_null_by_the_frame_metrics_rule(tmp_path):
+    """Issue 43: a plugin of kind ``camera`` (a video metric) returning NaN was written as null
+    silently, without a status or a word: the rule of the per-frame plugins applies to it."""
+    from dynaeval.report.results import load_results
+
+    site = _install(tmp_path / "site", "toy_video = toy_metric_pkg:SPEC", code=VIDEO)
+    run = _score(site, tmp_path / "r.json", "--metrics", "psnr", "toy_video")
+    assert run.returncode == 0, run.stderr
+    doc = load_results(tmp_path / "r.json")
+    assert doc["summary"]["toy_video"] is None
+    failed = [w for w in doc["warnings"] if w.get("metric") == "toy_video"]
+    assert [w["status"] for w in failed] == ["plugin-failed"] * 2  # the camera's, the summary's
+    assert "the metric plugin of 'toy_video' returned nan" in failed[0]["reason"]
+    assert "returned nan" in run.stderr
