@@ -114,7 +114,9 @@ def plugin_outcome(key: str, call: Callable[[], object]) -> Outcome:
     with ``PLUGIN_FAILED`` naming the plugin when it raises (but for dynaeval's own errors,
     which it may raise as dynaeval's metrics do) or returns NaN, -infinity or a magnitude beyond
     ``VALUE_LIMIT`` (merge and the leaderboard refuse those; -infinity was written as
-    "+infinity"). One rule, documented in docs/architecture.md (plugins)."""
+    "+infinity"), or +infinity where it is no ideal value: +infinity is "prediction equals
+    ground truth" (``Status.INFINITE``) only for a metric that is higher-is-better and
+    unbounded above, as PSNR. One rule, documented in docs/architecture.md (plugins)."""
     who = f"the metric plugin of {key!r}"
     try:
         value = float(call())  # type: ignore[arg-type]
@@ -126,5 +128,11 @@ def plugin_outcome(key: str, call: Callable[[], object]) -> Outcome:
                                                   and abs(value) > VALUE_LIMIT):
         return Outcome(None, Status.PLUGIN_FAILED,
                        f"{who} returned {value!r}, which a results file cannot hold")
+    info = METRICS[key]
+    if value == math.inf and not (info.higher_is_better and info.range[1] == math.inf):
+        return Outcome(None, Status.PLUGIN_FAILED, (
+            f"{who} returned inf, which is no ideal value of it ("
+            + ("lower is better" if not info.higher_is_better else
+               f"its range ends at {info.range[1]!r}") + ")"))
     return Outcome.of(value)
 

@@ -279,3 +279,39 @@ def test_a_video_plugins_nan_is_its_own_null_by_the_frame_metrics_rule(tmp_path)
     assert [w["status"] for w in failed] == ["plugin-failed"] * 2  # the camera's, the summary's
     assert "the metric plugin of 'toy_video' returned nan" in failed[0]["reason"]
     assert "returned nan" in run.stderr
+
+
+INF = '''
+import math
+
+from dynaeval.metrics.registry import MetricSpec
+
+SPECS = [MetricSpec("toy_lower", "frame", False, (0.0, math.inf), "", "lower is better",
+                    default=False, build="toy_metric_pkg:build"),
+         MetricSpec("toy_higher", "frame", True, (0.0, math.inf), "dB", "higher is better",
+                    default=False, build="toy_metric_pkg:build")]
+
+
+def build(ctx):
+    def fn(pred, gt, region):
+        return math.inf
+    return fn
+'''
+
+
+def test_plus_infinity_is_the_ideal_only_of_a_higher_is_better_plugin(tmp_path):
+    """Issue 43: +infinity from a lower-is-better plugin was recorded as "prediction equals
+    ground truth": that is +infinity's meaning for PSNR-like metrics only (higher is better,
+    unbounded above); for the others it is the plugin's failure."""
+    from dynaeval.report.results import load_results
+
+    site = _install(tmp_path / "site", "toy = toy_metric_pkg:SPECS", code=INF)
+    run = _score(site, tmp_path / "r.json", "--metrics", "psnr", "toy_lower", "toy_higher")
+    assert run.returncode == 0, run.stderr
+    doc = load_results(tmp_path / "r.json")
+    lower = [w for w in doc["warnings"] if w.get("metric") == "toy_lower"]
+    higher = [w for w in doc["warnings"] if w.get("metric") == "toy_higher"]
+    assert lower and {w["status"] for w in lower} == {"plugin-failed"}, lower
+    assert "the metric plugin of 'toy_lower' returned inf" in lower[0]["reason"]
+    assert "lower is better" in lower[0]["reason"]
+    assert higher and {w["status"] for w in higher} == {"infinite"}, higher
