@@ -185,6 +185,9 @@ def build_plan(config: ScoreConfig, *, scope: Scope | None = None, masks: MaskSe
                             f" (to leave it out: {SPECS[name].flag}; in the library, leave "
                             f"{name!r} out of metrics)" if SPECS[name].default else ""))
                 for name, why in built.unavailable.items()]
+    warnings += [warning(Status.PLUGIN_FAILED, metric=name,
+                         reason=unavailable_reason(SPECS[name].title, why))
+                 for name, why in built.failed.items()]
     settings = _settings(config, quantize, built.settings, regions, protocol, masks)
     sources = open_sources(focus)
     settings["focus"] = sources.settings

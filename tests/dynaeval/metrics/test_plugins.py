@@ -315,3 +315,47 @@ def test_plus_infinity_is_the_ideal_only_of_a_higher_is_better_plugin(tmp_path):
     assert "the metric plugin of 'toy_lower' returned inf" in lower[0]["reason"]
     assert "lower is better" in lower[0]["reason"]
     assert higher and {w["status"] for w in higher} == {"infinite"}, higher
+
+
+HOOKS = '''
+from dynaeval.metrics.registry import MetricSpec
+
+SPEC = MetricSpec("toy_bad", "frame", False, (0.0, 1.0), "", "a plugin whose set-up fails",
+                  default=False, build="toy_metric_pkg:build", {hook}="toy_metric_pkg:broken")
+
+
+def build(ctx):
+    def fn(pred, gt, region):
+        return 0.5
+    return fn
+
+
+def broken(*args):
+    raise KeyError("net")
+'''
+
+
+@pytest.mark.parametrize("hook", ["build", "settings", "requires"])
+def test_a_plugin_whose_set_up_raises_is_named_as_the_plugins_failure(tmp_path, hook):
+    """Issue 43: a plugin whose build, settings or requires function raised ended as "internal
+    error (a bug)". Its build or settings raising leaves its metric out with one warning
+    (plugin-failed) naming the plugin and what raised, as a plugin that fails to load is
+    skipped; its requires raising says the metric cannot run here, and a metric asked for by
+    name that cannot run is refused before any work (exit 2)."""
+    code = HOOKS.replace("{hook}", hook) if hook != "build" else HOOKS.replace(
+        ', {hook}="toy_metric_pkg:broken"', "").replace('build="toy_metric_pkg:build"',
+                                                        'build="toy_metric_pkg:broken"')
+    site = _install(tmp_path / "site", "toy_bad = toy_metric_pkg:SPEC", code=code)
+    run = _score(site, tmp_path / "r.json", "--metrics", "psnr", "toy_bad")
+    assert "internal error" not in run.stderr and "Traceback" not in run.stderr, run.stderr
+    said = (f"metric plugin 'toy_bad' (toy_metric_pkg:SPEC, package toy-metric-pkg): its {hook} "
+            "function 'toy_metric_pkg:broken' raised KeyError: 'net'")
+    assert said in run.stderr
+    if hook == "requires":
+        assert run.returncode == 2 and not (tmp_path / "r.json").exists()
+        return
+    assert run.returncode == 0
+    doc = json.loads((tmp_path / "r.json").read_text())
+    assert "toy_bad" not in doc["summary"] and doc["summary"]["psnr"] > 20
+    failed = [w for w in doc["warnings"] if w.get("metric") == "toy_bad"]
+    assert [w["status"] for w in failed] == ["plugin-failed"] and said in failed[0]["reason"]
