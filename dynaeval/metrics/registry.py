@@ -66,6 +66,11 @@ COVISIBLE_RULE = ("DyCheck's: PSNR of masked_mean(squared error); SSIM of partia
 
 KINDS = ("frame", "pair", "camera", "object")
 
+PLUGIN_KINDS = {"frame": "fn(pred, gt, region) per frame",
+                "camera": "fn(pred_frames, gt_frames, fps, region) per camera"}
+"""The kinds a plugin's metric may have (``MetricSpec.build`` returns that function); ``pair``
+and ``object`` metrics are computed by dynaeval's own engines (temporal, presence)."""
+
 PRESENCE_CLASSES = ("person", "ball")
 """Object classes the presence check reports (``presence_<class>``, ``tight_psnr_<class>``)."""
 
@@ -397,7 +402,7 @@ def _with_plugins(specs: dict[str, MetricSpec]) -> dict[str, MetricSpec]:
     ``dynaeval.metrics``: ``dynaeval.metrics.plugins``)."""
     taken = {key: f"dynaeval's {s.name}" for s in specs.values() for key in _keys_of(s)}
     taken.update({key: "a field of the results document" for key in RESULTS_FIELDS})
-    extra = plugin_specs(MetricSpec, taken, _keys_of, kinds=KINDS)
+    extra = plugin_specs(MetricSpec, taken, _keys_of, kinds=KINDS, plugin_kinds=PLUGIN_KINDS)
     PLUGIN_METRICS.update({s.name: taken[s.name] for s in extra})
     return {**specs, **{s.name: s for s in extra}}
 

@@ -159,7 +159,7 @@ def test_a_plugin_metric_named_like_a_results_field_or_of_an_unknown_kind_is_ref
     messages = [str(w.message) for w in caught]
     assert "whose key 'gt' is already a field of the results document's" in messages[0]
     assert "whose key 'n_frames' is already a field of the results document's" in messages[1]
-    assert "of kind 'video', which dynaeval does not run" in messages[2]
+    assert "of kind 'video', which is refused: dynaeval has no such kind" in messages[2]
 
 
 def test_a_plugin_that_exits_on_import_is_skipped_and_every_command_still_runs(tmp_path):
@@ -359,3 +359,42 @@ def test_a_plugin_whose_set_up_raises_is_named_as_the_plugins_failure(tmp_path, 
     assert "toy_bad" not in doc["summary"] and doc["summary"]["psnr"] > 20
     failed = [w for w in doc["warnings"] if w.get("metric") == "toy_bad"]
     assert [w["status"] for w in failed] == ["plugin-failed"] and said in failed[0]["reason"]
+
+
+@pytest.fixture
+def registered(monkeypatch):
+    """``_with_plugins`` (what the registry does when it is imported) over the given entry
+    points, read through a monkeypatched ``importlib.metadata.entry_points``."""
+    from dynaeval.metrics import plugins, registry
+
+    own = {n: s for n, s in registry.SPECS.items() if n not in registry.PLUGIN_METRICS}
+    monkeypatch.setattr(registry, "PLUGIN_METRICS", {})
+
+    def register(*found: _EntryPoint) -> dict[str, MetricSpec]:
+        monkeypatch.setattr(plugins, "entry_points", lambda group: list(found))
+        return registry._with_plugins(own)
+    return register
+
+
+@pytest.mark.parametrize("make,message", [
+    (lambda: MetricSpec("t", "pair", True, (0.0, 1.0), "", "toy", build="x:y"),
+     "declares the metric 't' of kind 'pair', which is refused: dynaeval's own engines compute "
+     "the metrics of that kind; a plugin's metric is of kind frame (fn(pred, gt, region) per "
+     "frame) or camera (fn(pred_frames, gt_frames, fps, region) per camera)"),
+    (lambda: MetricSpec("t", "object", True, (0.0, 1.0), "", "toy", classes=("person",),
+                        regions=(), build="x:y"),
+     "declares the metric 't' of kind 'object', which is refused: dynaeval's own engines"),
+    (lambda: MetricSpec("t", "video", True, (0.0, 1.0), "", "toy", build="x:y"),
+     "declares the metric 't' of kind 'video', which is refused: dynaeval has no such kind"),
+    (lambda: MetricSpec("t", "frame", True, (0.0, 1.0), "", "toy"),
+     "declares the metric 't', which is refused: it has no build ('module:function' returning "
+     "the metric's function), so nothing would compute it"),
+])
+def test_a_plugin_metric_of_a_kind_it_cannot_have_is_refused_at_registration(registered, make,
+                                                                             message):
+    """Issue 43: a plugin metric of kind pair or object was accepted, got its flag, and then
+    failed with a TypeError in the run (called as a video metric): refused when registered,
+    one warning naming the plugin; its other metrics are kept."""
+    with pytest.warns(MetricPluginWarning, match=re.escape(f"metric plugin 'x' (pkg:x) {message}")):
+        specs = registered(_EntryPoint("x", [make(), _spec("fine")]))
+    assert "t" not in specs and "fine" in specs
