@@ -88,8 +88,8 @@ def plugin_specs(spec_type: type, taken: dict[str, str],
                 continue
             clash = next((k for k in keys_of(spec) if k in taken), None)
             if clash is not None:
-                warnings.warn(f"{_where(ep)} declares the metric {spec.name!r}, whose key "
-                              f"{clash!r} is already {taken[clash]}'s: it is refused (rename "
+                warnings.warn(f"{_where(ep)} declares the metric {spec.name!r}, which is "
+                              f"refused: its key {clash!r} is taken by {taken[clash]} (rename "
                               "it in the plugin)", MetricPluginWarning, stacklevel=2)
                 continue
             for key in keys_of(spec):

@@ -43,6 +43,7 @@ from dynaeval.core.errors import (
     WeightsUnavailableError,
     did_you_mean,
 )
+from dynaeval.core.schemas import results_fields
 from dynaeval.metrics.plugins import plugin_specs
 from dynaeval.metrics.protocols import get_protocol
 
@@ -387,21 +388,20 @@ def _keys_of(spec: MetricSpec) -> list[str]:
     return [spec.name, *(spec.key(r) for r in spec.regions), *(spec.key(c) for c in spec.classes)]
 
 
-RESULTS_FIELDS = ("camera", "frame", "index", "pred", "gt", "objects", "n_frames", "status",
-                  "reason", "schema", "method", "scene", "inputs", "settings", "metrics",
-                  "frames", "cameras", "summary", "summary_status", "counts", "timing",
-                  "warnings", "regions", "temporal_parts", "created", "provenance",
-                  "dynaeval_version", "temporal")
-"""Names the results document uses for its own fields (a frame row's ``camera`` ... ``objects``,
-``n_frames`` of a camera and the summary, the document's keys): no metric may take one (a plugin
-metric named ``gt`` overwrote each row's ground-truth path)."""
+RESULTS_FIELDS = results_fields()
+"""Names the results document uses for its own fields, read from its schema (a frame row's
+``camera`` ... ``objects``, ``n_frames`` of a camera and the summary, the timing phases
+``read`` ..., the settings sections ``protocol`` ..., the document's keys) -> how a message names
+each: no metric may take one (a plugin metric named ``gt`` overwrote each row's ground-truth
+path, one named ``read`` the timing of reading)."""
 
 
 def _with_plugins(specs: dict[str, MetricSpec]) -> dict[str, MetricSpec]:
     """``specs`` and, after them, the metrics of installed plugins (entry-point group
     ``dynaeval.metrics``: ``dynaeval.metrics.plugins``)."""
     taken = {key: f"dynaeval's {s.name}" for s in specs.values() for key in _keys_of(s)}
-    taken.update({key: "a field of the results document" for key in RESULTS_FIELDS})
+    for key, where in RESULTS_FIELDS.items():
+        taken.setdefault(key, where)
     extra = plugin_specs(MetricSpec, taken, _keys_of, kinds=KINDS, plugin_kinds=PLUGIN_KINDS)
     PLUGIN_METRICS.update({s.name: taken[s.name] for s in extra})
     return {**specs, **{s.name: s for s in extra}}

@@ -124,10 +124,10 @@ def test_plugin_reusing_a_name_or_key_is_refused_naming_both():
     assert [s.name for s in specs] == ["good", "good2", "psnr2"]
     messages = [str(w.message) for w in caught]
     assert messages == [
-        "metric plugin 'a' (pkg:a) declares the metric 'psnr', whose key 'psnr' is already "
-        "dynaeval's psnr's: it is refused (rename it in the plugin)",
-        "metric plugin 'd' (pkg:d) declares the metric 'good', whose key 'good' is already "
-        "metric plugin 'b' (pkg:b)'s: it is refused (rename it in the plugin)"]
+        "metric plugin 'a' (pkg:a) declares the metric 'psnr', which is refused: its key 'psnr' "
+        "is taken by dynaeval's psnr (rename it in the plugin)",
+        "metric plugin 'd' (pkg:d) declares the metric 'good', which is refused: its key 'good' "
+        "is taken by metric plugin 'b' (pkg:b) (rename it in the plugin)"]
 
 
 @pytest.mark.parametrize("obj,message", [
@@ -149,7 +149,7 @@ def test_a_plugin_metric_named_like_a_results_field_or_of_an_unknown_kind_is_ref
     from dynaeval.report.results_check import FRAME_FIELDS
 
     assert set(FRAME_FIELDS) <= set(RESULTS_FIELDS)
-    taken = {key: "a field of the results document" for key in RESULTS_FIELDS}
+    taken = dict(RESULTS_FIELDS)
     odd = MetricSpec("odd", "video", True, (0.0, 1.0), "", "toy", build="x:y")
     found = [_EntryPoint("a", _spec("gt")), _EntryPoint("b", _spec("n_frames")),
              _EntryPoint("c", odd), _EntryPoint("d", _spec("fine"))]
@@ -157,8 +157,8 @@ def test_a_plugin_metric_named_like_a_results_field_or_of_an_unknown_kind_is_ref
         specs = plugin_specs(MetricSpec, taken, _keys, found=lambda: found, kinds=KINDS)
     assert [s.name for s in specs] == ["fine"]
     messages = [str(w.message) for w in caught]
-    assert "whose key 'gt' is already a field of the results document's" in messages[0]
-    assert "whose key 'n_frames' is already a field of the results document's" in messages[1]
+    assert "its key 'gt' is taken by the frame rows' field 'gt'" in messages[0]
+    assert "its key 'n_frames' is taken by the field 'n_frames' of summary" in messages[1]
     assert "of kind 'video', which is refused: dynaeval has no such kind" in messages[2]
 
 
@@ -398,3 +398,37 @@ def test_a_plugin_metric_of_a_kind_it_cannot_have_is_refused_at_registration(reg
     with pytest.warns(MetricPluginWarning, match=re.escape(f"metric plugin 'x' (pkg:x) {message}")):
         specs = registered(_EntryPoint("x", [make(), _spec("fine")]))
     assert "t" not in specs and "fine" in specs
+
+
+@pytest.mark.parametrize("name,owner", [
+    ("read", "the timing phase 'read'"), ("total_s", "the timing phase 'total_s'"),
+    ("protocol", "the settings section 'protocol'"), ("focus", "the settings section 'focus'"),
+    ("gt", "the frame rows' field 'gt'"),
+])
+def test_a_plugin_metric_named_like_a_timing_phase_or_settings_section_is_refused(
+        registered, name, owner):
+    """Issue 43: the hand-made list of results fields missed the timing phases (``read``,
+    ``regions``, ...) and the settings sections (``protocol``, ``focus``, ...): a plugin metric
+    so named overwrote them. The names are read from the results schema, which lists them."""
+    with pytest.warns(MetricPluginWarning) as caught:
+        specs = registered(_EntryPoint("x", [_spec(name), _spec("fine")]))
+    assert name not in specs and "fine" in specs
+    assert [str(w.message) for w in caught] == [
+        f"metric plugin 'x' (pkg:x) declares the metric {name!r}, which is refused: its key "
+        f"{name!r} is taken by {owner} (rename it in the plugin)"]
+
+
+def test_the_schema_names_every_timing_phase_and_settings_section_a_run_writes(tmp_path):
+    """What the registry refuses is read from the schema: hold the schema to what a run writes
+    (every timing key and settings section that is not a metric's)."""
+    import dynaeval
+    from dynaeval.core.schemas import results_fields
+    from dynaeval.metrics.registry import METRICS, SPECS
+
+    s = sample_dir()
+    doc = dynaeval.score(s / "pred", s / "gt", progress=False, metrics=("psnr", "ssim"),
+                         focus=dynaeval.FocusConfig.parse("motion"))
+    fields = results_fields()
+    assert {"read", "regions", "temporal", "total_s"} <= set(doc["timing"])
+    assert [k for k in doc["timing"] if k not in METRICS and k not in fields] == []
+    assert [k for k in doc["settings"] if k not in SPECS and k not in fields] == []
