@@ -210,6 +210,10 @@ class RegionSources:
     footage it was not trained for, output names overruled by dtypes."""
     detector_note: str | None = None
     """Why a detector's boxes file does not re-run its detector (its model is not here)."""
+    given_masks: bool = False
+    """The run's masks are given (``--masks``; ``dynaeval.regions.given``): they replace the
+    motion masks wherever a mask is used, so motion masks are found only for ``--focus motion``
+    boxes (a camera still gets its static check, ``FrameRegions.camera_motion``)."""
 
 
 def open_sources(config: FocusConfig) -> RegionSources:
@@ -325,8 +329,14 @@ def _camera_regions(camera: str, frames: Sequence[str], load_gt: Callable[[int],
     first = load_gt(0).shape
     load = same_shape(load_gt, first) if video else load_gt
     out = [FrameRegions() for _ in frames]
-    if (cfg.masked or cfg.kind.from_motion) and video:
+    if (cfg.kind.from_motion or (cfg.masked and not sources.given_masks)) and video:
         _add_motion_masks(out, camera, load, cfg.motion_kind, executor, cfg.source)
+    elif cfg.masked and video:  # given masks replace the motion masks: none found (they were,
+        # then dropped), the camera's static check only (its note: regions.given)
+        if len(out) >= MIN_MOTION_FRAMES:
+            check = _static_check(load, len(out), None, cfg.source)
+            for r in out:
+                r.camera_motion = check
     elif cfg.masked or cfg.kind.from_motion:
         for r in out:
             r.mask_reason, r.mask_status = NOT_A_VIDEO, Status.NOT_A_VIDEO

@@ -190,6 +190,7 @@ def build_plan(config: ScoreConfig, *, scope: Scope | None = None, masks: MaskSe
                  for name, why in built.failed.items()]
     settings = _settings(config, quantize, built.settings, regions, protocol, masks)
     sources = open_sources(focus)
+    sources.given_masks = masks is not None  # they replace the motion masks (regions.given)
     settings["focus"] = sources.settings
     warnings.extend(sources.warnings)
     presence = _presence_step(config, sources, settings)

@@ -60,7 +60,8 @@ def camera_regions_of(camera: str, pairs: list[FramePair], plan: RunPlan, execut
                 first_gt.shape[:2], plan.sources, executor.pool, paths=[p.gt for p in pairs],
             )
         if plan.masks is not None:
-            regions = given_masks(regions, [p.gt.path for p in pairs], plan.masks)
+            regions = given_masks(regions, [p.gt.path for p in pairs], plan.masks,
+                                  plan.focus.source)
     except InputError as err:
         if err.path is not None:
             raise
