@@ -40,7 +40,8 @@ def _metrics_help(names: list[str]) -> str:
 def _add_flag(p: Any, spec: MetricSpec) -> None:
     """A metric's ``--no-NAME`` (on by default) or ``--NAME`` flag."""
     extra = f" (needs pip install 'dynaeval[{spec.extra}]')" if spec.extra else ""
-    what = f"skip {spec.title}" if spec.default else f"also compute {spec.title}: {spec.description}"
+    what = (f"skip {spec.title}" if spec.default
+            else f"also compute {spec.title}: {spec.description}")
     p.add_argument(spec.flag, action="store_true", dest=toggle_dest(spec), help=what + extra)
 
 
