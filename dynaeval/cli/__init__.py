@@ -24,6 +24,7 @@ from dynaeval.core.version import VERSION
 from . import demo, detect, detector, leaderboard, merge, prepare, score, suite
 from .common import EXIT_BUG, EXIT_INPUT, EXIT_OK, FOLDERS_RULE, sample_dir
 from .console import print_frame_warnings as _print_frame_warnings
+from .metric_flags import add_plugin_flags
 from .options import config_from_args, parse_classes
 
 __all__ = ["COMMANDS", "EXIT_BUG", "EXIT_INPUT", "EXIT_OK", "FOLDERS_RULE", "build_parser",
@@ -56,6 +57,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for command in COMMANDS:
         command.add(sub)
+    add_plugin_flags(list(sub.choices.values()))  # last: dynaeval's options come first
     return parser
 
 

@@ -32,6 +32,14 @@ class UndefinedMetricError(InputError):
     """
 
 
+class PluginError(InputError):
+    """A metric plugin's own code failed while a run was set up (its ``build``, ``settings`` or
+    ``requires`` function raised): the plugin's failure, named as such, never dynaeval's bug.
+
+    The message names the plugin (entry point and package), the function and what it raised.
+    """
+
+
 class WeightsUnavailableError(RuntimeError):
     """Pretrained weights (e.g. LPIPS's torchvision backbone) are not on this machine.
 

@@ -67,7 +67,7 @@ class Progress:
         if unknown:
             raise ValueError(f"unknown progress phases {sorted(unknown)}; phases are {PHASES}")
         self.totals = {p: int(totals.get(p, 0)) for p in PHASES}
-        self.done = dict.fromkeys(PHASES, 0)
+        self.done: dict[str, float] = dict.fromkeys(PHASES, 0.0)  # shares of units too
         self.spent = dict.fromkeys(PHASES, 0.0)
         self.enabled, self.desc, self.clock = enabled, desc, clock
         self.stream = stream if stream is not None else sys.stderr
@@ -101,13 +101,15 @@ class Progress:
         with self._lock:
             self._last_tick = self.clock()
 
-    def advance(self, phase: str, units: int = 1, note: str | None = None) -> None:
-        """``units`` of ``phase`` are done; the time since the last tick is charged to it."""
+    def advance(self, phase: str, units: float = 1, note: str | None = None) -> None:
+        """``units`` of ``phase`` are done (a share of one too: a frame's motion mask is half
+        of its regions when a detector runs as well); the time since the last tick is charged
+        to it."""
         with self._lock:
             now = self.clock()
             self.spent[phase] += now - self._last_tick
             self._last_tick = now
-            self.done[phase] = min(self.totals[phase], self.done[phase] + int(units))
+            self.done[phase] = min(self.totals[phase], self.done[phase] + units)
             self.current = phase
             if note is not None:
                 self.note = note
@@ -157,7 +159,7 @@ class Progress:
         width = 20
         fill = int(frac * width)
         current = self.current
-        phase = f"{LABELS[current]} {self.done[current]}/{self.totals[current]}"
+        phase = f"{LABELS[current]} {int(self.done[current] + 1e-6)}/{self.totals[current]}"
         elapsed = self.clock() - self._start
         eta = self.eta()
         tail = "done" if final else ("ETA ?" if eta is None else f"ETA {_clock_text(eta)}")

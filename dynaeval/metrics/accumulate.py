@@ -41,6 +41,8 @@ from dynaeval.metrics.protocols import get_protocol
 from dynaeval.metrics.registry import (
     FrameContext,
     FrameFn,
+    call_hook,
+    cannot_run,
     default_frame_metrics,
     frame_specs,
     region_argument,
@@ -185,7 +187,7 @@ class ImageMetrics:
         ctx = FrameContext(data_range=self.data_range, protocol=self.protocol, device="cpu",
                            lpips_net=self.lpips_net, pretrained_backbone=True)
         for s in frame_specs(self.metrics):
-            why = s.load("requires")(ctx) if s.requires else None
+            why = cannot_run(s, ctx)
             if why:
                 keep = tuple(m for m in self.metrics if m != s.name)
                 fix = f"ImageMetrics(metrics={keep!r})" if keep else "another metric"
@@ -212,7 +214,7 @@ class ImageMetrics:
             ctx = FrameContext(data_range=self.data_range, protocol=self.protocol,
                                device=resolve_device(device), lpips_net=self.lpips_net,
                                pretrained_backbone=self.pretrained_backbone)
-            self._fns = {s.name: s.load("build")(ctx) for s in frame_specs(self.metrics)}
+            self._fns = {s.name: call_hook(s, "build", ctx) for s in frame_specs(self.metrics)}
         return self._fns
 
     def update(self, pred: Any, gt: Any, mask: Any = None) -> dict[str, list[float | None]]:

@@ -50,7 +50,8 @@ def _specs_of(ep: EntryPoint, spec_type: type) -> list[Any]:
 def plugin_specs(spec_type: type, taken: dict[str, str],
                  keys_of: Callable[[Any], list[str]],
                  found: Callable[[], Any] = lambda: entry_points(group=ENTRY_POINT_GROUP),
-                 kinds: tuple[str, ...] = ()) -> list[Any]:
+                 kinds: tuple[str, ...] = (),
+                 plugin_kinds: dict[str, str] | None = None) -> list[Any]:
     """The metrics the installed plugins declare, checked, in entry-point name order.
 
     Args:
@@ -59,13 +60,16 @@ def plugin_specs(spec_type: type, taken: dict[str, str],
             with the plugins' own).
         keys_of: a spec's base name and result keys.
         found: the entry points to read (tests pass their own).
-        kinds: the metric kinds dynaeval runs (a spec of another kind is refused); empty: any.
+        kinds: the metric kinds dynaeval has (a spec of another kind is refused); empty: any.
+        plugin_kinds: the kinds a plugin's metric may have -> the function it then gives
+            (a spec of another of ``kinds``, one dynaeval's own engines compute, or one without
+            a ``build`` is refused); None: any of ``kinds``.
 
     Warns:
         MetricPluginWarning: per plugin that fails to load (an exception or ``sys.exit`` on
-            import) or is not a MetricSpec, and per metric of an unknown kind or whose name or
-            key is taken, by dynaeval's metrics or a field of the results (it is refused, the
-            others are kept).
+            import) or is not a MetricSpec, and per metric of an unknown kind or one a plugin
+            cannot have, without a build, or whose name or key is taken, by dynaeval's metrics
+            or a field of the results (it is refused, the others are kept).
     """
     out = []
     for ep in sorted(found(), key=lambda e: e.name):
@@ -77,19 +81,36 @@ def plugin_specs(spec_type: type, taken: dict[str, str],
                           f"{type(err).__name__}: {err}", MetricPluginWarning, stacklevel=2)
             continue
         for spec in specs:
-            if kinds and spec.kind not in kinds:
-                warnings.warn(f"{_where(ep)} declares the metric {spec.name!r} of kind "
-                              f"{spec.kind!r}, which dynaeval does not run (kinds: "
-                              f"{', '.join(kinds)}): it is refused", MetricPluginWarning,
-                              stacklevel=2)
+            refused = _refusal(spec, kinds, plugin_kinds)
+            if refused is not None:
+                warnings.warn(f"{_where(ep)} declares the metric {spec.name!r}{refused}",
+                              MetricPluginWarning, stacklevel=2)
                 continue
             clash = next((k for k in keys_of(spec) if k in taken), None)
             if clash is not None:
-                warnings.warn(f"{_where(ep)} declares the metric {spec.name!r}, whose key "
-                              f"{clash!r} is already {taken[clash]}'s: it is refused (rename "
+                warnings.warn(f"{_where(ep)} declares the metric {spec.name!r}, which is "
+                              f"refused: its key {clash!r} is taken by {taken[clash]} (rename "
                               "it in the plugin)", MetricPluginWarning, stacklevel=2)
                 continue
             for key in keys_of(spec):
                 taken[key] = _where(ep)
             out.append(spec)
     return out
+
+
+def _refusal(spec: Any, kinds: tuple[str, ...],
+             plugin_kinds: dict[str, str] | None) -> str | None:
+    """Why a plugin's metric cannot be registered (the end of its warning), or None: a kind
+    dynaeval does not have, one a plugin cannot have (a plugin ``pair`` metric was called as a
+    video metric, a ``TypeError`` in the run), no ``build`` (nothing would compute it)."""
+    if kinds and spec.kind not in kinds:
+        return (f" of kind {spec.kind!r}, which is refused: dynaeval has no such kind (kinds: "
+                f"{', '.join(kinds)})")
+    if plugin_kinds is not None and spec.kind not in plugin_kinds:
+        allowed = " or ".join(f"{k} ({what})" for k, what in plugin_kinds.items())
+        return (f" of kind {spec.kind!r}, which is refused: dynaeval's own engines compute the "
+                f"metrics of that kind; a plugin's metric is of kind {allowed}")
+    if spec.build is None:
+        return (", which is refused: it has no build ('module:function' returning the metric's "
+                "function), so nothing would compute it")
+    return None

@@ -37,7 +37,13 @@ from typing import Any
 import numpy as np
 
 from dynaeval.core.deps import MissingDependency
-from dynaeval.core.errors import InputError, WeightsUnavailableError, did_you_mean
+from dynaeval.core.errors import (
+    InputError,
+    PluginError,
+    WeightsUnavailableError,
+    did_you_mean,
+)
+from dynaeval.core.schemas import results_fields
 from dynaeval.metrics.plugins import plugin_specs
 from dynaeval.metrics.protocols import get_protocol
 
@@ -60,6 +66,11 @@ COVISIBLE_RULE = ("DyCheck's: PSNR of masked_mean(squared error); SSIM of partia
 """How the ``covisible`` variant reduces (in the settings of a run that computes it)."""
 
 KINDS = ("frame", "pair", "camera", "object")
+
+PLUGIN_KINDS = {"frame": "fn(pred, gt, region) per frame",
+                "camera": "fn(pred_frames, gt_frames, fps, region) per camera"}
+"""The kinds a plugin's metric may have (``MetricSpec.build`` returns that function); ``pair``
+and ``object`` metrics are computed by dynaeval's own engines (temporal, presence)."""
 
 PRESENCE_CLASSES = ("person", "ball")
 """Object classes the presence check reports (``presence_<class>``, ``tight_psnr_<class>``)."""
@@ -377,30 +388,30 @@ def _keys_of(spec: MetricSpec) -> list[str]:
     return [spec.name, *(spec.key(r) for r in spec.regions), *(spec.key(c) for c in spec.classes)]
 
 
-RESULTS_FIELDS = ("camera", "frame", "index", "pred", "gt", "objects", "n_frames", "status",
-                  "reason", "schema", "method", "scene", "inputs", "settings", "metrics",
-                  "frames", "cameras", "summary", "summary_status", "counts", "timing",
-                  "warnings", "regions", "temporal_parts", "created", "provenance",
-                  "dynaeval_version", "temporal")
-"""Names the results document uses for its own fields (a frame row's ``camera`` ... ``objects``,
-``n_frames`` of a camera and the summary, the document's keys): no metric may take one (a plugin
-metric named ``gt`` overwrote each row's ground-truth path)."""
+RESULTS_FIELDS = results_fields()
+"""Names the results document uses for its own fields, read from its schema (a frame row's
+``camera`` ... ``objects``, ``n_frames`` of a camera and the summary, the timing phases
+``read`` ..., the settings sections ``protocol`` ..., the document's keys) -> how a message names
+each: no metric may take one (a plugin metric named ``gt`` overwrote each row's ground-truth
+path, one named ``read`` the timing of reading)."""
 
 
 def _with_plugins(specs: dict[str, MetricSpec]) -> dict[str, MetricSpec]:
     """``specs`` and, after them, the metrics of installed plugins (entry-point group
     ``dynaeval.metrics``: ``dynaeval.metrics.plugins``)."""
     taken = {key: f"dynaeval's {s.name}" for s in specs.values() for key in _keys_of(s)}
-    taken.update({key: "a field of the results document" for key in RESULTS_FIELDS})
-    extra = plugin_specs(MetricSpec, taken, _keys_of, kinds=KINDS)
+    for key, where in RESULTS_FIELDS.items():
+        taken.setdefault(key, where)
+    extra = plugin_specs(MetricSpec, taken, _keys_of, kinds=KINDS, plugin_kinds=PLUGIN_KINDS)
+    PLUGIN_METRICS.update({s.name: taken[s.name] for s in extra})
     return {**specs, **{s.name: s for s in extra}}
 
 
-_OWN = frozenset(SPECS)
+PLUGIN_METRICS: dict[str, str] = {}
+"""Name of each metric an installed plugin declares (``dynaeval.metrics.plugins``) -> the plugin,
+as messages name it (``metric plugin 'toy' (toy_pkg:SPEC, package toy-pkg)``): its values are
+checked as they are computed (``run.stages.base.plugin_outcome``)."""
 SPECS = _with_plugins(SPECS)
-PLUGIN_METRICS = frozenset(SPECS) - _OWN
-"""Names of the metrics installed plugins declare (``dynaeval.metrics.plugins``): their values
-are checked as they are computed (``run.stages.frame_metrics.plugin_outcome``)."""
 
 
 def _ordered(specs: list[MetricSpec]) -> list[tuple[MetricSpec, str]]:
@@ -491,6 +502,39 @@ def selectable_specs(names: tuple[str, ...] | list[str] | None = None) -> list[M
     return _named([s for s in SPECS.values() if s.build is not None], names, "metric")
 
 
+def call_hook(spec: MetricSpec, attr: str, *args: Any) -> Any:
+    """``spec``'s ``build``, ``settings`` or ``requires`` function called with ``args`` (None
+    when it has none).
+
+    Raises:
+        PluginError: a plugin's function that cannot be imported or raises, naming the plugin,
+            the function and what it raised (it was "internal error (a bug)"); but for a
+            ``build`` raising ``WeightsUnavailableError`` or ``ImportError``, which says the
+            metric cannot run here, as for dynaeval's own metrics.
+    """
+    target = getattr(spec, attr)
+    if target is None:
+        return None
+    if spec.name not in PLUGIN_METRICS:
+        return spec.load(attr)(*args)
+    try:
+        return spec.load(attr)(*args)
+    except (Exception, SystemExit) as err:  # noqa: BLE001 - the plugin's failure, named
+        if attr == "build" and isinstance(err, (WeightsUnavailableError, ImportError)):
+            raise
+        raise PluginError(f"{PLUGIN_METRICS[spec.name]}: its {attr} function {target!r} raised "
+                          f"{type(err).__name__}: {err}") from err
+
+
+def cannot_run(spec: MetricSpec, ctx: FrameContext) -> str | None:
+    """Why ``spec`` cannot run on this machine (its ``requires`` says so, or, a plugin's, it
+    raised: ``PluginError``'s message), else None."""
+    try:
+        return call_hook(spec, "requires", ctx)
+    except PluginError as err:
+        return str(err)
+
+
 def require_available(names: tuple[str, ...] | list[str], ctx: FrameContext) -> None:
     """Refuse, before any work, a metric asked for by name that cannot run on this machine (its
     ``requires`` says why): an explicitly requested metric is never silently left out.
@@ -500,7 +544,7 @@ def require_available(names: tuple[str, ...] | list[str], ctx: FrameContext) -> 
             without it.
     """
     for s in selectable_specs(list(names)):
-        why = s.load("requires")(ctx) if s.requires else None
+        why = cannot_run(s, ctx)
         if why:
             without = s.flag if s.default else f"drop {s.flag}"
             raise InputError(f"{s.title} was asked for but cannot run here: {why}; or score "
@@ -532,6 +576,9 @@ class BuiltMetrics:
     """Metric name -> its settings section."""
     unavailable: dict[str, str] = field(default_factory=dict)
     """Metric name -> why it could not run (weights or packages absent)."""
+    failed: dict[str, str] = field(default_factory=dict)
+    """Metric name -> how its plugin failed (its build or settings function raised:
+    ``PluginError``); the metric is left out."""
     every: dict[str, int] = field(default_factory=dict)
     """Result key -> K for a frame metric scored on every K-th frame only (option ``every``)."""
     camera_fns: dict[str, tuple[str, Callable[..., float]]] = field(default_factory=dict)
@@ -546,7 +593,9 @@ def build_frame_metrics(
     ``camera_fns``) for the region variants ``regions``.
 
     A metric whose ``build`` raises ``WeightsUnavailableError`` or ``ImportError`` is left out
-    with the reason in ``unavailable`` (and its settings say so). Every per-frame metric's
+    with the reason in ``unavailable`` (and its settings say so); a plugin's metric whose build
+    or settings function raises otherwise is left out with the reason in ``failed`` (a settings
+    section it cannot write would leave its numbers unexplained). Every per-frame metric's
     settings function is called, so a default metric switched off records ``enabled: false``.
     """
     out = BuiltMetrics()
@@ -554,19 +603,22 @@ def build_frame_metrics(
     wanted = {s.name for s in selectable_specs(list(names))}
     for s in selectable_specs():
         unavailable = None
-        if s.name in wanted:
-            try:
-                built[s.name] = s.load("build")(ctx)
-            except (WeightsUnavailableError, ImportError) as err:
-                hint = (f" (pip install 'dynaeval[{s.extra}]')" if isinstance(err, ImportError)
-                        and s.extra and not isinstance(err, MissingDependency) else "")
-                unavailable = f"{err}{hint}"
-                out.unavailable[s.name] = unavailable
-        settings_fn = s.load("settings")
-        if settings_fn is not None:
-            section = settings_fn(ctx, s.name in built, unavailable)
-            if section is not None:
-                out.settings[s.name] = section
+        try:
+            if s.name in wanted:
+                try:
+                    built[s.name] = call_hook(s, "build", ctx)
+                except (WeightsUnavailableError, ImportError) as err:
+                    hint = (f" (pip install 'dynaeval[{s.extra}]')" if isinstance(err, ImportError)
+                            and s.extra and not isinstance(err, MissingDependency) else "")
+                    unavailable = f"{err}{hint}"
+                    out.unavailable[s.name] = unavailable
+            section = call_hook(s, "settings", ctx, s.name in built, unavailable)
+        except PluginError as err:
+            if built.pop(s.name, None) is not None or s.name in wanted:  # (not asked: no word)
+                out.failed[s.name] = str(err)
+            continue
+        if section is not None:
+            out.settings[s.name] = section
     for region in regions:
         for name, fn in built.items():
             s = SPECS[name]

@@ -210,6 +210,10 @@ class RegionSources:
     footage it was not trained for, output names overruled by dtypes."""
     detector_note: str | None = None
     """Why a detector's boxes file does not re-run its detector (its model is not here)."""
+    given_masks: bool = False
+    """The run's masks are given (``--masks``; ``dynaeval.regions.given``): they replace the
+    motion masks wherever a mask is used, so motion masks are found only for ``--focus motion``
+    boxes (a camera still gets its static check, ``FrameRegions.camera_motion``)."""
 
 
 def open_sources(config: FocusConfig) -> RegionSources:
@@ -284,6 +288,7 @@ def camera_regions(
     sources: RegionSources,
     executor: Executor | None = None,
     paths: Sequence[object] | None = None,
+    on_frame: Callable[[float], None] | None = None,
 ) -> list[FrameRegions]:
     """Regions of every frame of one camera, computed from its ground truth.
 
@@ -297,6 +302,10 @@ def camera_regions(
             computed on it (``load_gt`` and the detector must be thread-safe; the regions are
             those of the sequential run).
         paths: the ground-truth file of each frame, named in the detector's errors.
+        on_frame: progress: called with ``share`` each time a frame's pass is done, ``share``
+            ``= 1 / passes`` of the per-frame passes that run (motion masks, the detector), so
+            a camera's frames add up to about one unit each (a camera whose frames differ in
+            shape is found again, frame by frame: its calls may add up to more).
 
     Returns:
         One ``FrameRegions`` per frame. When the frames differ in shape (not a video: a static
@@ -304,9 +313,11 @@ def camera_regions(
         is no motion mask (reason ``NOT_A_VIDEO``) and every ``FrameRegions.not_video`` says so.
     """
     try:
-        return _camera_regions(camera, frames, load_gt, sources, executor, paths, video=True)
+        return _camera_regions(camera, frames, load_gt, sources, executor, paths, on_frame,
+                               video=True)
     except FramesDiffer as err:
-        out = _camera_regions(camera, frames, load_gt, sources, executor, paths, video=False)
+        out = _camera_regions(camera, frames, load_gt, sources, executor, paths, on_frame,
+                              video=False)
         for r in out:
             r.not_video = err
             if r.mask_status is Status.NOT_A_VIDEO:
@@ -318,15 +329,25 @@ def camera_regions(
 
 def _camera_regions(camera: str, frames: Sequence[str], load_gt: Callable[[int], np.ndarray],
                     sources: RegionSources, executor: Executor | None,
-                    paths: Sequence[object] | None, *, video: bool) -> list[FrameRegions]:
+                    paths: Sequence[object] | None, on_frame: Callable[[float], None] | None,
+                    *, video: bool) -> list[FrameRegions]:
     """``camera_regions``; ``video``: the frames are checked to share frame 0's shape
     (``FramesDiffer`` otherwise) and get motion masks; False: each frame on its own."""
     cfg = sources.config
     first = load_gt(0).shape
     load = same_shape(load_gt, first) if video else load_gt
     out = [FrameRegions() for _ in frames]
-    if (cfg.masked or cfg.kind.from_motion) and video:
-        _add_motion_masks(out, camera, load, cfg.motion_kind, executor, cfg.source)
+    motion = (cfg.kind.from_motion or (cfg.masked and not sources.given_masks)) and video
+    passes = int(motion and len(out) >= MIN_MOTION_FRAMES) + int(cfg.kind.detects)
+    tick = None if on_frame is None or not passes else (lambda: on_frame(1 / passes))
+    if motion:
+        _add_motion_masks(out, camera, load, cfg.motion_kind, executor, cfg.source, tick)
+    elif cfg.masked and video:  # given masks replace the motion masks: none found (they were,
+        # then dropped), the camera's static check only (its note: regions.given)
+        if len(out) >= MIN_MOTION_FRAMES:
+            check = _static_check(load, len(out), None, cfg.source)
+            for r in out:
+                r.camera_motion = check
     elif cfg.masked or cfg.kind.from_motion:
         for r in out:
             r.mask_reason, r.mask_status = NOT_A_VIDEO, Status.NOT_A_VIDEO
@@ -346,6 +367,8 @@ def _camera_regions(camera: str, frames: Sequence[str], load_gt: Callable[[int],
         detections = executor.map(detect, indices) if executor else map(detect, indices)
     for i, (name, r) in enumerate(zip(frames, out, strict=True)):
         raw = _frame_boxes(r, camera, name, sources, detections)
+        if detections is not None and tick is not None:
+            tick()  # this frame's detector run is done
         if raw is None:
             continue
         if isinstance(raw, tuple):  # the detector: (frame's (H, W), boxes)
@@ -386,8 +409,10 @@ _NO_BOX_REASON = {
 
 
 def _add_motion_masks(out: list[FrameRegions], camera: str, load_gt: Callable[[int], np.ndarray],
-                      kind: str, executor: Executor | None, focus: str = "detector") -> None:
-    """Set each frame's motion mask, or the reason it has none (too few frames, no motion)."""
+                      kind: str, executor: Executor | None, focus: str = "detector",
+                      tick: Callable[[], None] | None = None) -> None:
+    """Set each frame's motion mask, or the reason it has none (too few frames, no motion);
+    ``tick()`` after each frame's mask (progress)."""
     if len(out) < MIN_MOTION_FRAMES:
         for r in out:
             r.mask_status = Status.UNDEFINED
@@ -400,6 +425,8 @@ def _add_motion_masks(out: list[FrameRegions], camera: str, load_gt: Callable[[i
     masks = iter_motion_masks(lazy, MotionConfig(kind=kind), executor)
     fractions = []
     for r, m in zip(out, masks, strict=True):
+        if tick is not None:
+            tick()
         fractions.append(float(m.mean()))
         if m.any():
             r.packed_mask = PackedMask.pack(m)

@@ -2,7 +2,8 @@
 
 They replace the motion masks wherever a mask is used: the ``masked_*`` metrics (pixels with
 weight > ``THRESHOLD``), the static region of the temporal terms (pixels in no frame's mask) and
-the report's mask outline. Boxes of ``--focus motion`` still come from the motion masks.
+the report's mask outline. Boxes of ``--focus motion`` still come from the motion masks, the
+only motion masks a run with given masks finds (``RegionSources.given_masks``).
 """
 
 from __future__ import annotations
@@ -15,16 +16,27 @@ from dynaeval.core.outcome import Status
 from dynaeval.io.masks import THRESHOLD, MaskSet, read_mask
 from dynaeval.regions.focus import FrameRegions
 from dynaeval.regions.packed import PackedMask
+from dynaeval.regions.static_camera import moving_camera_reason
 
 
 def given_masks(regions: Sequence[FrameRegions], gt_paths: Sequence[Path],
-                masks: MaskSet) -> list[FrameRegions]:
+                masks: MaskSet, focus: str = "none") -> list[FrameRegions]:
     """``regions`` with each frame's mask replaced by its given mask (weights > ``THRESHOLD``),
-    or None with the reason when the given mask holds no such pixel.
+    or None with the reason when the given mask holds no such pixel, and the camera's
+    moving-camera note (``FrameRegions.camera_motion``) said for given masks: masked_* are
+    theirs, so only flicker's static pixels (and ``motion`` boxes) are touched by a moving
+    camera (it said "masked_* values are close to the whole-frame ones"). The same for
+    regions found here and read from a prepared ground truth.
 
     Args:
         gt_paths: the ground-truth file of each frame (its mask is found from it).
+        focus: the run's focus source (``motion`` boxes come from motion masks).
     """
+    motion = regions[0].camera_motion if regions else None
+    if motion is not None:  # one dict shared by the camera's frames, as found
+        px = motion["global_motion_px"]
+        motion = {"global_motion_px": px,
+                  "reason": moving_camera_reason(px, None, focus, given_masks=True)}
     out = []
     for r, gt in zip(regions, gt_paths, strict=True):
         path = masks.path_of(gt)
@@ -32,7 +44,8 @@ def given_masks(regions: Sequence[FrameRegions], gt_paths: Sequence[Path],
         reason = None if m.any() else f"the given mask {path} holds no pixel above {THRESHOLD}"
         out.append(replace(r, packed_mask=PackedMask.pack(m) if m.any() else None,
                            mask_reason=reason,
-                           mask_status=None if m.any() else Status.EMPTY_REGION))
+                           mask_status=None if m.any() else Status.EMPTY_REGION,
+                           camera_motion=motion if r.camera_motion is not None else None))
     return out
 
 

@@ -127,10 +127,13 @@ def camera_motion(load: Callable[[int], np.ndarray], n_frames: int) -> float | N
 
 
 def moving_camera_reason(motion_px: float | None, mask_fraction: float | None,
-                         focus: str) -> str | None:
+                         focus: str, given_masks: bool = False) -> str | None:
     """Why the camera's motion masks cannot be trusted, with the fix, or None when it looks
     static. ``motion_px``: ``camera_motion``; ``mask_fraction``: the mean share of the frame its
-    masks cover (None: no mask); ``focus``: the focus source (``motion`` boxes are masks too)."""
+    masks cover (None: no mask); ``focus``: the focus source (``motion`` boxes are masks too);
+    ``given_masks``: the run's masks are given (``--masks``, DyCheck's covisibility masks):
+    masked_* and flicker's static pixels are theirs, the motion masks only make ``motion``
+    boxes, so the text names only what the camera's motion touches."""
     moves = motion_px is not None and motion_px > MOVING_CAMERA_PX
     covers = mask_fraction is not None and mask_fraction > MASK_FRACTION_MAX
     if not (moves or covers):
@@ -139,8 +142,16 @@ def moving_camera_reason(motion_px: float | None, mask_fraction: float | None,
             f"<= {MOVING_CAMERA_PX} px)" if moves else
             "its motion mask covers most of the frame")
     area = "" if mask_fraction is None else f"; the motion mask covers {mask_fraction:.0%} of each frame on average"
-    uses = ("masked_* values and --focus motion boxes" if focus_source(focus).from_motion
-            else "masked_* values")
+    from_motion = focus_source(focus).from_motion
+    if given_masks:
+        static = ("flicker's 'static' pixels (those outside every given mask) are not static "
+                  "(masked_* are over the given masks, which the motion does not change)")
+        if not from_motion:
+            return f"a moving camera: {what}{area}: {static}"
+        return (f"motion masks need a static camera, and {what}{area}: its --focus motion boxes "
+                f"are close to the whole frame, and {static}. Score this footage with --focus "
+                "detector or --focus boxes:FILE")
+    uses = "masked_* values and --focus motion boxes" if from_motion else "masked_* values"
     return (f"motion masks need a static camera, and {what}{area}: its {uses} are close to the "
             "whole-frame ones and flicker's 'static' pixels are not static. Score this footage "
             "with --no-masked, and --focus detector or --focus boxes:FILE")

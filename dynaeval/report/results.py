@@ -49,13 +49,14 @@ from dynaeval.core.outcome import (
     summary_reason,
     warning,
 )
+from dynaeval.core.schemas import RESULTS_SCHEMA, results_schema_path
 from dynaeval.io.atomic import write_text_atomic
 from dynaeval.io.jsonfile import read_json
 from dynaeval.metrics.registry import METRICS, SPECS
 from dynaeval.regions.sources import SOURCE_KINDS
 from dynaeval.report.results_check import FRAME_FIELDS, check_results
 
-SCHEMA = "dynaeval/results/v2"
+SCHEMA = RESULTS_SCHEMA
 SCHEMA_V1 = "dynaeval/results/v1"
 """The previous layout: the same document without ``status`` and ``summary_status``."""
 READS = (SCHEMA, SCHEMA_V1)
@@ -412,11 +413,9 @@ def results_text(doc: Any) -> str:
     return json.dumps(doc, indent=1, allow_nan=False, ensure_ascii=False) + "\n"
 
 
-def schema_path(schema: str = SCHEMA) -> Path:
-    """Path of the JSON Schema of the results document (of layout ``schema``, default this
-    version's) shipped in the package."""
-    version = schema.rsplit("/", 1)[-1]
-    return Path(__file__).resolve().parent.parent / "schemas" / f"results-{version}.schema.json"
+schema_path = results_schema_path
+"""Path of the JSON Schema of the results document (of layout ``schema``, default this
+version's) shipped in the package (``core.schemas``, where the registry reads its field names)."""
 
 
 def _check_against_schema(doc: dict[str, Any], path: Path) -> None:

@@ -277,7 +277,6 @@ def _score_cameras(pairs: list[FramePair], plan: RunPlan, on_regions: RegionsCal
                         decoded=plan.prepared.decoded if plan.prepared is not None else None)
 
     def regions_done(cam: str, cam_pairs: list[FramePair], found: list[FrameRegions]) -> None:
-        progress.advance("regions", len(cam_pairs))
         if on_regions is not None:
             on_regions(cam, cam_pairs, found)
 
@@ -308,22 +307,36 @@ def _score_cameras(pairs: list[FramePair], plan: RunPlan, on_regions: RegionsCal
 def _score_one_camera(cam: str, cam_pairs: list[FramePair], stop: Any = None, *, plan: RunPlan,
                       executor: Any, regions_done: RegionsCallback, progress: Any) -> Any:
     """``score_camera`` with its progress: frames, pairs (those a camera could not score, no
-    sequence, count as done) and the camera's video step. ``stop``: a ``threading.Event``
-    checked at every frame and pair (``dynaeval.run.executor.Stopped`` is raised once it is set)."""
+    sequence, count as done) and the camera's video step; the regions phase moves as each
+    frame's regions are found (it sat at one count while a camera's motion masks and detector
+    ran), up to the camera's frames. ``stop``: a ``threading.Event`` checked at every frame and
+    pair (``dynaeval.run.executor.Stopped`` is raised once it is set)."""
     pairs_done = [0]
+    regions_found = [0.0]
 
-    def tick(phase: str) -> None:
+    def tick(phase: str, units: float = 1) -> None:
         if stop is not None and stop.is_set():
             raise Stopped(f"camera {cam} stopped: another camera failed")
-        progress.advance(phase)
+        progress.advance(phase, units)
 
     def on_pair() -> None:
         pairs_done[0] += 1
         tick("pairs")
 
+    def on_region_frame(share: float) -> None:
+        step = min(share, len(cam_pairs) - regions_found[0])
+        if step > 0:
+            regions_found[0] += step
+            tick("regions", step)
+
+    def on_regions(c: str, p: list[FramePair], found: list[FrameRegions]) -> None:
+        progress.advance("regions", len(p) - regions_found[0])  # the rest: prepared, boxes
+        regions_done(c, p, found)
+
     progress.set_note(f"camera {cam}")
-    scores = score_camera(cam, cam_pairs, plan, executor, on_regions=regions_done,
-                          on_frame=lambda: tick("frames"), on_pair=on_pair)
+    scores = score_camera(cam, cam_pairs, plan, executor, on_regions=on_regions,
+                          on_frame=lambda: tick("frames"), on_pair=on_pair,
+                          on_region_frame=on_region_frame)
     if plan.temporal is not None:
         progress.advance("pairs", len(cam_pairs) - 1 - pairs_done[0])
     progress.advance("video")

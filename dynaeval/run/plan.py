@@ -185,8 +185,12 @@ def build_plan(config: ScoreConfig, *, scope: Scope | None = None, masks: MaskSe
                             f" (to leave it out: {SPECS[name].flag}; in the library, leave "
                             f"{name!r} out of metrics)" if SPECS[name].default else ""))
                 for name, why in built.unavailable.items()]
+    warnings += [warning(Status.PLUGIN_FAILED, metric=name,
+                         reason=unavailable_reason(SPECS[name].title, why))
+                 for name, why in built.failed.items()]
     settings = _settings(config, quantize, built.settings, regions, protocol, masks)
     sources = open_sources(focus)
+    sources.given_masks = masks is not None  # they replace the motion masks (regions.given)
     settings["focus"] = sources.settings
     warnings.extend(sources.warnings)
     presence = _presence_step(config, sources, settings)

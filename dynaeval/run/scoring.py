@@ -47,8 +47,10 @@ class CameraScores:
 
 
 def camera_regions_of(camera: str, pairs: list[FramePair], plan: RunPlan, executor: RunWorkers,
-                      cache: FrameCache) -> list[FrameRegions]:
-    """The regions of every frame of a camera, from its ground truth (timed as ``regions``)."""
+                      cache: FrameCache, on_frame: Callable[[float], None] | None = None
+                      ) -> list[FrameRegions]:
+    """The regions of every frame of a camera, from its ground truth (timed as ``regions``);
+    ``on_frame(share)``: progress within the camera (``regions.focus.camera_regions``)."""
     t0 = time.perf_counter()
     regions = plan.prepared.regions(camera) if plan.prepared is not None else None
     try:
@@ -58,9 +60,11 @@ def camera_regions_of(camera: str, pairs: list[FramePair], plan: RunPlan, execut
                 camera, [p.frame for p in pairs],
                 lambda i: plan.read_gt(pairs[i], cache),
                 first_gt.shape[:2], plan.sources, executor.pool, paths=[p.gt for p in pairs],
+                on_frame=on_frame,
             )
         if plan.masks is not None:
-            regions = given_masks(regions, [p.gt.path for p in pairs], plan.masks)
+            regions = given_masks(regions, [p.gt.path for p in pairs], plan.masks,
+                                  plan.focus.source)
     except InputError as err:
         if err.path is not None:
             raise
@@ -164,16 +168,18 @@ def _not_video_warning(camera: str, pairs: list[FramePair], err: Any) -> dict:
 def score_camera(camera: str, pairs: list[FramePair], plan: RunPlan, executor: RunWorkers, *,
                  on_regions: Callable | None = None,
                  on_frame: Callable[[], None] | None = None,
-                 on_pair: Callable[[], None] | None = None) -> CameraScores:
+                 on_pair: Callable[[], None] | None = None,
+                 on_region_frame: Callable[[float], None] | None = None) -> CameraScores:
     """Regions, per-frame values and camera-level terms of one camera (its frames in order).
 
     ``on_regions(camera, pairs, regions)`` is called before the frames are scored; ``on_frame()``
-    after each frame and ``on_pair()`` after each temporal pair (progress). Cameras may be
+    after each frame and ``on_pair()`` after each temporal pair, ``on_region_frame(share)`` as
+    each frame's regions are found (progress: ``regions.focus.camera_regions``). Cameras may be
     scored at the same time with one ``executor`` (its pool is shared; nothing here depends on
     order).
     """
     cache = executor.frame_cache()  # dropped at the end
-    regions = camera_regions_of(camera, pairs, plan, executor, cache)
+    regions = camera_regions_of(camera, pairs, plan, executor, cache, on_region_frame)
     if on_regions is not None:
         on_regions(camera, pairs, regions)
     stages = active_stages(plan)

@@ -9,16 +9,19 @@ every run); what a camera's stages find out is in its ``CameraWork``.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from dynaeval.core.outcome import CameraTerm, Outcome
+from dynaeval.core.errors import EmptyRegionError, InputError, UndefinedMetricError
+from dynaeval.core.outcome import VALUE_LIMIT, CameraTerm, Outcome, Status
 from dynaeval.io import FramePair
 from dynaeval.io.cache import FrameCache
 from dynaeval.io.frames import gap_positions
+from dynaeval.metrics.registry import METRICS, PLUGIN_METRICS
 from dynaeval.regions.focus import FrameRegions
 
 if TYPE_CHECKING:
@@ -96,3 +99,40 @@ def consecutive(pairs: list[FramePair]) -> bool:
     """True when the frames' indices run without a gap (none skipped): a sequence the temporal
     and video metrics can use."""
     return not gap_positions(pairs)
+
+
+def metric_outcome(key: str, call: Callable[[], object]) -> Outcome:
+    """The outcome of result ``key``'s value ``call()`` (a per-frame or a video metric's): a
+    plugin's by ``plugin_outcome``, dynaeval's own as it is (``Outcome.of``)."""
+    if METRICS[key].metric in PLUGIN_METRICS:
+        return plugin_outcome(key, call)
+    return Outcome.of(float(call()))  # type: ignore[arg-type]
+
+
+def plugin_outcome(key: str, call: Callable[[], object]) -> Outcome:
+    """The outcome of a metric plugin's value for result ``key``: ``call()``'s number, or null
+    with ``PLUGIN_FAILED`` naming the plugin when it raises (but for dynaeval's own errors,
+    which it may raise as dynaeval's metrics do) or returns NaN, -infinity or a magnitude beyond
+    ``VALUE_LIMIT`` (merge and the leaderboard refuse those; -infinity was written as
+    "+infinity"), or +infinity where it is no ideal value: +infinity is "prediction equals
+    ground truth" (``Status.INFINITE``) only for a metric that is higher-is-better and
+    unbounded above, as PSNR. One rule, documented in docs/architecture.md (plugins)."""
+    who = f"the metric plugin of {key!r}"
+    try:
+        value = float(call())  # type: ignore[arg-type]
+    except (EmptyRegionError, UndefinedMetricError, InputError):
+        raise
+    except Exception as err:  # noqa: BLE001 - the plugin's failure, named as the plugin's
+        return Outcome(None, Status.PLUGIN_FAILED, f"{who} raised {type(err).__name__}: {err}")
+    if math.isnan(value) or value == -math.inf or (math.isfinite(value)
+                                                  and abs(value) > VALUE_LIMIT):
+        return Outcome(None, Status.PLUGIN_FAILED,
+                       f"{who} returned {value!r}, which a results file cannot hold")
+    info = METRICS[key]
+    if value == math.inf and not (info.higher_is_better and info.range[1] == math.inf):
+        return Outcome(None, Status.PLUGIN_FAILED, (
+            f"{who} returned inf, which is no ideal value of it ("
+            + ("lower is better" if not info.higher_is_better else
+               f"its range ends at {info.range[1]!r}") + ")"))
+    return Outcome.of(value)
+

@@ -2,16 +2,14 @@
 
 from __future__ import annotations
 
-import math
 import time
-from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from dynaeval.core.errors import EmptyRegionError, InputError, UndefinedMetricError
-from dynaeval.core.outcome import VALUE_LIMIT, Outcome, Status
-from dynaeval.metrics.registry import METRICS, PLUGIN_METRICS, region_argument
+from dynaeval.core.outcome import Outcome, Status
+from dynaeval.metrics.registry import region_argument
 from dynaeval.metrics.structural import reusing_whole_map
-from dynaeval.run.stages.base import FrameWork, Stage, Value
+from dynaeval.run.stages.base import FrameWork, Stage, Value, metric_outcome
 
 if TYPE_CHECKING:
     from dynaeval.run.plan import RunPlan
@@ -53,10 +51,7 @@ class FrameMetrics(Stage):
                     continue
                 t0 = time.perf_counter()
                 try:
-                    if METRICS[name].metric in PLUGIN_METRICS:
-                        values.append((name, plugin_outcome(name, lambda: fn(pred, gt, kw))))
-                    else:
-                        values.append((name, Outcome.of(float(fn(pred, gt, kw)))))
+                    values.append((name, metric_outcome(name, lambda: fn(pred, gt, kw))))
                 except EmptyRegionError as err:
                     values.append((name, Outcome(None, Status.EMPTY_REGION, str(err))))
                 except UndefinedMetricError as err:  # e.g. smaller than SSIM's window
@@ -65,24 +60,3 @@ class FrameMetrics(Stage):
                     raise InputError(f"{name}: {err}", path=str(pair.pred)) from err
                 elapsed[name] = time.perf_counter() - t0
         return values
-
-
-def plugin_outcome(key: str, call: Callable[[], object]) -> Outcome:
-    """The outcome of a metric plugin's value for result ``key``: ``call()``'s number, or null
-    with ``PLUGIN_FAILED`` naming the plugin when it raises (but for dynaeval's own errors,
-    which it may raise as dynaeval's metrics do) or returns NaN, -infinity or a magnitude beyond
-    ``VALUE_LIMIT`` (merge and the leaderboard refuse those; -infinity was written as
-    "+infinity"). One rule, documented in docs/architecture.md (plugins)."""
-    who = f"the metric plugin of {key!r}"
-    try:
-        value = float(call())  # type: ignore[arg-type]
-    except (EmptyRegionError, UndefinedMetricError, InputError):
-        raise
-    except Exception as err:  # noqa: BLE001 - the plugin's failure, named as the plugin's
-        return Outcome(None, Status.PLUGIN_FAILED, f"{who} raised {type(err).__name__}: {err}")
-    if math.isnan(value) or value == -math.inf or (math.isfinite(value)
-                                                  and abs(value) > VALUE_LIMIT):
-        return Outcome(None, Status.PLUGIN_FAILED,
-                       f"{who} returned {value!r}, which a results file cannot hold")
-    return Outcome.of(value)
-

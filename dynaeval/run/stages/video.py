@@ -9,10 +9,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from dynaeval.core.errors import EmptyRegionError, InputError, UndefinedMetricError
-from dynaeval.core.outcome import CameraTerm, Outcome, Status
+from dynaeval.core.outcome import CameraTerm, Status
 from dynaeval.io import FramePair
 from dynaeval.io.video import video_fps
-from dynaeval.run.stages.base import CameraWork, Stage, consecutive
+from dynaeval.run.stages.base import CameraWork, Stage, consecutive, metric_outcome
 
 if TYPE_CHECKING:
     from dynaeval.run.plan import RunPlan
@@ -76,7 +76,7 @@ def video_metrics_of(camera: str, pairs: list[FramePair], regions: list, plan: R
     for key, (region, fn) in plan.camera_fns.items():
         kw = {"boxes": [r.boxes for r in regions]} if region == "focused" else {}
         try:
-            out[key] = CameraTerm(Outcome(float(fn(pred, gt, fps, kw))))
+            out[key] = CameraTerm(metric_outcome(key, lambda: fn(pred, gt, fps, kw)))
         except (EmptyRegionError, UndefinedMetricError) as err:
             status = Status.EMPTY_REGION if isinstance(err, EmptyRegionError) else Status.UNDEFINED
             out[key] = CameraTerm.null(status, str(err))

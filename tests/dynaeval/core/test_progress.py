@@ -191,3 +191,21 @@ def test_a_log_gets_a_line_every_log_interval_while_a_long_step_runs():
     lines = out.getvalue().splitlines()
     assert len(lines) >= 4 and all("frames 0/2" in line for line in lines[:-1])
     assert progress._ticker is not None and not progress._ticker.is_alive()
+
+
+@pytest.mark.parametrize("focus", ["motion", "detector"])
+def test_the_regions_phase_moves_frame_by_frame_within_a_camera(capsys, monkeypatch, focus):
+    """Issue 43 item 5: on a terminal the bar sat at one phase for 11 s: the regions phase
+    counted a camera's frames only once its motion masks and detector runs were all done
+    (``regions 0/16``, ``8/16``, ``16/16``). It moves as each frame's pass is done; what a log
+    gets is unchanged (a line at most every ``log_interval``: ``_draw``)."""
+    monkeypatch.setattr("dynaeval.core.progress.LOG_INTERVAL", 0.0)  # a line per tick
+    root = sample_dir()
+    dynaeval.score(root / "pred", root / "gt", metrics=("psnr",), progress=True,
+                   temporal=False, presence=False, focus=FocusConfig.parse(focus))
+    bars = _bars(capsys.readouterr().err)
+    counts = {int(t.split()[1].split("/")[0]) for _, t in bars if t.startswith("regions ")}
+    # motion masks: a frame each; with the detector too, half a frame per pass
+    assert counts >= (set(range(1, 17)) if focus == "motion" else set(range(1, 8))), counts
+    assert [p for p, _ in bars] == sorted(p for p, _ in bars)  # never backwards
+    assert bars[-1] == (100, "all phases")

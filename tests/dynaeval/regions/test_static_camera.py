@@ -110,3 +110,44 @@ def test_camera_motion_loads_each_frame_once_and_equals_the_pairs_median():
     got = camera_motion(lambda i: loads.append(i) or frames[i], len(frames))
     assert sorted(loads) == list(range(7))
     assert got == float(np.median([global_motion(frames[i], frames[i + 1]) for i in range(6)]))
+
+
+@pytest.mark.filterwarnings("ignore::dynaeval.DynaevalWarning")
+def test_with_given_masks_no_motion_mask_is_computed_and_the_moving_camera_note_is_true(
+        tmp_path, monkeypatch):
+    """Issue 43: DyCheck with its covisibility masks (``--masks``) still computed motion masks,
+    which the given masks then replaced, and a moving camera's note said "masked_* values are
+    close to the whole-frame ones" while masked_* were over the given masks. No motion mask is
+    computed there (the camera check still is); the note says what the motion does touch; the
+    numbers are the given masks'."""
+    from dynaeval.metrics import psnr
+    from dynaeval.regions import focus
+
+    pan = [np.round(f * 255).astype(np.uint8) for f in _pan(2.0)]
+    pred = [np.clip(f.astype(int) + 3 + 2 * (i % 2), 0, 255).astype(np.uint8)
+            for i, f in enumerate(pan)]
+    write_frames(tmp_path / "gt", "pan", pan)
+    write_frames(tmp_path / "pred", "pan", pred)
+    masks = tmp_path / "covisible" / "pan"
+    masks.mkdir(parents=True)
+    for f in sorted((tmp_path / "gt" / "pan").iterdir()):
+        m = np.zeros(pan[0].shape[:2], np.uint8)
+        m[:, :120] = 255
+        cv2.imwrite(str(masks / f.name), m)
+
+    def no_motion_masks(*args, **kwargs):
+        raise AssertionError("motion masks computed, though the given masks replace them")
+
+    monkeypatch.setattr(focus, "iter_motion_masks", no_motion_masks)
+    res = dynaeval.score(tmp_path / "pred", tmp_path / "gt", masks=str(tmp_path / "covisible"),
+                         protocol="dycheck", metrics=("psnr",), presence=False, progress=False,
+                         focus=FocusConfig(source="none"))
+    notes = [w["reason"] for w in res["warnings"] if w.get("camera") == "pan" and "frame" not in w
+             and "moves by" in w["reason"]]
+    assert len(notes) == 1, res["warnings"]
+    assert "masked_* values" not in notes[0] and "--no-masked" not in notes[0]
+    assert "flicker's 'static' pixels (those outside every given mask) are not static" in notes[0]
+    assert res["regions"]["cameras"]["pan"]["global_motion_px"] == pytest.approx(2.0, abs=0.15)
+    unit = [f.astype(np.float32) / np.float32(255) for f in (*pred, *pan)]
+    want = [psnr(p[:, :120], g[:, :120]) for p, g in zip(unit[:6], unit[6:], strict=True)]
+    assert [r["masked_psnr"] for r in res["frames"]] == pytest.approx(want, rel=1e-6)

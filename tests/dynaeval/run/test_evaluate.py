@@ -470,7 +470,8 @@ def test_a_failing_camera_stops_the_others_and_its_error_is_raised(monkeypatch):
 
     frames_of = {"a": 0, "b": 0}
 
-    def fake_score_camera(cam, cam_pairs, run, executor, on_regions, on_frame, on_pair):
+    def fake_score_camera(cam, cam_pairs, run, executor, on_regions, on_frame, on_pair,
+                          on_region_frame=None):
         for _ in range(2 if cam == "a" else 400):
             time.sleep(0.005)
             frames_of[cam] += 1
