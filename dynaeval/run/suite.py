@@ -234,9 +234,7 @@ def settings_config(settings: Any, where: str, base: Path | None = None) -> Scor
         if config.focus.kind.reads_file:  # every task reads it: a bad one is refused here
             read_boxes_file(config.focus.boxes_file)
         return config
-    except InputError as err:
-        raise InputError(f"[settings]: {err}", path=where) from None
-    except TypeError as err:  # a value of the wrong type where ScoreConfig does not check it
+    except InputError as err:  # every value is checked there, once (never a TypeError)
         raise InputError(f"[settings]: {err}", path=where) from None
 
 
