@@ -112,7 +112,7 @@ def run(args: argparse.Namespace) -> int:
 def _print_run_warnings(outcome: Any) -> None:
     """The run-level warnings of the pairs this run scored, as ``dynaeval score`` prints them
     (e.g. LPIPS not computed), each once with the pairs it concerns (the suite kept them in the
-    results files only)."""
+    results files only); then the suite's own notes (a run file's cost figure left blank)."""
     seen: dict[str, list[str]] = {}
     for path in outcome.results:
         if path.stem in outcome.scored:
@@ -123,4 +123,6 @@ def _print_run_warnings(outcome: Any) -> None:
         more = " …" if len(names) > 4 else ""
         print(f"dynaeval: warning: {text} ({len(names)} pair(s): {', '.join(names[:4])}{more})",
               file=sys.stderr)
+    for note in outcome.notes:
+        print(f"dynaeval: warning: {note}", file=sys.stderr)
 

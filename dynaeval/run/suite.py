@@ -12,9 +12,10 @@ settings (``ScoreConfig`` fields) and one output folder ``OUT``. :func:`run_suit
    digest of every PRED and GT file (and of a boxes file or detector model). A pair whose
    results and key are there with the same key is skipped: rerunning finishes only what is
    missing or changed;
-3. writes the leaderboard of every scored pair (``OUT/leaderboard.md``, ``.csv``, ``.json``) and
-   one HTML page, ``OUT/index.html``, with the methods side by side per scene
-   (``dynaeval.report.suite_page``).
+3. writes the leaderboard of every scored pair (``OUT/leaderboard.md``, ``.csv``, ``.json``;
+   what each method costs from ``[costs]``, else from its run folder where a peer tool writes
+   it: ``dynaeval.io.run_costs``) and one HTML page, ``OUT/index.html``, with the methods side
+   by side per scene (``dynaeval.report.suite_page``).
 
 A pair that fails (an unreadable frame, missing predictions) is recorded in the
 :class:`SuiteOutcome` and the others still finish. Everything that can be checked before the work
@@ -71,6 +72,7 @@ from dynaeval.io.prepared import (
     json_digest,
     read_manifest,
 )
+from dynaeval.io.run_costs import read_run_costs
 from dynaeval.regions.boxes_file import read_boxes_file
 from dynaeval.report.leaderboard import COSTS, build_leaderboard, render
 from dynaeval.report.results import load_results, results_text
@@ -159,6 +161,9 @@ class SuiteOutcome:
     """Results files of every scored pair (this run's and earlier ones), in pair order."""
     leaderboard: list[Path] = field(default_factory=list)
     """The leaderboard files written (md, csv, json)."""
+    notes: list[str] = field(default_factory=list)
+    """What the suite says besides the pairs' own warnings: a method's run file whose cost
+    figures cannot be read (``io.run_costs``)."""
     page: Path | None = None
     """The HTML page written (None when no pair has results)."""
 
@@ -764,7 +769,11 @@ def _write_summaries(suite: Suite, outcome: SuiteOutcome) -> None:
     """The leaderboard (md, csv, json) and the page of every pair with results."""
     if not outcome.results:
         return
-    board = build_leaderboard(outcome.results, costs=suite.costs)
+    scored = {(p.method, p.scene): p for p in suite.pairs
+              if suite.out / "results" / f"{p.name}.json" in outcome.results}
+    run_costs = {key: read_run_costs(p.pred) for key, p in scored.items()}
+    outcome.notes += [rc.note for rc in run_costs.values() if rc.note]
+    board = build_leaderboard(outcome.results, costs=suite.costs, run_costs=run_costs)
     for fmt in ("md", "csv", "json"):
         path = suite.out / f"leaderboard.{fmt}"
         write_text_atomic(path, render(board, fmt), overwrite=True, what="leaderboard file")

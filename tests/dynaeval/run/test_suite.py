@@ -15,6 +15,7 @@ import pytest
 
 from dynaeval.cli import main, sample_dir
 from dynaeval.errors import InputError
+from dynaeval.report.leaderboard import schema_path
 from dynaeval.run.config import ScoreConfig
 from dynaeval.run.evaluate import score
 from dynaeval.run.suite import folder_suite, load_suite, read_toml, run_suite, settings_config
@@ -532,3 +533,39 @@ def test_the_pareto_front_is_what_no_other_method_beats_on_both():
     pts = [(5.0, 20.0), (60.0, 30.0), (90.0, 25.0), (60.0, 29.0), (1.0, 10.0)]
     assert pareto_front(pts, cheaper_is_lower=True, better_is_higher=True) == [4, 0, 1]
     assert pareto_front(pts, cheaper_is_lower=False, better_is_higher=True) == [2, 1]
+
+
+def test_costs_are_read_from_a_nerfbaselines_run_folder_and_the_toml_wins(tree, capsys):
+    """Issue 42 item 9: what a method's run folder already says it cost (NeRFBaselines'
+    info.json beside color/) is a leaderboard column and on the page; SUITE.toml's figure wins;
+    a figure nobody gives stays blank. Before, only SUITE.toml's [costs] were shown."""
+    from tests.dynaeval.io.test_run_costs import nb_info
+
+    nb = tree / "runs" / "nb"
+    shutil.copytree(tree / "root" / "m2" / "sample", nb_info(nb, total_train_time=2700.0),
+                    dirs_exist_ok=True)
+    text = ("output = 'o'\n" + _settings_toml() + "[scenes]\nsample = 'gt/sample'\n[methods]\n"
+            "m1 = 'root/m1/{scene}'\nnb = 'runs/nb/color'\nm3 = 'root/m3/{scene}'\n"
+            "[costs.m3]\nrender_fps = 2\n")
+    assert main(["suite", str(_toml(tree, text)), "-q"]) == 0
+    capsys.readouterr()
+    board = json.loads((tree / "o" / "leaderboard.json").read_text())
+    costs = {(r["method"], r["scene"]): r.get("costs") for r in board["rows"]}
+    assert costs[("nb", "sample")] == costs[("nb", "(all)")] == {"train_minutes": 45.0,
+                                                                  "memory_gb": 6.0}
+    assert costs[("m3", "sample")] == {"render_fps": 2.0} and costs[("m1", "sample")] is None
+    assert board["cost_sources"] == [{"method": "nb", "scene": "sample",
+                                      "file": str(nb / "info.json")}]
+    md = (tree / "o" / "leaderboard.md").read_text().splitlines()
+    row = next(line for line in md if line.startswith("| nb | sample |"))
+    assert [c.strip() for c in row.rstrip(" |").split("|")[-3:]] == ["45", "", "6"]
+    assert "<img alt='sample quality against cost'" in (tree / "o" / "index.html").read_text()
+    jsonschema = pytest.importorskip("jsonschema")
+    jsonschema.validate(board, json.loads(schema_path().read_text()))
+    (nb / "info.json").write_text(json.dumps({"nb_version": "1", "total_train_time": "long"}))
+    text = text.replace("[costs.m3]", "[costs.nb]\ntrain_minutes = 50\n[costs.m3]")
+    assert main(["suite", str(_toml(tree, text)), "-q"]) == 0
+    err = capsys.readouterr().err
+    assert "info.json: total_train_time is 'long', not a number >= 0: left blank" in err
+    board = json.loads((tree / "o" / "leaderboard.json").read_text())
+    assert next(r for r in board["rows"] if r["method"] == "nb")["costs"] == {"train_minutes": 50.0}
