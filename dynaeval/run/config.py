@@ -293,8 +293,9 @@ def _check_metric_options(options: object, metrics: tuple[str, ...]) -> dict[str
             try:
                 out[metric][name] = _option_value(kind, value)
             except (TypeError, ValueError, InputError):
-                raise InputError(f"{metric}.{name} must be {KIND_NAMES.get(kind, 'a ' + kind.__name__)}, "
-                                 f"got {value!r} ({type(value).__name__})") from None
+                what = KIND_NAMES.get(kind, f"a {kind.__name__}")
+                raise InputError(f"{metric}.{name} must be {what}, got {value!r} "
+                                 f"({type(value).__name__})") from None
         if metric not in metrics:  # checked last: a misspelt option is the clearer message
             raise InputError(f"metric_options[{metric!r}] sets options of {SPECS[metric].title}, "
                              f"which is not computed: add {metric!r} to metrics "
