@@ -12,10 +12,10 @@ settings (``ScoreConfig`` fields) and one output folder ``OUT``. :func:`run_suit
    digest of every PRED and GT file (and of a boxes file or detector model). A pair whose
    results and key are there with the same key is skipped: rerunning finishes only what is
    missing or changed;
-3. writes the leaderboard of every scored pair, ranked by ``sort`` (``OUT/leaderboard.md``, ``.csv``, ``.json``;
-   what each method costs from ``[costs]``, else from its run folder where a peer tool writes
-   it: ``dynaeval.io.run_costs``) and one HTML page, ``OUT/index.html``, with the methods side
-   by side per scene (``dynaeval.report.suite_page``).
+3. writes the leaderboard of every scored pair, ranked by ``sort`` (``OUT/leaderboard.md``,
+   ``.csv``, ``.json``; what each method costs from ``[costs]``, else from its run folder where
+   a peer tool writes it: ``dynaeval.io.run_costs``) and one HTML page, ``OUT/index.html``, with
+   the methods side by side per scene (``dynaeval.report.suite_page``).
 
 A pair that fails (an unreadable frame, missing predictions) is recorded in the
 :class:`SuiteOutcome` and the others still finish. Everything that can be checked before the work
