@@ -19,6 +19,7 @@ import traceback
 
 from dynaeval.core.errors import InputError, did_you_mean
 from dynaeval.core.runtime import check_opencv, keep_freed_memory
+from dynaeval.core.terminal import escaped_console
 from dynaeval.core.version import VERSION
 
 from . import demo, detect, detector, leaderboard, merge, prepare, score, suite
@@ -62,7 +63,14 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``dynaeval`` command; returns the exit code."""
+    """Entry point of the ``dynaeval`` command; returns the exit code. What it prints shows
+    control characters as escapes (``dynaeval.core.terminal``): a name or a path cannot run an
+    escape sequence on the terminal."""
+    with escaped_console():
+        return _main(argv)
+
+
+def _main(argv: list[str] | None) -> int:
     try:
         args = build_parser().parse_args(argv)
     except KeyboardInterrupt:

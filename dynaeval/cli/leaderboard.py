@@ -6,6 +6,7 @@ import argparse
 import sys
 from typing import Any
 
+from dynaeval.core.terminal import write_data
 from dynaeval.io.atomic import check_writable, write_text_atomic
 from dynaeval.report.leaderboard import FORMATS, GROUP_BY, build_leaderboard, forced_fields, render
 
@@ -49,6 +50,6 @@ def run(args: argparse.Namespace) -> int:
     if args.output:
         write_text_atomic(args.output, text, overwrite=args.overwrite, what="leaderboard file")
         print(f"leaderboard written to {args.output}", file=sys.stderr)
-    else:
-        sys.stdout.write(text)
+    else:  # data: as it is in a file or a pipe
+        write_data(text)
     return EXIT_OK

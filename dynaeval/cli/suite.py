@@ -16,8 +16,10 @@ from typing import Any
 from dynaeval.core.deps import MissingDependency, load
 from dynaeval.core.errors import InputError
 from dynaeval.core.outcome import warning_line
+from dynaeval.report.leaderboard import render
 from dynaeval.report.results import load_results
 from dynaeval.run.suite import (
+    check_sort,
     folder_suite,
     load_suite,
     read_toml,
@@ -36,7 +38,8 @@ def add(sub: Any) -> None:
         NAME, help="score many methods on many scenes, resumable, locally or on Dask",
         description="Prepare each scene's ground truth once, score every (method, scene) "
                     "against it, skip what is already scored with the same settings and inputs, "
-                    "write OUT/leaderboard.{md,csv,json} and OUT/index.html. SUITE is a "
+                    "write OUT/leaderboard.{md,csv,json} and OUT/index.html, and print the "
+                    "leaderboard (methods ranked, the best marked). SUITE is a "
                     "SUITE.toml (docs/integration.md), or a folder ROOT/<method>/<scene> "
                     "with --gt GT (GT/<scene>) and -o OUT.")
     s.add_argument("suite", metavar="SUITE.toml|ROOT")
@@ -52,6 +55,9 @@ def add(sub: Any) -> None:
     s.add_argument("--overwrite", action="store_true",
                    help="write into an output folder that holds other files than a suite's "
                         "own (its index.html and leaderboard.* are replaced)")
+    s.add_argument("--sort", metavar="METRIC",
+                   help="rank each scene's methods by this metric, in its direction, as "
+                        "'dynaeval leaderboard --sort' (default: the first whole-frame metric)")
     s.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
 
 
@@ -81,6 +87,7 @@ def _suite_of(args: argparse.Namespace) -> Any:
 def run(args: argparse.Namespace) -> int:
     """Run ``dynaeval suite`` with parsed ``args``; the exit code (module docstring)."""
     suite = _suite_of(args)
+    check_sort(suite.config, args.sort)  # before the scheduler is reached (run_suite checks too)
     client = None
     if args.scheduler:
         try:
@@ -95,7 +102,7 @@ def run(args: argparse.Namespace) -> int:
             raise InputError(f"--scheduler {args.scheduler!r} is not a Dask scheduler address "
                              f"(tcp://HOST:PORT): {err}") from None
     try:
-        outcome = run_suite(suite, client, progress=not args.quiet)
+        outcome = run_suite(suite, client, progress=not args.quiet, sort=args.sort)
     except KeyboardInterrupt:
         print(f"dynaeval: interrupted; the pairs scored so far are kept in {suite.out / 'results'}: "
               "run the same command again to finish the others", file=sys.stderr)
@@ -104,6 +111,8 @@ def run(args: argparse.Namespace) -> int:
         if client is not None:
             client.close()
     _print_run_warnings(outcome)
+    if outcome.board is not None:  # ranked, the best marked: as OUT/leaderboard.md
+        print(render(outcome.board, "md"))
     for line in summary_lines(outcome):
         print(line, file=sys.stderr if line.startswith("failed") else sys.stdout)
     return EXIT_FAILED if outcome.failed else EXIT_OK
@@ -112,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
 def _print_run_warnings(outcome: Any) -> None:
     """The run-level warnings of the pairs this run scored, as ``dynaeval score`` prints them
     (e.g. LPIPS not computed), each once with the pairs it concerns (the suite kept them in the
-    results files only)."""
+    results files only); then the suite's own notes (a run file's cost figure left blank)."""
     seen: dict[str, list[str]] = {}
     for path in outcome.results:
         if path.stem in outcome.scored:
@@ -123,4 +132,6 @@ def _print_run_warnings(outcome: Any) -> None:
         more = " …" if len(names) > 4 else ""
         print(f"dynaeval: warning: {text} ({len(names)} pair(s): {', '.join(names[:4])}{more})",
               file=sys.stderr)
+    for note in outcome.notes:
+        print(f"dynaeval: warning: {note}", file=sys.stderr)
 

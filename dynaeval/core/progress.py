@@ -29,6 +29,8 @@ import time
 from collections.abc import Callable
 from typing import TextIO
 
+from dynaeval.core.terminal import console_text, raw_stream
+
 PHASES = ("regions", "frames", "pairs", "video")
 """The phases of a scoring run, in the order a camera goes through them."""
 
@@ -175,11 +177,12 @@ class Progress:
         if not (force or final) and self._last_draw is not None and now - self._last_draw < period:
             return
         self._last_draw = now
-        text = self.line(final)
-        self.stream.write(f"\r{text}\x1b[K" if self.tty else text + "\n")
+        text = console_text(self.line(final))  # its notes name pairs and files
+        raw = raw_stream(self.stream)  # its own carriage return and line clearing
+        raw.write(f"\r{text}\x1b[K" if self.tty else text + "\n")
         if self.tty and final:
-            self.stream.write("\n")
-        self.stream.flush()
+            raw.write("\n")
+        raw.flush()
 
     def _tick_loop(self) -> None:
         period = self.interval if self.tty else self.log_interval

@@ -73,7 +73,7 @@ def check_fps(fps: object) -> float:
     ok = isinstance(fps, numbers.Real) and not isinstance(fps, bool)
     value = float(fps) if ok else math.nan  # type: ignore[arg-type]
     if not math.isfinite(value) or value <= 0:
-        raise InputError(f"frames per second must be a positive number, got {fps!r}")
+        raise InputError(f"fps: frames per second must be a positive number, got {fps!r}")
     return value
 
 

@@ -7,6 +7,7 @@ no box (or no moving pixel) carries the reason instead, and its focused (masked)
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Executor
 from dataclasses import asdict, dataclass, field, replace
@@ -19,6 +20,7 @@ from dynaeval.core.boxes import clip_boxes
 from dynaeval.core.errors import InputError, did_you_mean
 from dynaeval.core.outcome import Status, note
 from dynaeval.core.runtime import file_sha256
+from dynaeval.core.terminal import raw_stream
 from dynaeval.io import find_frames
 from dynaeval.io.cache import FrameCache
 from dynaeval.regions.boxes_file import frame_key, read_boxes_file, records_to_boxes
@@ -516,7 +518,7 @@ def detect_ground_truth(
     if warnings is not None:
         warnings.extend(sources.warnings)
     with tqdm(total=total, desc="detecting", unit="frame", disable=not progress,
-              leave=False) as bar:
+              leave=False, file=raw_stream(sys.stderr)) as bar:  # it draws in place
         for cam in cameras.values():
             refs = [ref for _, ref in cam.frames]
             names = [name for name, _ in cam.frames]

@@ -34,14 +34,15 @@ import numpy as np
 
 from dynaeval.core.errors import InputError, did_you_mean
 from dynaeval.core.version import VERSION
+from dynaeval.io.run_costs import RunCosts
 from dynaeval.metrics.registry import METRICS, SPECS
 from dynaeval.report.results import load_results, strict
 
 COSTS = {"train_minutes": ("train min", False), "render_fps": ("render fps", True),
          "memory_gb": ("memory GB", False)}
-"""What a method costs, as its authors or its runs report it (SUITE.toml ``[costs.METHOD]``):
-field -> (column heading, higher is better). Shown beside the metrics, blank when not given,
-never guessed."""
+"""What a method costs, as its authors or its runs report it (SUITE.toml ``[costs.METHOD]``, or
+its run folder where a peer tool writes it: ``dynaeval.io.run_costs``): field -> (column
+heading, higher is better). Shown beside the metrics, blank when not given, never guessed."""
 
 SCHEMA = "dynaeval/leaderboard/v1"
 ALL_SCENES = "(all)"
@@ -339,6 +340,24 @@ def _ranking(rows: list[dict[str, Any]], info: dict[str, Any], sort: str) -> dic
     return {"metric": sort, "higher_is_better": info[sort]["higher_is_better"], "best": best}
 
 
+def _row_costs(rows: list[dict[str, Any]], costs: dict[str, dict[str, float]],
+               run_costs: dict[tuple[str, str], RunCosts]) -> None:
+    """Each row's ``costs``: a (method, scene) row the method's given costs, else what its run
+    folder says; an ``(all)`` row the given costs, else the mean over the method's scenes of a
+    figure every one of them has. Rows without any figure get none."""
+    for r in rows:
+        if r["scene"] != ALL_SCENES:
+            found = run_costs.get((r["method"], r["scene"]))
+            mine = {**(found.costs if found else {}), **costs.get(r["method"], {})}
+        else:
+            scenes = [o.get("costs", {}) for o in rows
+                      if o["method"] == r["method"] and o["scene"] != ALL_SCENES]
+            mine = {k: math.fsum(c[k] for c in scenes) / len(scenes) for k in COSTS
+                    if scenes and all(k in c for c in scenes)}
+        if mine:
+            r["costs"] = {k: mine[k] for k in COSTS if k in mine}
+
+
 def build_leaderboard(
     paths: list[str | Path],
     *,
@@ -347,6 +366,7 @@ def build_leaderboard(
     metrics: list[str] | None = None,
     sort: str | None = None,
     costs: dict[str, dict[str, float]] | None = None,
+    run_costs: dict[tuple[str, str], RunCosts] | None = None,
 ) -> dict[str, Any]:
     """Combine results files into a leaderboard document (layout: module docstring).
 
@@ -358,7 +378,10 @@ def build_leaderboard(
         sort: the metric that ranks the methods of each scene (``rank``; default the first
             whole-frame metric), in its registry direction.
         costs: method -> its ``COSTS`` fields given (train minutes, render fps, memory GB), for
-            the cost columns and the suite page's quality-vs-cost plot.
+            the cost columns and the suite page's quality-vs-cost plot; they win over
+            ``run_costs``.
+        run_costs: (method, scene) -> what the pair's run folder says it cost
+            (``io.run_costs.read_run_costs``).
 
     Raises:
         InputError: no file, unreadable or old-schema file, a (method, scene) pair twice,
@@ -387,6 +410,8 @@ def build_leaderboard(
         raise InputError(f"cannot sort by {sort!r}: not a metric of the table{did_you_mean(sort, names)}; "
                          f"available: {', '.join(names)}")
     rows, methods, scenes = _board_rows(docs, str_paths, names, bootstrap)
+    run_costs = run_costs or {}
+    _row_costs(rows, costs or {}, run_costs)
     ranking = _ranking(rows, {n: info[n] for n in names if n in info}, sort)
     covered = {m: sorted(r["scene"] for r in rows if r["method"] == m and r["scene"] != ALL_SCENES)
                for m in methods}
@@ -405,6 +430,9 @@ def build_leaderboard(
         "rows": rows,
         "ranking": ranking,
         **({"costs": {m: dict(costs[m]) for m in methods if costs.get(m)}} if costs else {}),
+        **({"cost_sources": [{"method": m, "scene": sc, "file": rc.source}
+                              for (m, sc), rc in run_costs.items() if rc.costs]}
+           if any(rc.costs for rc in run_costs.values()) else {}),
         "notes": notes,
     })
 
@@ -461,22 +489,26 @@ def _best_mark(board: dict[str, Any], row: dict[str, Any], name: str) -> str:
     return "tie" if best["next_within_interval"] else "best"
 
 
-def _costs_of(board: dict[str, Any], method: str) -> list[float | None]:
-    """The method's ``COSTS`` values (None where not given)."""
-    mine = board.get("costs", {}).get(method, {})
+def _costs_of(row: dict[str, Any]) -> list[float | None]:
+    """The row's ``COSTS`` values (None where not given)."""
+    mine = row.get("costs", {})
     return [mine.get(k) for k in COSTS]
 
 
+def _has_costs(board: dict[str, Any]) -> bool:
+    return any(r.get("costs") for r in board["rows"])
+
+
 def _cost_header(board: dict[str, Any]) -> list[str]:
-    """The cost columns' headings, when any method has a cost."""
-    return [head for head, _ in COSTS.values()] if board.get("costs") else []
+    """The cost columns' headings, when any row has a cost."""
+    return [head for head, _ in COSTS.values()] if _has_costs(board) else []
 
 
-def _cost_cells(board: dict[str, Any], method: str) -> list[str]:
-    """The method's cost cells (blank where not given), when the board has cost columns."""
-    if not board.get("costs"):
+def _cost_cells(board: dict[str, Any], row: dict[str, Any]) -> list[str]:
+    """The row's cost cells (blank where not given), when the board has cost columns."""
+    if not _has_costs(board):
         return []
-    return ["" if v is None else f"{v:g}" for v in _costs_of(board, method)]
+    return ["" if v is None else f"{v:g}" for v in _costs_of(row)]
 
 
 def _rank(row: dict[str, Any]) -> str:
@@ -514,7 +546,7 @@ def to_markdown(board: dict[str, Any], by: str = "method") -> str:
     for r in _ordered_rows(board, by):
         cells = [md_cell(r["method"]), md_cell(r["scene"]), _rank(r), str(r["n_frames"])]
         cells += [_cell(n, r["values"][n], _best_mark(board, r, n)) for n in board["metrics"]]
-        cells += _cost_cells(board, r["method"])
+        cells += _cost_cells(board, r)
         lines.append("| " + " | ".join(cells) + " |")
     b = board["bootstrap"]
     lines += ["", f"Means of per-frame values; [{b['confidence']:.0%} bootstrap interval over frames "
@@ -556,7 +588,7 @@ def to_csv(board: dict[str, Any], by: str = "method") -> str:
             w.writerow([csv_text(r["method"]), csv_text(r["scene"]), _rank(r), r["n_frames"], n,
                         *("" if e[k] is None else repr(e[k]) for k in ("mean", "ci_low", "ci_high")),
                         e["n"], inf["higher_is_better"], _best_mark(board, r, n), differ,
-                        *(repr(v) if v is not None else "" for v in _costs_of(board, r["method"]))])
+                        *(repr(v) if v is not None else "" for v in _costs_of(r))])
     return buf.getvalue()
 
 
@@ -573,7 +605,7 @@ def to_html(board: dict[str, Any], by: str = "method") -> str:
         cls = " class='overall'" if r["scene"] == ALL_SCENES else ""
         cells = [escape(c) for c in (r["method"], r["scene"], _rank(r), str(r["n_frames"]))]
         cells += [_html_cell(n, r["values"][n], _best_mark(board, r, n)) for n in board["metrics"]]
-        cells += [escape(c) for c in _cost_cells(board, r["method"])]
+        cells += [escape(c) for c in _cost_cells(board, r)]
         out.append(f"<tr{cls}>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
     out.append("</tbody></table>")
     md_notes = to_markdown(board, by).split("\n\n", 1)[1].strip().splitlines()

@@ -84,13 +84,15 @@ def render_suite_page(docs: list[dict[str, Any]], board: dict[str, Any]) -> str:
     parts = ["<!DOCTYPE html>", "<html><head><meta charset='utf-8'><title>dynaeval suite</title>",
              f"<style>{TABLE_CSS}{REPORT_CSS}</style></head><body>", "<h1>dynaeval suite</h1>",
              f"<p>{len(board['methods'])} method(s) x {len(board['scenes'])} scene(s).</p>", body]
-    if board.get("costs"):
+    costed = [sc for sc in board["scenes"] if _given_costs(board, sc)]
+    if costed:
         parts.append("<h2>Quality against cost</h2><p>Per scene, each method's ranking metric "
-                     "against what it costs (SUITE.toml <code>[costs]</code>); the Pareto front "
-                     "(no other method both cheaper and better) is joined and ringed.</p>")
+                     "against what it costs (SUITE.toml <code>[costs]</code>, else what its run "
+                     "folder says: NeRFBaselines' <code>info.json</code>); the Pareto front (no "
+                     "other method both cheaper and better) is joined and ringed. A method "
+                     "without the figure is left out of that panel.</p>")
         parts += [f"<img alt='{escape(scene)} quality against cost' "
-                  f"src='{figure_uri(quality_cost_figure(board, scene))}'>"
-                  for scene in board["scenes"]]
+                  f"src='{figure_uri(quality_cost_figure(board, scene))}'>" for scene in costed]
     for scene in board["scenes"]:
         order = {m: i for i, m in enumerate(board["methods"])}
         shown = sorted((d for d in docs if d["scene"] == scene), key=lambda d: order[d["method"]])
@@ -108,22 +110,29 @@ def pareto_front(points: list[tuple[float, float]], cheaper_is_lower: bool,
     return sorted(front, key=lambda i: c[i][0])
 
 
+def _given_costs(board: dict[str, Any], scene: str) -> list[str]:
+    """The ``COSTS`` some method of ``scene`` has, in ``COSTS`` order."""
+    rows = [r for r in board["rows"] if r["scene"] == scene]
+    return [k for k in COSTS if any(k in r.get("costs", {}) for r in rows)]
+
+
 def quality_cost_figure(board: dict[str, Any], scene: str) -> Any:
     """The matplotlib figure of ``scene``: the ranking metric's mean per method against each
-    cost some method has (one panel per cost), the Pareto front marked."""
+    cost some method has on that scene (its row's ``costs``; one panel per cost), the Pareto
+    front marked."""
     import matplotlib
 
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
     metric, higher = board["ranking"]["metric"], board["ranking"]["higher_is_better"]
-    given = [k for k in COSTS if any(k in c for c in board["costs"].values())]
+    given = _given_costs(board, scene)
     fig, axes = plt.subplots(1, len(given), figsize=(4.2 * len(given), 3.2), dpi=100,
                              squeeze=False)
-    quality = {r["method"]: r["values"][metric]["mean"] for r in board["rows"]
-               if r["scene"] == scene}
+    rows = [r for r in board["rows"] if r["scene"] == scene]
     for ax, key in zip(axes[0], given, strict=True):
-        pts = [(m, board["costs"].get(m, {}).get(key), q) for m, q in quality.items()]
+        pts = [(r["method"], r.get("costs", {}).get(key), r["values"][metric]["mean"])
+               for r in rows]
         pts = [(m, x, y) for m, x, y in pts if x is not None and y is not None]
         head, cost_higher = COSTS[key]
         for m, x, y in pts:

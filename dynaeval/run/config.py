@@ -7,6 +7,8 @@ number is written into the results' ``settings``.
 
 from __future__ import annotations
 
+import re
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from os import PathLike
 from typing import Any
@@ -17,7 +19,7 @@ from dynaeval.metrics.flow import FlowConfig
 from dynaeval.metrics.jod import check_fps
 from dynaeval.metrics.perceptual import LPIPS_BACKENDS, LPIPS_NETS
 from dynaeval.metrics.pixel import QUANTIZE_MODES
-from dynaeval.metrics.protocols import get_protocol
+from dynaeval.metrics.protocols import PROTOCOL_NAMES, get_protocol
 from dynaeval.metrics.registry import (
     SPECS,
     FrameContext,
@@ -30,6 +32,8 @@ from dynaeval.regions.sources import focus_source
 
 BACKGROUNDS = ("white", "black")
 DEVICES = ("cpu", "cuda", "auto")
+KIND_NAMES = {int: "an integer", float: "a number", str: "a string"}
+"""How a refusal names the type a metric option is declared with."""
 
 
 @dataclass
@@ -138,7 +142,7 @@ class ScoreConfig:
         self.metrics = _check_metrics(self.metrics)
         self.metric_options = _check_metric_options(self.metric_options, self.metrics)
 
-        self.fps = check_fps(self.fps)
+        self.fps = check_fps(self.fps)  # refusals name the key, the value and what it must be
         if isinstance(self.data_range, bool) or self.data_range != 1.0:
             raise InputError(
                 f"data_range must be 1.0 when scoring files, got {self.data_range!r}: dynaeval "
@@ -157,7 +161,8 @@ class ScoreConfig:
                                        or self.split in ("", ".", "..")):
             raise InputError(f"split must be a folder name such as 'test' or 'train', got "
                              f"{self.split!r}")
-        if not (self.device in DEVICES or str(self.device).startswith("cuda:")):
+        if not (self.device in DEVICES or (isinstance(self.device, str)
+                                           and re.fullmatch(r"cuda:\d+", self.device))):
             raise InputError(f"device must be cpu, cuda, cuda:N or auto, got {self.device!r}")
         for name in ("allow_missing", "presence", "temporal", "progress"):
             value = getattr(self, name)
@@ -167,9 +172,10 @@ class ScoreConfig:
             setattr(self, name, bool(value))
         for name in ("method", "scene"):
             value = getattr(self, name)
-            if value is not None and not isinstance(value, str):
-                raise InputError(f"{name} must be a name (a string) or None, got {value!r} "
-                                 f"({type(value).__name__})")
+            if value is not None and (not isinstance(value, str) or not value.strip()):
+                # "" fell back to the folder's name silently
+                raise InputError(f"{name} must be a name (a non-empty string) or None, got "
+                                 f"{value!r} ({type(value).__name__})")
         for name, low in (("workers", 1), ("cache_mb", 0)):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < low:
@@ -178,15 +184,17 @@ class ScoreConfig:
             self.focus = FocusConfig.parse(self.focus, option="focus", device=self.device)
         if not isinstance(self.focus, FocusConfig):
             raise InputError(f"focus must be a FocusConfig or one of the CLI's strings detector, "
-                             f"motion, none, boxes:FILE, got {type(self.focus).__name__}")
+                             f"motion, none, boxes:FILE, got {self.focus!r} "
+                             f"({type(self.focus).__name__})")
         focus_source(self.focus.source)
 
         FlowConfig(method=self.flow)  # raises InputError for an unknown method
-        if self.frames_are_video not in (None, True, False):
+        if self.frames_are_video is not None and not isinstance(self.frames_are_video, bool):
             raise InputError(f"frames_are_video must be True, False or None (the layout "
                              f"decides), got {self.frames_are_video!r}")
         if self.masks is not None and not isinstance(self.masks, (str, PathLike)):
             raise InputError(f"masks must be a folder path or None, got {self.masks!r}")
+        _check_choice("protocol", self.protocol, PROTOCOL_NAMES)
         protocol = get_protocol(self.protocol)
         protocol.check_lpips_net(self.resolved_lpips_net())
         protocol.check_background(self.background)
@@ -199,6 +207,9 @@ class ScoreConfig:
                                  f"manifest.json), got {self.prepared!r}")
             self.prepared = str(self.prepared)
         if self.shard is not None:
+            if not isinstance(self.shard, str | tuple | list):
+                raise InputError(f"shard must be 'I/N' or (I, N), got {self.shard!r} "
+                                 f"({type(self.shard).__name__})")
             spec = self.shard if isinstance(self.shard, str) else "/".join(map(str, self.shard))
             self.shard = parse_shard(spec)
         self.require_metrics()  # last: the values it reads are checked
@@ -235,14 +246,26 @@ def _check_choice(name: str, value: object, choices: tuple[str, ...]) -> None:
 
 
 def _check_metrics(names: object) -> tuple[str, ...]:
-    if isinstance(names, str) or not all(isinstance(n, str) for n in names):  # type: ignore[union-attr]
+    given = tuple(names) if isinstance(names, Iterable) and not isinstance(names, str) else None
+    if given is None or not all(isinstance(n, str) for n in given):
         raise InputError(f"metrics must be a sequence of metric names, got {names!r}")
-    names = tuple(dict.fromkeys(names))  # type: ignore[arg-type]
+    names = tuple(dict.fromkeys(given))
     try:
         selectable_specs(names)
     except KeyError as err:
         raise InputError(str(err).strip("\"'")) from None
     return names
+
+
+def _option_value(kind: Any, value: object) -> Any:
+    """A metric option's ``value`` as its declared ``kind``: text as the CLI gives it, or a value
+    of that kind. Never a boolean, a float for a whole number or a number for a text (``True``
+    read as 1.0, ``64.5`` as 64, ``5`` as ``"5"`` before). Raises ValueError otherwise."""
+    if isinstance(value, bool) or not isinstance(value, str | int | float) or (
+            isinstance(value, float) and kind is not float) or (
+            kind is str and not isinstance(value, str)):
+        raise ValueError(value)
+    return kind(value)
 
 
 def _check_metric_options(options: object, metrics: tuple[str, ...]) -> dict[str, dict[str, Any]]:
@@ -268,9 +291,11 @@ def _check_metric_options(options: object, metrics: tuple[str, ...]) -> dict[str
                                  f"{', '.join(declared)}")
             kind = declared[name][0]
             try:
-                out[metric][name] = kind(value)
+                out[metric][name] = _option_value(kind, value)
             except (TypeError, ValueError, InputError):
-                raise InputError(f"{metric}.{name} must be a {kind.__name__}, got {value!r}") from None
+                what = KIND_NAMES.get(kind, f"a {kind.__name__}")
+                raise InputError(f"{metric}.{name} must be {what}, got {value!r} "
+                                 f"({type(value).__name__})") from None
         if metric not in metrics:  # checked last: a misspelt option is the clearer message
             raise InputError(f"metric_options[{metric!r}] sets options of {SPECS[metric].title}, "
                              f"which is not computed: add {metric!r} to metrics "

@@ -12,9 +12,10 @@ settings (``ScoreConfig`` fields) and one output folder ``OUT``. :func:`run_suit
    digest of every PRED and GT file (and of a boxes file or detector model). A pair whose
    results and key are there with the same key is skipped: rerunning finishes only what is
    missing or changed;
-3. writes the leaderboard of every scored pair (``OUT/leaderboard.md``, ``.csv``, ``.json``) and
-   one HTML page, ``OUT/index.html``, with the methods side by side per scene
-   (``dynaeval.report.suite_page``).
+3. writes the leaderboard of every scored pair, ranked by ``sort`` (``OUT/leaderboard.md``,
+   ``.csv``, ``.json``; what each method costs from ``[costs]``, else from its run folder where
+   a peer tool writes it: ``dynaeval.io.run_costs``) and one HTML page, ``OUT/index.html``, with
+   the methods side by side per scene (``dynaeval.report.suite_page``).
 
 A pair that fails (an unreadable frame, missing predictions) is recorded in the
 :class:`SuiteOutcome` and the others still finish. Everything that can be checked before the work
@@ -58,7 +59,7 @@ from pathlib import Path
 from typing import Any
 
 from dynaeval.core.deps import DEPENDENCIES, MissingDependency, load
-from dynaeval.core.errors import InputError
+from dynaeval.core.errors import InputError, did_you_mean
 from dynaeval.core.progress import Progress
 from dynaeval.core.version import VERSION
 from dynaeval.io.atomic import check_writable, write_text_atomic
@@ -71,6 +72,8 @@ from dynaeval.io.prepared import (
     json_digest,
     read_manifest,
 )
+from dynaeval.io.run_costs import read_run_costs
+from dynaeval.metrics.registry import METRICS, SPECS
 from dynaeval.regions.boxes_file import read_boxes_file
 from dynaeval.report.leaderboard import COSTS, build_leaderboard, render
 from dynaeval.report.results import load_results, results_text
@@ -159,6 +162,12 @@ class SuiteOutcome:
     """Results files of every scored pair (this run's and earlier ones), in pair order."""
     leaderboard: list[Path] = field(default_factory=list)
     """The leaderboard files written (md, csv, json)."""
+    notes: list[str] = field(default_factory=list)
+    """What the suite says besides the pairs' own warnings: a method's run file whose cost
+    figures cannot be read (``io.run_costs``)."""
+    board: dict[str, Any] | None = None
+    """The leaderboard document of every scored pair (``report.leaderboard``), methods ranked;
+    None when no pair has results."""
     page: Path | None = None
     """The HTML page written (None when no pair has results)."""
 
@@ -234,9 +243,7 @@ def settings_config(settings: Any, where: str, base: Path | None = None) -> Scor
         if config.focus.kind.reads_file:  # every task reads it: a bad one is refused here
             read_boxes_file(config.focus.boxes_file)
         return config
-    except InputError as err:
-        raise InputError(f"[settings]: {err}", path=where) from None
-    except TypeError as err:  # a value of the wrong type where ScoreConfig does not check it
+    except InputError as err:  # every value is checked there, once (never a TypeError)
         raise InputError(f"[settings]: {err}", path=where) from None
 
 
@@ -578,7 +585,8 @@ def _error_line(err: BaseException) -> str:
 
 
 def run_suite(suite: Suite, executor: Any = None, *, progress: bool = True,
-              on_result: Callable[[str], None] | None = None) -> SuiteOutcome:
+              on_result: Callable[[str], None] | None = None,
+              sort: str | None = None) -> SuiteOutcome:
     """Prepare, score what is missing, write the leaderboard and the page (module docstring).
 
     Args:
@@ -588,13 +596,18 @@ def run_suite(suite: Suite, executor: Any = None, *, progress: bool = True,
         progress: one bar over the whole suite on stderr (ground-truth frames prepared, frames
             scored).
         on_result: called with the pair's name after each results file is written.
+        sort: the metric that ranks each scene's methods in the leaderboard (``dynaeval
+            leaderboard --sort``; default the first whole-frame metric), checked before any
+            work (``check_sort``).
 
     Returns:
         What was scored, skipped, prepared and what failed (with the error).
 
     Raises:
-        InputError: another run is writing into ``suite.out`` (``dynaeval.io.lock``).
+        InputError: another run is writing into ``suite.out`` (``dynaeval.io.lock``); ``sort``
+            is not a metric the suite computes.
     """
+    check_sort(suite.config, sort)
     (suite.out / "results").mkdir(parents=True, exist_ok=True)
     (suite.out / "prepared").mkdir(exist_ok=True)
     if not (suite.out / MARKER).is_file():
@@ -602,11 +615,37 @@ def run_suite(suite: Suite, executor: Any = None, *, progress: bool = True,
                           "a suite run into it replaces and repairs its files.\n",
                           overwrite=True, what="suite marker file")
     with hold_folder(suite.out, "suite output folder"):
-        return _run_held(suite, executor or InlineExecutor(), progress, on_result)
+        return _run_held(suite, executor or InlineExecutor(), progress, on_result, sort)
+
+
+def check_sort(config: ScoreConfig, sort: str | None) -> None:
+    """Refuse, before any work, a ``sort`` metric that is not a result key of the registry or
+    that ``config`` does not compute (a per-frame metric not in ``metrics``, a temporal term
+    with ``temporal`` off, an object metric with ``presence`` off). A region the run cannot
+    fill (``focused_*`` without boxes) is refused when the leaderboard is built.
+
+    Raises:
+        InputError: naming the metric and why (did-you-mean for an unknown name).
+    """
+    if sort is None:
+        return
+    if sort not in METRICS:
+        raise InputError(f"cannot sort by {sort!r}: not a metric{did_you_mean(sort, METRICS)}")
+    info = METRICS[sort]
+    if SPECS[info.metric].build is not None and info.metric not in config.metrics:
+        off = f"{info.metric!r} is not among the settings' metrics"
+    elif info.kind in ("pair", "camera") and SPECS[info.metric].build is None \
+            and not config.temporal:
+        off = "the temporal terms are off (temporal = false)"
+    elif info.kind == "object" and not config.presence:
+        off = "presence is off (presence = false)"
+    else:
+        return
+    raise InputError(f"cannot sort by {sort!r}: the suite does not compute it: {off}")
 
 
 def _run_held(suite: Suite, executor: Any, progress: bool,
-              on_result: Callable[[str], None] | None) -> SuiteOutcome:
+              on_result: Callable[[str], None] | None, sort: str | None) -> SuiteOutcome:
     """``run_suite``'s work, while this process holds ``suite.out``."""
     out = suite.out
     outcome = SuiteOutcome()
@@ -649,7 +688,7 @@ def _run_held(suite: Suite, executor: Any, progress: bool,
     outcome.failed = dict(sorted(outcome.failed.items(), key=lambda kv: order[kv[0]]))
     outcome.results = [out / "results" / f"{p.name}.json" for p in suite.pairs
                        if _done(out, p, keys[p.name])]
-    _write_summaries(suite, outcome)
+    _write_summaries(suite, outcome, sort)
     return outcome
 
 
@@ -762,11 +801,18 @@ class _Tasks:
         self.bar.advance("frames", len(self.gt_digests[pair.scene]), note=pair.name)
 
 
-def _write_summaries(suite: Suite, outcome: SuiteOutcome) -> None:
-    """The leaderboard (md, csv, json) and the page of every pair with results."""
+def _write_summaries(suite: Suite, outcome: SuiteOutcome, sort: str | None) -> None:
+    """The leaderboard (md, csv, json; ranked by ``sort``) and the page of every pair with
+    results."""
     if not outcome.results:
         return
-    board = build_leaderboard(outcome.results, costs=suite.costs)
+    scored = {(p.method, p.scene): p for p in suite.pairs
+              if suite.out / "results" / f"{p.name}.json" in outcome.results}
+    run_costs = {key: read_run_costs(p.pred) for key, p in scored.items()}
+    outcome.notes += [rc.note for rc in run_costs.values() if rc.note]
+    board = build_leaderboard(outcome.results, costs=suite.costs, run_costs=run_costs,
+                              sort=sort)
+    outcome.board = board
     for fmt in ("md", "csv", "json"):
         path = suite.out / f"leaderboard.{fmt}"
         write_text_atomic(path, render(board, fmt), overwrite=True, what="leaderboard file")

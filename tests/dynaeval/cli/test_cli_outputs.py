@@ -202,3 +202,24 @@ def test_prepare_output_under_a_file_is_exit_2_before_the_work(tmp_path, scene, 
     code, _, err = run(capsys, "prepare", gt, "-q", "-o", tmp_path / "plain.txt" / "prep")
     assert code == 2
     assert "plain.txt: the prepared folder would be under this file, which is not a folder" in err
+
+
+def test_control_characters_in_names_are_shown_not_run_on_the_console(tmp_path, scene, capsys):
+    """Issue 42: a method name (or a file name) with an escape sequence reached the terminal as
+    is: it could recolour, retitle or clear it, and a carriage return overwrote the line. The
+    console shows such characters as escapes; the results file keeps the name, and a
+    leaderboard's CSV or JSON on a redirected stdout is data, written as it is."""
+    pred, gt = scene
+    name = "evil\x1b]0;pwned\x07\rm\x85"
+    code, out, err = run(capsys, "score", pred, gt, "--metrics", "psnr", "-q", "--focus", "none",
+                         "--no-temporal", "--method", name, "-o", tmp_path / "r.json")
+    assert code == 0, err
+    assert "evil\\x1b]0;pwned\\x07\\x0dm\\x85 on " in out
+    assert not any(ch in out + err for ch in "\x1b\x07\r\x85")
+    assert json.loads((tmp_path / "r.json").read_text())["method"] == name
+    code, out, err = run(capsys, "score", tmp_path / "no\x1b[2Jsuch", gt, "-q")
+    assert code == 2 and "no\\x1b[2Jsuch" in err and "\x1b" not in err
+    for fmt in ("csv", "json"):  # stdout is not a terminal here: the data as it is
+        code, out, err = run(capsys, "leaderboard", tmp_path / "r.json", "--format", fmt)
+        assert code == 0, err
+        assert (name if fmt == "csv" else name[-2:]) in out  # JSON escapes C0 itself

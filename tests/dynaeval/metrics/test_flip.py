@@ -527,7 +527,7 @@ def test_pixels_per_degree_is_a_run_option_recorded_in_the_settings(tmp_path):
     ("flip.ppd=3", "flip has no option 'ppd'"),
     ("psnr.x=1", "metric 'psnr' has no options"),
     ("flip=3", "--metric-option must be NAME.OPTION=VALUE"),
-    ("flip.pixels_per_degree=abc", "flip.pixels_per_degree must be a float"),
+    ("flip.pixels_per_degree=abc", "flip.pixels_per_degree must be a number"),
 ])
 def test_bad_metric_options_are_usage_errors(option, message, capsys):
     from dynaeval.cli import main, sample_dir

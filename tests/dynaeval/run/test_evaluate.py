@@ -194,11 +194,11 @@ def test_channel_mismatch(tmp_path, scene):
                         r"or a FocusConfig \(dynaeval.regions.focus\) to set expand"),
     ("focus", "boxes:", "focus boxes:FILE needs a file name after 'boxes:'"),
     ("focus", None, "focus must be a FocusConfig or one of the CLI's strings detector, motion, "
-                    "none, boxes:FILE, got NoneType"),
+                    "none, boxes:FILE, got None \\(NoneType\\)"),
     ("frames_are_video", "yes", "frames_are_video must be True, False or None"),
     ("metric_options", {"ssim": {"window": 7}}, "metric 'ssim' has no options"),
     ("metric_options", {"flip": {"observer": 1}}, "flip has no option 'observer'"),
-    ("metric_options", {"flip": {"pixels_per_degree": "many"}}, "must be a float, got 'many'"),
+    ("metric_options", {"flip": {"pixels_per_degree": "many"}}, "must be a number, got 'many'"),
 ])
 def test_bad_settings_are_refused_before_any_frame_is_read(tmp_path, field, value, message):
     with pytest.raises(InputError, match=message):

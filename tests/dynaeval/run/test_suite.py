@@ -15,6 +15,7 @@ import pytest
 
 from dynaeval.cli import main, sample_dir
 from dynaeval.errors import InputError
+from dynaeval.report.leaderboard import schema_path
 from dynaeval.run.config import ScoreConfig
 from dynaeval.run.evaluate import score
 from dynaeval.run.suite import folder_suite, load_suite, read_toml, run_suite, settings_config
@@ -470,20 +471,36 @@ def test_settings_are_type_checked_once_before_any_work(tree, capsys, setting, m
 
 def test_a_suite_of_three_methods_and_two_scenes_is_ranked_with_the_best_marked(tree, capsys):
     """Issue 42 item 8's done-when: a known quality order (m2: noise +-8 grey levels, m3: +-12,
-    m1: the sample's blurred stand-in) is the leaderboard's order, the best marked; the suite
-    prints the run's warnings as `score` does; its page's table scrolls in its own box."""
+    m1: the sample's blurred stand-in) is the leaderboard's order, the best marked, printed on
+    stdout (it printed only the files' paths); ``--sort`` ranks by another metric, as
+    ``dynaeval leaderboard --sort``; the suite prints the run's warnings as `score` does; its
+    page's table scrolls in its own box."""
     shutil.copytree(tree / "gt" / "sample", tree / "gt" / "sample2")
     for m in ("m1", "m2", "m3"):
         shutil.copytree(tree / "root" / m / "sample", tree / "root" / m / "sample2")
     out = tree / "out"
-    code = main(["suite", str(tree / "root"), "--gt", str(tree / "gt"), "-o", str(out),
-                 "--settings", str(tree / "settings.toml"), "-q"])
-    assert code == 0
-    capsys.readouterr()
-    md = (out / "leaderboard.md").read_text().splitlines()
+    args = ["suite", str(tree / "root"), "--gt", str(tree / "gt"), "-o", str(out),
+            "--settings", str(tree / "settings.toml"), "-q"]
+    assert main(args) == 0
+    printed = capsys.readouterr().out
+    md = (out / "leaderboard.md").read_text()
+    assert md in printed and printed.count("| method | scene | rank |") == 1
+    md = md.splitlines()
     methods = [line.split("|")[1].strip() for line in md[2:] if line.startswith("| m")]
     assert methods == ["m2"] * 3 + ["m3"] * 3 + ["m1"] * 3  # 2 scenes + (all), best first
     assert all("**" in line.split("|")[5] for line in md[2:5])  # m2's PSNR: the best, bold
+    assert main([*args, "--sort", "ssim"]) == 0  # nothing scored again: only the ranking
+    printed = capsys.readouterr().out
+    board = json.loads((out / "leaderboard.json").read_text())
+    assert board["ranking"]["metric"] == "ssim" and "0 pair(s) scored" in printed
+    by_ssim = sorted({r["method"]: r["values"]["ssim"]["mean"] for r in board["rows"]
+                      if r["scene"] == "sample"}.items(), key=lambda kv: -kv[1])
+    md = (out / "leaderboard.md").read_text()
+    assert [m for m, _ in by_ssim] == ["m2", "m1", "m3"]  # m1 above m3, unlike by PSNR
+    assert [line.split("|")[1].strip() for line in md.splitlines()
+            if line.startswith("| m") and line.split("|")[2].strip() == "sample"] == \
+        ["m2", "m1", "m3"]
+    assert md in printed
     assert "<div class='table'><table>" in (out / "index.html").read_text()
     (tree / "default.toml").write_text(f'[settings]\nfocus = "boxes:{_boxes()}"\n')
     main(["suite", str(tree / "root"), "--gt", str(tree / "gt"), "-o", str(tree / "out2"),
@@ -495,6 +512,24 @@ def test_a_suite_of_three_methods_and_two_scenes_is_ranked_with_the_best_marked(
     if "lpips" not in json.loads((tree / "out2" / "results" / "sample__m1.json").read_text())[
             "summary"]:  # no LPIPS weights on this machine: the suite says so, once
         assert len(lpips) == 1 and "(6 pair(s)" in lpips[0], err
+
+
+@pytest.mark.parametrize(("sort", "message"), [
+    ("psnrr", "cannot sort by 'psnrr': not a metric (did you mean 'psnr'?)"),
+    ("lpips", "cannot sort by 'lpips': the suite does not compute it: 'lpips' is not among the "
+              "settings' metrics"),
+    ("flicker", "cannot sort by 'flicker': the suite does not compute it: the temporal terms "
+                "are off"),
+])
+def test_a_suite_sort_metric_it_does_not_compute_is_exit_2_before_any_work(tree, capsys, sort,
+                                                                             message):
+    (tree / "notemporal.toml").write_text(_settings_toml() + "temporal = false\n")
+    out = tree / "out"
+    code = main(["suite", str(tree / "root"), "--gt", str(tree / "gt"), "-o", str(out),
+                 "--settings", str(tree / "notemporal.toml"), "-q", "--sort", sort])
+    assert code == 2
+    assert message in capsys.readouterr().err
+    assert not out.exists()  # before any work: not even the output folder
 
 
 def test_costs_are_columns_and_the_page_plots_quality_against_cost(tree, capsys):
@@ -532,3 +567,39 @@ def test_the_pareto_front_is_what_no_other_method_beats_on_both():
     pts = [(5.0, 20.0), (60.0, 30.0), (90.0, 25.0), (60.0, 29.0), (1.0, 10.0)]
     assert pareto_front(pts, cheaper_is_lower=True, better_is_higher=True) == [4, 0, 1]
     assert pareto_front(pts, cheaper_is_lower=False, better_is_higher=True) == [2, 1]
+
+
+def test_costs_are_read_from_a_nerfbaselines_run_folder_and_the_toml_wins(tree, capsys):
+    """Issue 42 item 9: what a method's run folder already says it cost (NeRFBaselines'
+    info.json beside color/) is a leaderboard column and on the page; SUITE.toml's figure wins;
+    a figure nobody gives stays blank. Before, only SUITE.toml's [costs] were shown."""
+    from tests.dynaeval.io.test_run_costs import nb_info
+
+    nb = tree / "runs" / "nb"
+    shutil.copytree(tree / "root" / "m2" / "sample", nb_info(nb, total_train_time=2700.0),
+                    dirs_exist_ok=True)
+    text = ("output = 'o'\n" + _settings_toml() + "[scenes]\nsample = 'gt/sample'\n[methods]\n"
+            "m1 = 'root/m1/{scene}'\nnb = 'runs/nb/color'\nm3 = 'root/m3/{scene}'\n"
+            "[costs.m3]\nrender_fps = 2\n")
+    assert main(["suite", str(_toml(tree, text)), "-q"]) == 0
+    capsys.readouterr()
+    board = json.loads((tree / "o" / "leaderboard.json").read_text())
+    costs = {(r["method"], r["scene"]): r.get("costs") for r in board["rows"]}
+    assert costs[("nb", "sample")] == costs[("nb", "(all)")] == {"train_minutes": 45.0,
+                                                                  "memory_gb": 6.0}
+    assert costs[("m3", "sample")] == {"render_fps": 2.0} and costs[("m1", "sample")] is None
+    assert board["cost_sources"] == [{"method": "nb", "scene": "sample",
+                                      "file": str(nb / "info.json")}]
+    md = (tree / "o" / "leaderboard.md").read_text().splitlines()
+    row = next(line for line in md if line.startswith("| nb | sample |"))
+    assert [c.strip() for c in row.rstrip(" |").split("|")[-3:]] == ["45", "", "6"]
+    assert "<img alt='sample quality against cost'" in (tree / "o" / "index.html").read_text()
+    jsonschema = pytest.importorskip("jsonschema")
+    jsonschema.validate(board, json.loads(schema_path().read_text()))
+    (nb / "info.json").write_text(json.dumps({"nb_version": "1", "total_train_time": "long"}))
+    text = text.replace("[costs.m3]", "[costs.nb]\ntrain_minutes = 50\n[costs.m3]")
+    assert main(["suite", str(_toml(tree, text)), "-q"]) == 0
+    err = capsys.readouterr().err
+    assert "info.json: total_train_time is 'long', not a number >= 0: left blank" in err
+    board = json.loads((tree / "o" / "leaderboard.json").read_text())
+    assert next(r for r in board["rows"] if r["method"] == "nb")["costs"] == {"train_minutes": 50.0}
