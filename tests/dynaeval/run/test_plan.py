@@ -125,10 +125,10 @@ def test_executor_shares_cache_and_window_between_lanes():
         ex.shutdown(completed=True)
 
 
-def test_each_camera_returns_in_camera_order_and_raises_the_first_failure():
+def test_cameras_at_once_returns_in_camera_order_and_raises_the_first_failure():
     ex = RunWorkers(2, cameras=2, cache_mb=1)
     cams = {"a": [], "b": []}
-    assert ex.each_camera(cams, lambda c, p, stop: c) == ["a", "b"]
+    assert ex.cameras_at_once(cams, lambda c, p, stop: c) == ["a", "b"]
 
     def fails(cam, pairs, stop):  # noqa: ANN202
         if cam == "b":
@@ -137,7 +137,7 @@ def test_each_camera_returns_in_camera_order_and_raises_the_first_failure():
         return cam
 
     with pytest.raises(InputError, match="b is broken"):
-        ex.each_camera(cams, fails)
+        ex.cameras_at_once(cams, fails)
     from concurrent.futures import ThreadPoolExecutor
 
     with ThreadPoolExecutor(2) as lanes:
