@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING
 
 from dynaeval.core.errors import EmptyRegionError, InputError, UndefinedMetricError
 from dynaeval.core.outcome import VALUE_LIMIT, Outcome, Status
+from dynaeval.metrics._common import WholeOrRegion
 from dynaeval.metrics.registry import METRICS, PLUGIN_METRICS, region_argument
 from dynaeval.metrics.structural import reusing_whole_map
 from dynaeval.run.stages.base import FrameWork, Stage, Value
@@ -55,6 +56,8 @@ class FrameMetrics(Stage):
                 try:
                     if METRICS[name].metric in PLUGIN_METRICS:
                         values.append((name, plugin_outcome(name, lambda: fn(pred, gt, kw))))
+                    elif isinstance(fn, WholeOrRegion):  # PSNR, SSIM: the region's function
+                        values.append((name, Outcome.of(float(fn.on(kw)(pred, gt)))))
                     else:
                         values.append((name, Outcome.of(float(fn(pred, gt, kw)))))
                 except EmptyRegionError as err:
