@@ -16,7 +16,7 @@ from concurrent.futures import FIRST_EXCEPTION, ThreadPoolExecutor, wait
 from typing import Any, TypeVar
 
 from dynaeval.io import FramePair
-from dynaeval.io.cache import FrameCache
+from dynaeval.io.images import FrameCache
 
 T = TypeVar("T")
 R = TypeVar("R")

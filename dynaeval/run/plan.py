@@ -20,7 +20,7 @@ from dynaeval.core.errors import InputError
 from dynaeval.core.outcome import Status, unavailable_reason, warning
 from dynaeval.core.runtime import resolve_device
 from dynaeval.io import FramePair
-from dynaeval.io.cache import FrameCache
+from dynaeval.io.images import FrameCache
 from dynaeval.metrics import quantize
 from dynaeval.metrics.flow import FlowConfig
 from dynaeval.metrics.presence import PRESENCE_METRICS, PresenceConfig, frame_presence

@@ -23,7 +23,7 @@ from dynaeval.core.outcome import CameraTerm, Outcome, Status, note, warning
 from dynaeval.core.progress import Progress
 from dynaeval.core.validation import values_known_in
 from dynaeval.io import FramePair
-from dynaeval.io.cache import FrameCache
+from dynaeval.io.images import FrameCache
 from dynaeval.metrics.registry import METRICS
 from dynaeval.regions.focus import FrameRegions, camera_regions, fit_to
 from dynaeval.regions.given import given_masks, with_weights

@@ -17,7 +17,7 @@ import numpy as np
 
 from dynaeval.core.outcome import CameraTerm, Outcome
 from dynaeval.io import FramePair
-from dynaeval.io.cache import FrameCache
+from dynaeval.io.images import FrameCache
 from dynaeval.io.frames import gap_positions
 from dynaeval.regions.focus import FrameRegions
 
