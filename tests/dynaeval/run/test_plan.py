@@ -103,6 +103,18 @@ def test_scope_of_a_config_is_what_it_asks():
     assert isinstance(build_plan(config, scope=Scope.of(config)), RunPlan)
 
 
+def test_a_run_plan_is_built_with_every_field_named():
+    """Issue 41: 15 fields, several of one type (three mappings of metrics), were given by
+    position; a swap built a plan that ran."""
+    from dataclasses import fields
+
+    plan = build_plan(ScoreConfig(temporal=False, focus=NONE, progress=False))
+    values = {f.name: getattr(plan, f.name) for f in fields(RunPlan)}
+    with pytest.raises(TypeError):
+        RunPlan(*values.values())
+    assert RunPlan(**values) == plan
+
+
 # ------------------------------------------------------------------------------ executor
 
 
