@@ -152,7 +152,7 @@ def _reference_pass(preds, gts, static, regions, flow_cfg) -> None:  # noqa: ANN
 def bench_pairs(job: Path, rounds: int) -> str:
     """Markdown: the temporal pass per pair in DIS flows, and where its time goes."""
     from dynaeval.metrics.flow import FlowCache, FlowConfig, flow_from_gray, to_gray_u8
-    from dynaeval.metrics.temporal import TemporalConfig, temporal_metrics
+    from dynaeval.metrics.temporal import TemporalConfig, TemporalRun, temporal_metrics
 
     preds, gts = load_camera(job, "cam07")
     static, regions = _regions(gts)
@@ -167,7 +167,7 @@ def bench_pairs(job: Path, rounds: int) -> str:
 
     def engine() -> dict:
         return temporal_metrics(preds, gts, static_mask=static, region_masks=regions, config=cfg,
-                                flow_cache=FlowCache())
+                                run=TemporalRun(flow_cache=FlowCache()))
 
     best = interleaved({
         "flows": flows,

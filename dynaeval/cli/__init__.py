@@ -67,32 +67,28 @@ def main(argv: list[str] | None = None) -> int:
     control characters as escapes (``dynaeval.core.terminal``): a name or a path cannot run an
     escape sequence on the terminal."""
     with escaped_console():
-        return _main(argv)
-
-
-def _main(argv: list[str] | None) -> int:
-    try:
-        args = build_parser().parse_args(argv)
-    except KeyboardInterrupt:
-        print("dynaeval: interrupted; nothing done", file=sys.stderr)
-        return 130
-    given = vars(args)  # the run-wide checks, for the commands that have these options
-    keep_freed_memory(given.get("workers") or 1)
-    try:
-        if note := check_opencv(needs_tvl1=given.get("flow") == "tvl1"):
-            print(f"dynaeval: warning: {note}", file=sys.stderr)
-        return {c.NAME: c.run for c in COMMANDS}[args.command](args)
-    except InputError as err:
-        print(f"dynaeval: error: {err}", file=sys.stderr)
-        return EXIT_INPUT
-    except BrokenPipeError:  # stdout closed early (| head): the work is done, stay quiet
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return EXIT_OK
-    except KeyboardInterrupt:
-        print("dynaeval: interrupted; no results written", file=sys.stderr)
-        return 130
-    except Exception:
-        traceback.print_exc()
-        print("dynaeval: internal error (a bug): please report it with the traceback above",
-              file=sys.stderr)
-        return EXIT_BUG
+        try:
+            args = build_parser().parse_args(argv)
+        except KeyboardInterrupt:
+            print("dynaeval: interrupted; nothing done", file=sys.stderr)
+            return 130
+        given = vars(args)  # the run-wide checks, for the commands that have these options
+        keep_freed_memory(given.get("workers") or 1)
+        try:
+            if note := check_opencv(needs_tvl1=given.get("flow") == "tvl1"):
+                print(f"dynaeval: warning: {note}", file=sys.stderr)
+            return {c.NAME: c.run for c in COMMANDS}[args.command](args)
+        except InputError as err:
+            print(f"dynaeval: error: {err}", file=sys.stderr)
+            return EXIT_INPUT
+        except BrokenPipeError:  # stdout closed early (| head): the work is done, stay quiet
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+            return EXIT_OK
+        except KeyboardInterrupt:
+            print("dynaeval: interrupted; no results written", file=sys.stderr)
+            return 130
+        except Exception:
+            traceback.print_exc()
+            print("dynaeval: internal error (a bug): please report it with the traceback above",
+                  file=sys.stderr)
+            return EXIT_BUG

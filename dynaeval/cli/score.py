@@ -11,6 +11,7 @@ from typing import Any
 
 from dynaeval.core.errors import InputError
 from dynaeval.io.atomic import check_writable, write_files_atomic
+from dynaeval.io.layouts import layout_kind
 from dynaeval.report import summary_table
 from dynaeval.report.gaussian_splatting import gs_files, gs_paths
 from dynaeval.report.html import RegionRecorder, render_report, report_index
@@ -95,15 +96,10 @@ def run_score(pred: str, gt: str | None, config: ScoreConfig, outputs: Outputs, 
 
 def _print_layout(results: dict) -> None:
     """What was scored against what, for a render folder or a K-Planes stack."""
-    layout = results["inputs"].get("layout")
-    if layout and layout["name"] == "kplanes":
-        files = layout["stack"]["files"]
-        shown = files[0] if len(files) == 1 else f"{len(files)} files ({files[0]}, ...)"
-        print(f"dynaeval: K-Planes evaluation stack: scored the top third (prediction) of "
-              f"{shown} against its middle third (ground truth)", file=sys.stderr)
-    elif layout:
-        print(f"dynaeval: {layout['name']} render folder: scored {results['inputs']['pred']} "
-              f"against {results['inputs']['gt']}", file=sys.stderr)
+    inputs = results["inputs"]
+    if inputs.get("layout"):
+        print(f"dynaeval: {layout_kind(inputs['layout']['name']).scored(inputs)}",
+              file=sys.stderr)
 
 
 def _write_outputs(results: dict, outputs: Outputs, recorder: Any, *, overwrite: bool) -> None:

@@ -183,6 +183,11 @@ class PanelFrameRef(FrameRef):
     panels: int = 3
     """Panels in the file (3 with covisibility masks, else 2): its width is ``panels * width``."""
 
+    @property
+    def image_file(self) -> None:
+        """None: a part of a file, not a whole image (``FrameRef.image_file``)."""
+        return None
+
     def read(self, background: str | float = "white", decode: str = "dynaeval") -> np.ndarray:
         """The panel as (H, width, C) float32 in [0, 1].
 

@@ -70,13 +70,18 @@ class FrameRef:
     index: int | None = None
     """0-based frame number inside a video file; None for an image file."""
 
-    def read(self, background: str | float = "white", decode: str = "dynaeval",
-             decoded: np.ndarray | None = None) -> np.ndarray:
+    @property
+    def image_file(self) -> Path | None:
+        """The image file that is this frame, read whole by ``read_image`` (which
+        ``dynaeval.io.images.FrameCache`` calls itself), or None: a video frame, or (a subclass
+        that reads part of a file) a part."""
+        return self.path if self.index is None else None
+
+    def read(self, background: str | float = "white", decode: str = "dynaeval") -> np.ndarray:
         """The frame as (H, W, C) float32, C in {1, 3}, in [0, 1] (float files as stored);
-        ``decode``: the 16-bit PNG rule of ``dynaeval.io.images.read_image``; ``decoded``: an
-        image file's uint8 decoding made beforehand (``read_image``)."""
-        if self.index is None:
-            return read_image(self.path, background=background, decode=decode, decoded=decoded)
+        ``decode``: the 16-bit PNG rule of ``dynaeval.io.images.read_image``."""
+        if self.image_file is not None:
+            return read_image(self.image_file, background=background, decode=decode)
 
         return to_float(read_video_frame(self.path, self.index), path=self.path)
 

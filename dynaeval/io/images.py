@@ -33,12 +33,21 @@ channels, and half-float TIFFs (OpenCV cannot decode them). A TIFF's header (a `
 file's too) is read for its type when ``find_frames`` lists it (``check_pixel_type``), so a run
 stops before the work; a TIFF under another name is checked when decoded, and so is an EXR's
 channel type.
+
+Decoded frames are kept for reuse (``FrameCache``), so one scoring run decodes each file once
+where memory allows. A camera's ground truth is read by several passes (motion masks, detector,
+per-frame metrics, temporal terms) and its predictions by two; PNG decoding of a 1080p frame
+costs about as much as its SSIM. ``FrameCache`` keeps decoded frames up to a byte budget. It never evicts: once full, the
+frames already kept keep hitting and the rest are decoded on each read, so a sequential pass over
+more frames than fit degrades to the uncached cost instead of thrashing as an LRU would.
 """
 
 from __future__ import annotations
 
 import os
 import struct
+import threading
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -459,3 +468,49 @@ def read_image(path: str | Path, *, background: str | float = "white",
     elif image.shape[2] not in (1, 3):
         raise InputError(f"unsupported channel count {image.shape[2]}", path=path)
     return np.ascontiguousarray(image)
+
+
+class FrameCache:
+    """Thread-safe store of decoded frames (read-only arrays), up to ``max_bytes``.
+
+    ``decoded``: where image files decoded beforehand come from (``path -> uint8 array or
+    None``: a prepared ground truth); a miss on such a file skips reading and decoding it.
+    """
+
+    def __init__(self, max_bytes: int,
+                 decoded: Callable[[Path], np.ndarray | None] | None = None) -> None:
+        self.max_bytes = int(max_bytes)
+        self.decoded = decoded
+        self.bytes = 0
+        self.hits = 0
+        self.misses = 0
+        self._frames: dict[tuple[Any, str | float, str], np.ndarray] = {}
+        self._lock = threading.Lock()
+
+    def read(self, ref: Any, background: str | float = "white",
+             decode: str = "dynaeval") -> np.ndarray:
+        """The frame of ``ref`` (a ``dynaeval.io.frames.FrameRef``), from the cache when it was
+        read before: an image file (``ref.image_file``) read here (``read_image``, from
+        ``decoded`` where it has the file), other frames by ``ref.read(background, decode)``.
+
+        Returns a read-only (H, W, C) float32 array: callers must not modify it in place.
+        """
+        key = (ref, background, decode)  # the whole reference: a K-Planes stack's parts share path and index
+        with self._lock:
+            frame = self._frames.get(key)
+            if frame is not None:
+                self.hits += 1
+                return frame
+            self.misses += 1
+        file = ref.image_file  # None: a video frame, a part of a file
+        if file is not None:
+            raw = self.decoded(file) if self.decoded is not None else None
+            frame = read_image(file, background=background, decode=decode, decoded=raw)
+        else:
+            frame = ref.read(background, decode)
+        frame.flags.writeable = False
+        with self._lock:
+            if key not in self._frames and self.bytes + frame.nbytes <= self.max_bytes:
+                self._frames[key] = frame
+                self.bytes += frame.nbytes
+        return frame

@@ -62,6 +62,11 @@ class StackedFrameRef(FrameRef):
     rows: int = 0
     """Height of one part in pixels (the frame's first ``3 * rows`` rows are the stack)."""
 
+    @property
+    def image_file(self) -> None:
+        """None: a part of a file, not a whole image (``FrameRef.image_file``)."""
+        return None
+
     def read(self, background: str | float = "white", decode: str = "dynaeval") -> np.ndarray:
         """The part as (rows, W, C) float32 in [0, 1]; ``decode``: the 16-bit PNG rule of
         ``dynaeval.io.images.read_image``."""

@@ -101,7 +101,7 @@ class RenderLayout:
     def kind(self) -> LayoutKind:
         """What this kind of layout does differently (``LAYOUT_KINDS``; a ``LAYOUTS`` sibling
         pair: the default)."""
-        return LAYOUT_KINDS.get(self.name, SIBLING_FOLDERS)
+        return layout_kind(self.name)
 
 
 class LayoutKind:
@@ -131,6 +131,17 @@ class LayoutKind:
         """More fields of the results' ``inputs.layout``."""
         return {}
 
+    def scored(self, inputs: dict[str, Any]) -> str:
+        """What a run of this layout scored against what, from the results' ``inputs`` (its
+        ``layout`` section present): the line ``dynaeval score`` prints."""
+        return (f"{inputs['layout']['name']} render folder: scored {inputs['pred']} against "
+                f"{inputs['gt']}")
+
+    def gs_run_key(self, described: dict[str, Any]) -> str | None:
+        """The top-level key of the 3DGS results files for a run of this layout (``described``:
+        the results' ``inputs.layout``), or None: the method's name."""
+        return None
+
 
 class _Folders(LayoutKind):
     """PRED and GT as given."""
@@ -149,6 +160,12 @@ class _KPlanesStack(LayoutKind):
 
     def describe(self, layout: RenderLayout, pairing: Pairing) -> dict[str, Any]:
         return {"stack": describe_stack(pairing)}
+
+    def scored(self, inputs: dict[str, Any]) -> str:
+        files = inputs["layout"]["stack"]["files"]
+        shown = files[0] if len(files) == 1 else f"{len(files)} files ({files[0]}, ...)"
+        return (f"K-Planes evaluation stack: scored the top third (prediction) of {shown} "
+                "against its middle third (ground truth)")
 
 
 class _DyCheckRenders(LayoutKind):
@@ -172,6 +189,11 @@ class _GaussianSplatting(LayoutKind):
     def own_protocol(self, layout: RenderLayout) -> str | None:
         return family_protocol(layout.details["family"])
 
+    def gs_run_key(self, described: dict[str, Any]) -> str | None:
+        """``ours_<N>``, the render's iteration, as the 3DGS family's own files name it."""
+        it = described.get("iteration")
+        return None if it is None else f"ours_{it}"
+
 
 SIBLING_FOLDERS = LayoutKind()
 """The kind of every ``LAYOUTS`` entry (sibling prediction / ground-truth folders)."""
@@ -179,6 +201,12 @@ LAYOUT_KINDS: dict[str, LayoutKind] = {
     "folders": _Folders(), "kplanes": _KPlanesStack(), "dycheck": _DyCheckRenders(),
     "3dgs": _GaussianSplatting()}
 """The kinds that differ from ``SIBLING_FOLDERS``, by ``RenderLayout.name``."""
+
+
+def layout_kind(name: str) -> LayoutKind:
+    """The kind of the layout named ``name`` (a ``RenderLayout.name``, or the results'
+    ``inputs.layout.name`` read back)."""
+    return LAYOUT_KINDS.get(name, SIBLING_FOLDERS)
 
 
 def _pairs_in(folder: Path) -> list[RenderLayout]:

@@ -6,6 +6,9 @@ geometry in ``dynaeval.core.boxes``.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -62,17 +65,27 @@ def clipped_boxes(boxes: object, height: int, width: int) -> np.ndarray:
     return b
 
 
-def whole_or_region(whole: Any, regional: Any, data_range: float) -> Any:
-    """``fn(pred, gt, region)`` for the registry: ``whole(pred, gt, data_range=...)`` (a
-    protocol's whole-frame variant) when ``region`` is ``{}`` or ``{"weights": ...}`` (a given
-    mask the protocol itself uses: ``Protocol.masks``), else ``regional(pred, gt,
-    data_range=..., **region)`` (dynaeval's, over ``boxes`` or ``mask``)."""
+@dataclass(frozen=True)
+class WholeOrRegion:
+    """``fn(pred, gt, region)`` for the registry (PSNR, SSIM): a protocol's whole-frame
+    variant ``whole(pred, gt, data_range=...)`` when ``region`` is ``{}`` or ``{"weights": ...}``
+    (a given mask the protocol itself uses: ``Protocol.masks``), else dynaeval's
+    ``regional(pred, gt, data_range=..., **region)`` (over ``boxes`` or ``mask``).
 
-    def fn(pred: np.ndarray, gt: np.ndarray, region: dict[str, Any]) -> float:
+    ``on(region)`` is the function the region picks, ``(pred, gt) -> float``: a run's frame
+    stage calls it directly, so the value comes from the metric with no hop between."""
+
+    whole: Callable[..., float]
+    regional: Callable[..., float]
+    data_range: float
+
+    def on(self, region: dict[str, Any]) -> Callable[[Any, Any], float]:
+        """The metric function for ``region``, its arguments bound."""
         if "weights" in region:
-            return whole(pred, gt, data_range=data_range, weights=region["weights"])
+            return partial(self.whole, data_range=self.data_range, weights=region["weights"])
         if region:
-            return regional(pred, gt, data_range=data_range, **region)
-        return whole(pred, gt, data_range=data_range)
+            return partial(self.regional, data_range=self.data_range, **region)
+        return partial(self.whole, data_range=self.data_range)
 
-    return fn
+    def __call__(self, pred: Any, gt: Any, region: dict[str, Any]) -> float:
+        return self.on(region)(pred, gt)

@@ -14,7 +14,7 @@ import numpy as np
 
 from dynaeval.core.errors import InputError
 from dynaeval.core.validation import check_data_range, check_finite, check_pair
-from dynaeval.metrics._common import clipped_boxes, region_mask, whole_or_region
+from dynaeval.metrics._common import WholeOrRegion, clipped_boxes, region_mask
 
 # float64 differences are formed in chunks of this many values (32 KB): the buffer stays in L1/L2
 # cache, so the exact float64 accumulation costs little more than reading both images once.
@@ -247,4 +247,4 @@ def quantize(img: object, mode: str = "none") -> np.ndarray:
 def build_psnr(ctx: Any) -> Any:
     """The registry's PSNR for a run (``dynaeval.metrics.registry.FrameContext``): the protocol's
     whole-frame PSNR, dynaeval's ``psnr`` over a region (``{"boxes": ...}`` / ``{"mask": ...}``)."""
-    return whole_or_region(ctx.whole().whole_psnr, psnr, ctx.data_range)
+    return WholeOrRegion(ctx.whole().whole_psnr, psnr, ctx.data_range)

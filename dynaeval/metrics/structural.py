@@ -32,7 +32,7 @@ import numpy as np
 from dynaeval.core.boxes import grow_box
 from dynaeval.core.errors import EmptyRegionError, InputError, UndefinedMetricError
 from dynaeval.core.validation import check_data_range, check_pair
-from dynaeval.metrics._common import clipped_boxes, region_mask, whole_or_region
+from dynaeval.metrics._common import WholeOrRegion, clipped_boxes, region_mask
 
 SIGMA = 1.5
 """Standard deviation of the Gaussian window in pixels."""
@@ -499,7 +499,7 @@ def ssim_reference(pred: object, gt: object, *, data_range: float = 1.0) -> np.n
 def build_ssim(ctx: Any) -> Any:
     """The registry's SSIM for a run (``dynaeval.metrics.registry.FrameContext``): the protocol's
     whole-frame SSIM, dynaeval's ``ssim`` over a region (``{"boxes": ...}`` / ``{"mask": ...}``)."""
-    return whole_or_region(ctx.whole().whole_ssim, ssim, ctx.data_range)
+    return WholeOrRegion(ctx.whole().whole_ssim, ssim, ctx.data_range)
 
 
 def ssim_settings(ctx: Any, enabled: bool, unavailable: str | None) -> dict[str, Any]:

@@ -65,6 +65,7 @@ __all__ = [
     "TEMPORAL_METRICS",
     "LpipsFn",
     "TemporalConfig",
+    "TemporalRun",
     "TemporalStd",
     "default_lpips",
     "flicker",
@@ -118,6 +119,34 @@ class TemporalConfig:
             "flicker": "|S(pred) - S(gt)|, S = mean temporal std (ddof=0) over static pixels "
             "and channels",
         }
+
+
+@dataclass(frozen=True)
+class TemporalRun:
+    """How ``temporal_metrics`` goes about one camera: none of it changes a number (the
+    numbers are those of the default, sequential run on the frames alone), so it is apart from
+    ``TemporalConfig``, whose every field does."""
+
+    executor: Executor | None = None
+    """A ``concurrent.futures`` executor (threads) to compute the pairs on, or None: in the
+    caller's thread. ``lpips_fn`` must then be thread-safe (``default_lpips`` is)."""
+    window: int = 4
+    """Pairs in flight on ``executor`` (each holds its four frames)."""
+    on_pair: Callable[[], None] | None = None
+    """Called as each pair's terms are folded, in order (progress)."""
+    flow_cache: FlowCache | None = None
+    """Flows kept for reuse: share one across the methods scored on one ground truth so its
+    flows are computed once (None: a private 64 MiB cache)."""
+    gt_flicker: tuple[float | None, float | None] | None = None
+    """``S(gt)`` of these very frames on the static pixels and on the static pixels inside the
+    union of the regions (``static_flicker.static_mean`` of the ground truth's temporal std;
+    None where no pixel is kept), computed beforehand (``dynaeval prepare``); flicker then
+    accumulates the prediction only."""
+    gt_pairs: Callable[[int], GroundTruthPair] | None = None
+    """``gt_pairs(k)``: the ground-truth half of pair ``k`` (frames ``k, k + 1``), a
+    ``GroundTruthPair`` computed beforehand for these very frames and region masks (``dynaeval
+    prepare``: flows, visibility mask, ``E(gt)``); the ground truth's gray images and flows are
+    then not made here. None: computed from the frames."""
 
 
 # --------------------------------------------------------------------------------------------
@@ -268,13 +297,8 @@ def temporal_metrics(
     region_masks: Iterable[np.ndarray] | None = None,
     config: TemporalConfig | None = None,
     lpips_fn: LpipsFn | None = None,
-    flow_cache: FlowCache | None = None,
-    executor: Executor | None = None,
-    window: int = 4,
-    on_pair: Callable[[], None] | None = None,
-    gt_flicker: tuple[float | None, float | None] | None = None,
     frame_indices: Sequence[int] | None = None,
-    gt_pairs: Callable[[int], GroundTruthPair] | None = None,
+    run: TemporalRun | None = None,
 ) -> dict[str, dict]:
     """All temporal metrics of one camera's sequence, streaming over consecutive pairs.
 
@@ -284,28 +308,18 @@ def temporal_metrics(
     frame, an ``(H, W)`` bool mask or ``(N, 4)`` boxes (``boxes_to_mask``), or None for a frame
     without a region (the focused values of the pairs that include it are None, the other pairs
     are scored); None: focused metrics are null. ``lpips_fn``: ``(a, b) -> float`` (default :func:`default_lpips`; if LPIPS cannot be
-    loaded ``tlp`` is null with the reason). ``flow_cache``: share one across the methods scored
-    on one ground truth so its flows are computed once (default: a private 64 MiB cache).
-    ``executor``: a ``concurrent.futures`` executor (threads) to compute the pairs on, up to
-    ``window`` pairs in flight (each holds its four frames); the numbers are those of the
-    sequential run, which is what happens with None. ``lpips_fn`` must then be thread-safe
-    (``default_lpips`` is). An ``lpips_fn`` with ``features`` / ``distance`` (``LpipsFeatures``,
-    the torch default) gets each frame's whole-frame features computed once for tLP and kept
-    while a pair in flight needs them (86 MB per frame and side at 1080p with AlexNet).
-    ``on_pair()``: called as each pair's terms are folded, in order (progress).
-    ``gt_flicker``: ``S(gt)`` of these very frames on the static pixels and on the static pixels
-    inside the union of the regions (``static_flicker.static_mean`` of the ground truth's
-    temporal std; None where no pixel is kept), computed beforehand (``dynaeval prepare``);
-    flicker then accumulates the prediction only.
+    loaded ``tlp`` is null with the reason). An ``lpips_fn`` with ``features`` / ``distance``
+    (``LpipsFeatures``, the torch default) gets each frame's whole-frame features computed once
+    for tLP and kept while a pair in flight needs them (86 MB per frame and side at 1080p with
+    AlexNet).
     ``frame_indices``: each frame's position in its sequence (increasing integers, one per
     frame; None: ``0, 1, 2, ...``). Two neighbours whose positions are not consecutive (frames
     left out between them, ``--allow-missing``) are no pair: their per-pair values are None and
     no flow is computed for them; flicker uses every frame given (a std over time needs no
     neighbours).
-    ``gt_pairs(k)``: the ground-truth half of pair ``k`` (frames ``k, k + 1``), a
-    ``GroundTruthPair`` computed beforehand for these very frames and region masks (``dynaeval
-    prepare``: flows, visibility mask, ``E(gt)``); the ground truth's gray images and flows are
-    then not made here. None: computed from the frames.
+    ``run``: how the camera is gone about (``TemporalRun``: worker threads, pairs in flight,
+    progress, a shared flow cache, the ground truth's terms computed beforehand); the numbers do
+    not depend on it. Default: sequential, from the frames alone.
 
     Returns ``{key: {"value": float | None, "reason": str | None, "per_pair": [float | None]}}``
     for the keys ``temporal_keys()``: ``warp_error, tof, tlp, flicker`` and their
@@ -320,11 +334,13 @@ def temporal_metrics(
     raises InputError.
     """
     config = config or TemporalConfig()
-    cache = flow_cache if flow_cache is not None else FlowCache(max_bytes=1 << 26)
+    run = run or TemporalRun()
+    gt_pairs = run.gt_pairs
+    cache = run.flow_cache if run.flow_cache is not None else FlowCache(max_bytes=1 << 26)
     lpips_fn, lpips_off = _lpips_for_run(config, lpips_fn)
     memo = FeatureMemo(lpips_fn) if hasattr(lpips_fn, "features") else None
-    pairs = _PairFold(executor, window, memo, lpips_off, on_pair)
-    camera = _CameraTerms(static_mask, gt_flicker)
+    pairs = _PairFold(run.executor, run.window, memo, lpips_off, run.on_pair)
+    camera = _CameraTerms(static_mask, run.gt_flicker)
     prev: Frames | None = None
     n_frames = 0
     regionless: list[int] = []  # frames whose region item was None

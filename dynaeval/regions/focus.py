@@ -22,7 +22,7 @@ from dynaeval.core.outcome import Status, note
 from dynaeval.core.runtime import file_sha256
 from dynaeval.core.terminal import raw_stream
 from dynaeval.io import find_frames
-from dynaeval.io.cache import FrameCache
+from dynaeval.io.images import FrameCache
 from dynaeval.regions.boxes_file import frame_key, read_boxes_file, records_to_boxes
 from dynaeval.regions.detector import (
     DEFAULT_DETECTOR,

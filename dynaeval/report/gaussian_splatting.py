@@ -26,6 +26,7 @@ from typing import Any
 
 from dynaeval.core.errors import InputError
 from dynaeval.io.atomic import write_files_atomic
+from dynaeval.io.layouts import layout_kind
 
 GS_FILES = ("results.json", "per_view.json")
 GS_KEYS = {"SSIM": "ssim", "PSNR": "psnr", "LPIPS": "lpips"}
@@ -45,10 +46,9 @@ def gs_keys(results: dict[str, Any]) -> dict[str, str]:
 
 def gs_run_key(results: dict[str, Any]) -> str:
     """The top-level key of the two files: ``ours_<N>`` for a 3DGS render, else the method."""
-    layout = results.get("inputs", {}).get("layout") or {}
-    if layout.get("name") == "3dgs" and layout.get("iteration") is not None:
-        return f"ours_{layout['iteration']}"
-    return str(results["method"])
+    layout = results.get("inputs", {}).get("layout")
+    key = layout_kind(layout["name"]).gs_run_key(layout) if layout else None
+    return str(results["method"]) if key is None else key
 
 
 def gs_documents(results: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:

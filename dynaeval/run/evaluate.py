@@ -32,6 +32,7 @@ from typing import Any
 from dynaeval.core.errors import InputError
 from dynaeval.core.outcome import CameraTerm, Status, note, warning, warning_line
 from dynaeval.core.progress import Progress
+from dynaeval.core.runtime import worker_opencv_threads
 from dynaeval.core.version import VERSION
 from dynaeval.io import FramePair
 from dynaeval.io.frames import (
@@ -48,7 +49,7 @@ from dynaeval.metrics.registry import SPECS
 from dynaeval.regions.focus import FrameRegions
 from dynaeval.report.results import RunRecord, build_results
 from dynaeval.run.config import ScoreConfig
-from dynaeval.run.executor import RunWorkers, Stopped
+from dynaeval.run.executor import RunWorkers
 from dynaeval.run.plan import RunPlan, Scope, build_plan
 from dynaeval.run.prepared_gt import open_prepared
 from dynaeval.run.scoring import score_camera
@@ -276,15 +277,13 @@ def _score_cameras(pairs: list[FramePair], plan: RunPlan, on_regions: RegionsCal
     executor = RunWorkers(plan.config.workers, len(cams), cache_mb=plan.config.cache_mb,
                         decoded=plan.prepared.decoded if plan.prepared is not None else None)
 
-    def regions_done(cam: str, cam_pairs: list[FramePair], found: list[FrameRegions]) -> None:
-        if on_regions is not None:
-            on_regions(cam, cam_pairs, found)
-
+    score = partial(score_camera, plan=plan, executor=executor, progress=progress,
+                    on_regions=on_regions)
     completed = False
-    try:  # each camera: _score_one_camera(cam, pairs, plan, executor, ..., stop)
-        scored = executor.each_camera(cams, partial(_score_one_camera, plan=plan,
-                                                    executor=executor, regions_done=regions_done,
-                                                    progress=progress))
+    try:
+        with worker_opencv_threads(executor.workers):
+            scored = ([score(c, p) for c, p in cams.items()] if executor.lanes == 1
+                      else executor.cameras_at_once(cams, score))
         completed = True
     finally:
         progress.close(completed)
@@ -302,45 +301,6 @@ def _score_cameras(pairs: list[FramePair], plan: RunPlan, on_regions: RegionsCal
         if scores.regions is not None:
             regions[cam] = scores.regions
     return rows, warnings, temporal, regions, dict(executor.timing)
-
-
-def _score_one_camera(cam: str, cam_pairs: list[FramePair], stop: Any = None, *, plan: RunPlan,
-                      executor: Any, regions_done: RegionsCallback, progress: Any) -> Any:
-    """``score_camera`` with its progress: frames, pairs (those a camera could not score, no
-    sequence, count as done) and the camera's video step; the regions phase moves as each
-    frame's regions are found (it sat at one count while a camera's motion masks and detector
-    ran), up to the camera's frames. ``stop``: a ``threading.Event`` checked at every frame and
-    pair (``dynaeval.run.executor.Stopped`` is raised once it is set)."""
-    pairs_done = [0]
-    regions_found = [0.0]
-
-    def tick(phase: str, units: float = 1) -> None:
-        if stop is not None and stop.is_set():
-            raise Stopped(f"camera {cam} stopped: another camera failed")
-        progress.advance(phase, units)
-
-    def on_pair() -> None:
-        pairs_done[0] += 1
-        tick("pairs")
-
-    def on_region_frame(share: float) -> None:
-        step = min(share, len(cam_pairs) - regions_found[0])
-        if step > 0:
-            regions_found[0] += step
-            tick("regions", step)
-
-    def on_regions(c: str, p: list[FramePair], found: list[FrameRegions]) -> None:
-        progress.advance("regions", len(p) - regions_found[0])  # the rest: prepared, boxes
-        regions_done(c, p, found)
-
-    progress.set_note(f"camera {cam}")
-    scores = score_camera(cam, cam_pairs, plan, executor, on_regions=on_regions,
-                          on_frame=lambda: tick("frames"), on_pair=on_pair,
-                          on_region_frame=on_region_frame)
-    if plan.temporal is not None:
-        progress.advance("pairs", len(cam_pairs) - 1 - pairs_done[0])
-    progress.advance("video")
-    return scores
 
 
 def _assemble(layout: Any, run_name: str | None, pairing: Any, plan: RunPlan, rows: list,

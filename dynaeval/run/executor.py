@@ -15,9 +15,8 @@ from collections.abc import Callable, Iterable
 from concurrent.futures import FIRST_EXCEPTION, ThreadPoolExecutor, wait
 from typing import Any, TypeVar
 
-from dynaeval.core.runtime import worker_opencv_threads
 from dynaeval.io import FramePair
-from dynaeval.io.cache import FrameCache
+from dynaeval.io.images import FrameCache
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -70,19 +69,17 @@ class RunWorkers:
         """Temporal pairs one camera keeps in flight: 2 x workers over all cameras at once."""
         return max(2, 2 * self.workers // self.lanes)
 
-    def each_camera(self, cams: dict[str, list[FramePair]],
-                    score: Callable[[str, list[FramePair], threading.Event | None], T]) -> list[T]:
-        """``score(camera, pairs, stop)`` of every camera, in camera order: one after the other,
-        or ``lanes`` at a time. With lanes, the first camera to fail stops the others (``stop``
-        is set; ``score`` raises ``Stopped`` at its next frame or pair) and its error is raised."""
-        with worker_opencv_threads(self.workers):
-            if self.lanes == 1:
-                return [score(c, p, None) for c, p in cams.items()]
-            lanes = ThreadPoolExecutor(max_workers=self.lanes)
-            try:
-                return cameras_at_once(lanes, cams, score)
-            finally:
-                lanes.shutdown(cancel_futures=True)
+    def cameras_at_once(self, cams: dict[str, list[FramePair]],
+                        score: Callable[[str, list[FramePair], threading.Event], T]) -> list[T]:
+        """``score(camera, pairs, stop)`` of every camera, ``lanes`` at a time, in camera order:
+        the first camera to fail stops the others (``stop`` is set; ``score`` raises ``Stopped``
+        at its next frame or pair) and its error is raised. (With one lane the caller scores its
+        cameras one after the other itself, inside ``worker_opencv_threads``.)"""
+        lanes = ThreadPoolExecutor(max_workers=self.lanes)
+        try:
+            return cameras_at_once(lanes, cams, score)
+        finally:
+            lanes.shutdown(cancel_futures=True)
 
     def shutdown(self, completed: bool) -> None:
         """Stop the pool (pending work cancelled unless the run ``completed``)."""

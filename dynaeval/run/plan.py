@@ -20,7 +20,7 @@ from dynaeval.core.errors import InputError
 from dynaeval.core.outcome import Status, unavailable_reason, warning
 from dynaeval.core.runtime import resolve_device
 from dynaeval.io import FramePair
-from dynaeval.io.cache import FrameCache
+from dynaeval.io.images import FrameCache
 from dynaeval.metrics import quantize
 from dynaeval.metrics.flow import FlowConfig
 from dynaeval.metrics.presence import PRESENCE_METRICS, PresenceConfig, frame_presence
@@ -71,9 +71,11 @@ class Scope:
         return cls(temporal=config.temporal, masked=config.focus.masked)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class RunPlan:
-    """A run resolved once (frozen: nothing changes it while cameras are scored)."""
+    """A run resolved once (frozen: nothing changes it while cameras are scored). Built with
+    every field named (``build_plan``, ``ground_truth_plan``): 15 fields, several of the same
+    type, are not told apart by their position."""
 
     config: ScoreConfig
     """The settings as the user gave them (``dynaeval.score``'s ``config`` with its overrides)."""
@@ -207,9 +209,10 @@ def build_plan(config: ScoreConfig, *, scope: Scope | None = None, masks: MaskSe
         warnings.extend(found.warnings())
     if scope.sequence is not None:
         settings["sequence"] = scope.sequence
-    return RunPlan(config, protocol, quantize, lpips_net, focus, built.fns, built.every,
-                   built.camera_fns, sources, masks, presence, temporal, found, settings,
-                   tuple(warnings))
+    return RunPlan(config=config, protocol=protocol, quantize=quantize, lpips_net=lpips_net,
+                   focus=focus, fns=built.fns, every=built.every, camera_fns=built.camera_fns,
+                   sources=sources, masks=masks, presence=presence, temporal=temporal,
+                   prepared=found, settings=settings, warnings=tuple(warnings))
 
 
 def _settings(config: ScoreConfig, quantize: str, metric_settings: dict[str, dict],
@@ -233,9 +236,11 @@ def _settings(config: ScoreConfig, quantize: str, metric_settings: dict[str, dic
 
 def ground_truth_plan(config: ScoreConfig, sources: RegionSources) -> RunPlan:
     """The plan of ``dynaeval prepare``: the ground truth's regions only (no metric is built)."""
-    return RunPlan(config, get_protocol(config.protocol), config.resolved_quantize(),
-                   config.resolved_lpips_net(), config.focus, {}, {}, {}, sources, None, None,
-                   None, None, {}, tuple(sources.warnings))
+    return RunPlan(config=config, protocol=get_protocol(config.protocol),
+                   quantize=config.resolved_quantize(), lpips_net=config.resolved_lpips_net(),
+                   focus=config.focus, fns={}, every={}, camera_fns={}, sources=sources,
+                   masks=None, presence=None, temporal=None, prepared=None, settings={},
+                   warnings=tuple(sources.warnings))
 
 
 def _presence_step(config: ScoreConfig, sources: Any, settings: dict) -> PresenceStep | None:

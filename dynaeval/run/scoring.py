@@ -10,22 +10,25 @@ camera stages (temporal terms, video metrics), and the camera's warnings.
 from __future__ import annotations
 
 import math
+import threading
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, replace
+from functools import partial
 from typing import Any
 
 from dynaeval.core.errors import InputError
 from dynaeval.core.outcome import CameraTerm, Outcome, Status, note, warning
+from dynaeval.core.progress import Progress
 from dynaeval.core.validation import values_known_in
 from dynaeval.io import FramePair
-from dynaeval.io.cache import FrameCache
+from dynaeval.io.images import FrameCache
 from dynaeval.metrics.registry import METRICS
 from dynaeval.regions.focus import FrameRegions, camera_regions, fit_to
 from dynaeval.regions.given import given_masks, with_weights
 from dynaeval.regions.summary import regions_summary
-from dynaeval.run.executor import RunWorkers
+from dynaeval.run.executor import RunWorkers, Stopped
 from dynaeval.run.plan import RunPlan
 from dynaeval.run.stages import CameraWork, FrameWork, Stage, active_stages
 
@@ -88,11 +91,13 @@ def _summary_of(regions: list[FrameRegions], plan: RunPlan) -> dict[str, Any] | 
 
 def score_frame(pair: FramePair, regions: FrameRegions, plan: RunPlan, cache: FrameCache,
                 executor: RunWorkers, stages: Sequence[Stage] | None = None,
-                frames: Future | None = None) -> tuple[dict[str, Any], list[dict]]:
+                frames: Future | None = None, on_frame: Callable[[], None] | None = None,
+                ) -> tuple[dict[str, Any], list[dict]]:
     """The results row of one frame (its values from the frame ``stages``, default the plan's;
     inf kept, None for undefined) and its warnings; ``frames``: the pair's ``plan.read_pair``
-    read beforehand (``ReadAhead``), its error raised here. An InputError that names no file is
-    raised again naming the pair's files."""
+    read beforehand (``ReadAhead``), its error raised here; ``on_frame()``: called once the
+    frame is scored (progress). An InputError that names no file is raised again naming the
+    pair's files."""
     t0 = time.perf_counter()
     try:
         pred, gt = plan.read_pair(pair, cache) if frames is None else frames.result()
@@ -122,6 +127,8 @@ def score_frame(pair: FramePair, regions: FrameRegions, plan: RunPlan, cache: Fr
                                     metric=name))
         row[name] = value
     executor.add_time(elapsed)
+    if on_frame is not None:
+        on_frame()
     return row, warnings
 
 
@@ -165,43 +172,86 @@ def _not_video_warning(camera: str, pairs: list[FramePair], err: Any) -> dict:
         "scored one by one, its temporal and motion-mask values are null"))
 
 
-def score_camera(camera: str, pairs: list[FramePair], plan: RunPlan, executor: RunWorkers, *,
-                 on_regions: Callable | None = None,
-                 on_frame: Callable[[], None] | None = None,
-                 on_pair: Callable[[], None] | None = None,
-                 on_region_frame: Callable[[float], None] | None = None) -> CameraScores:
+class CameraProgress:
+    """One camera's share of the run's ``Progress``: its frames, its temporal pairs (those it
+    could not score count as done at the end) and its video step; the regions phase moves as
+    each frame's regions are found (``region_frame``; it sat at one count while a camera's
+    motion masks and detector ran), up to the camera's ``frames``; ``stop`` (a
+    ``threading.Event``, cameras scored at once) is checked at every frame and pair and
+    ``Stopped`` raised once it is set."""
+
+    def __init__(self, progress: Progress, camera: str, stop: threading.Event | None,
+                 frames: int = 0) -> None:
+        self.progress, self.camera, self.stop, self.frames = progress, camera, stop, frames
+        self.pairs, self.regions = 0, 0.0
+        progress.set_note(f"camera {camera}")
+
+    def tick(self, phase: str, units: float = 1) -> None:
+        if self.stop is not None and self.stop.is_set():
+            raise Stopped(f"camera {self.camera} stopped: another camera failed")
+        self.progress.advance(phase, units)
+
+    def region_frame(self, share: float) -> None:
+        """``share`` of a frame's regions found (a motion mask, a detector pass)."""
+        step = min(share, self.frames - self.regions)
+        if step > 0:
+            self.regions += step
+            self.tick("regions", step)
+
+    def regions_found(self) -> None:
+        """The camera's regions are all found: the rest of its frames (prepared, boxes)."""
+        self.progress.advance("regions", self.frames - self.regions)
+
+    def frame(self) -> None:
+        self.tick("frames")
+
+    def pair(self) -> None:
+        self.pairs += 1
+        self.tick("pairs")
+
+    def done(self, n_pairs: int | None) -> None:
+        """The camera is scored: those of its ``n_pairs`` temporal pairs not ticked (None: no
+        temporal terms in the run), its video step."""
+        if n_pairs is not None:
+            self.progress.advance("pairs", n_pairs - self.pairs)
+        self.progress.advance("video")
+
+
+def score_camera(camera: str, pairs: list[FramePair], stop: threading.Event | None = None, *,
+                 plan: RunPlan, executor: RunWorkers, progress: Progress,
+                 on_regions: Callable | None = None) -> CameraScores:
     """Regions, per-frame values and camera-level terms of one camera (its frames in order).
 
-    ``on_regions(camera, pairs, regions)`` is called before the frames are scored; ``on_frame()``
-    after each frame and ``on_pair()`` after each temporal pair, ``on_region_frame(share)`` as
-    each frame's regions are found (progress: ``regions.focus.camera_regions``). Cameras may be
-    scored at the same time with one ``executor`` (its pool is shared; nothing here depends on
-    order).
+    ``on_regions(camera, pairs, regions)`` is called before the frames are scored; the frames,
+    temporal pairs and the video step advance ``progress`` (``CameraProgress``; ``stop``: set
+    when another camera scored at the same time has failed). Cameras may be scored at the same
+    time with one ``executor`` (its pool is shared; nothing here depends on order). Without
+    worker threads the frames are scored here, one after the other (read one ahead), not
+    through the executor: no hop between the camera and its frames.
     """
+    ticks = CameraProgress(progress, camera, stop, frames=len(pairs))
     cache = executor.frame_cache()  # dropped at the end
-    regions = camera_regions_of(camera, pairs, plan, executor, cache, on_region_frame)
+    regions = camera_regions_of(camera, pairs, plan, executor, cache, ticks.region_frame)
+    ticks.regions_found()
     if on_regions is not None:
         on_regions(camera, pairs, regions)
     stages = active_stages(plan)
-    ahead = ReadAhead(plan, cache, pairs) if executor.pool is None and len(pairs) > 1 else None
-
-    def work(item: tuple[int, FramePair, FrameRegions]) -> tuple[dict[str, Any], list[dict]]:
-        frames = None if ahead is None else ahead.take(item[0])
-        out = score_frame(item[1], item[2], plan, cache, executor, stages, frames)
-        if on_frame is not None:
-            on_frame()
-        return out
-
-    try:
-        outputs = executor.map(work, [(i, p, r) for i, (p, r) in
-                                      enumerate(zip(pairs, regions, strict=True))])
-    finally:
-        if ahead is not None:
-            ahead.close()
+    score = partial(score_frame, plan=plan, cache=cache, executor=executor, stages=stages,
+                    on_frame=ticks.frame)
+    if executor.pool is not None:
+        outputs = list(executor.pool.map(score, pairs, regions))
+    else:
+        ahead = ReadAhead(plan, cache, pairs) if len(pairs) > 1 else None
+        try:
+            outputs = [score(p, r, frames=None if ahead is None else ahead.take(i))
+                       for i, (p, r) in enumerate(zip(pairs, regions, strict=True))]
+        finally:
+            if ahead is not None:
+                ahead.close()
     rows = [row for row, _ in outputs]
     warnings = [w for _, ws in outputs for w in ws]
     cam = CameraWork(camera, pairs, regions, cache, executor,
-                     differ=regions[0].not_video if regions else None, on_pair=on_pair)
+                     differ=regions[0].not_video if regions else None, on_pair=ticks.pair)
     temporal = None
     for stage in stages:
         terms = stage.camera(plan, cam)
@@ -216,6 +266,7 @@ def score_camera(camera: str, pairs: list[FramePair], plan: RunPlan, executor: R
     if temporal is not None and differ is None:
         temporal, named = name_regionless_frames(camera, pairs, regions, temporal)
         warnings.extend(named)
+    ticks.done(len(pairs) - 1 if plan.temporal is not None else None)
     return CameraScores(rows, warnings, temporal, _summary_of(regions, plan))
 
 

@@ -35,7 +35,7 @@ from dynaeval.core.boxes import mask_to_box
 from dynaeval.metrics import lpips as lpips_metric
 from dynaeval.metrics import psnr_from_stats, squared_error_stats, ssim
 from dynaeval.metrics.flow import FlowCache, FlowConfig, optical_flow
-from dynaeval.metrics.temporal import TemporalConfig, temporal_metrics
+from dynaeval.metrics.temporal import TemporalConfig, TemporalRun, temporal_metrics
 from reference_models.common.paths import docs_dir
 from reference_models.studies._doc import replace_block
 
@@ -254,7 +254,7 @@ def score(pred: list[np.ndarray], gt: Sequence, cache: FlowCache) -> dict[str, f
         static_mask=gt.static,
         region_masks=gt.boxes,
         lpips_fn=_lpips_fn,
-        flow_cache=cache,
+        run=TemporalRun(flow_cache=cache),
     )
     row.update({k: v["value"] for k, v in res.items()})
     row["signed"] = res["warp_error"]["signed"]

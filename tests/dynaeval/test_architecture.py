@@ -573,9 +573,17 @@ def test_the_text_rule_catches_what_main_did(tmp_path):
 
 
 def _layout_name(node: ast.AST) -> bool:
-    """``layout.name`` (a ``RenderLayout``'s name)."""
-    return (isinstance(node, ast.Attribute) and node.attr == "name"
-            and getattr(node.value, "id", "") == "layout")
+    """``layout.name`` (a ``RenderLayout``'s name), ``layout["name"]`` or
+    ``layout.get("name")`` (the results' ``inputs.layout`` read back)."""
+    if isinstance(node, ast.Attribute):
+        return node.attr == "name" and getattr(node.value, "id", "") == "layout"
+    if isinstance(node, ast.Subscript):
+        return (getattr(node.value, "id", "") == "layout" and isinstance(node.slice, ast.Constant)
+                and node.slice.value == "name")
+    return (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
+            and node.func.attr == "get" and getattr(node.func.value, "id", "") == "layout"
+            and bool(node.args) and isinstance(node.args[0], ast.Constant)
+            and node.args[0].value == "name")
 
 
 def _source_literal_compares(path: Path, named=None) -> list[str]:  # noqa: ANN001
@@ -623,7 +631,17 @@ def test_the_source_rule_catches_what_main_did(tmp_path):
 
 def test_no_input_layout_is_told_apart_by_its_name_in_the_run():
     """Issue 41: ``layout.name == "kplanes"`` (and ``dycheck``, ``3dgs``, ``folders``) at 7 sites
-    of ``run/evaluate.py``; each kind is a ``dynaeval.io.layouts.LayoutKind`` the run reads."""
-    bad = [hit for p in sorted((PACKAGE / "run").rglob("*.py"))
+    of ``run/evaluate.py``, and the results' ``layout["name"] == "kplanes"`` / ``"3dgs"`` read
+    back in ``cli/score.py`` and ``report/gaussian_splatting.py``; each kind is a
+    ``dynaeval.io.layouts.LayoutKind`` (``layout_kind(name)``) the code asks. Only
+    ``io/layouts.py``, which defines the kinds, names them."""
+    bad = [hit for p in sorted(PACKAGE.rglob("*.py")) if p != PACKAGE / "io" / "layouts.py"
            for hit in _source_literal_compares(p, _layout_name)]
     assert not bad, "a layout told apart by its name:\n" + "\n".join(bad)
+
+
+def test_the_layout_name_rule_sees_the_results_read_back(tmp_path):
+    code = tmp_path / "m.py"
+    code.write_text('a = layout["name"] == "kplanes"\nb = layout.get("name") in ("3dgs",)\n'
+                    'c = layout.name != "dycheck"\nd = layout["root"] == "x"\n')
+    assert len(_source_literal_compares(code, _layout_name)) == 3

@@ -19,7 +19,7 @@ import numpy as np
 from dynaeval.core.errors import EmptyRegionError, InputError, UndefinedMetricError
 from dynaeval.core.outcome import VALUE_LIMIT, CameraTerm, Outcome, Status
 from dynaeval.io import FramePair
-from dynaeval.io.cache import FrameCache
+from dynaeval.io.images import FrameCache
 from dynaeval.io.frames import gap_positions
 from dynaeval.metrics.registry import METRICS, PLUGIN_METRICS
 from dynaeval.regions.focus import FrameRegions

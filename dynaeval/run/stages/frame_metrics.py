@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING
 
 from dynaeval.core.errors import EmptyRegionError, InputError, UndefinedMetricError
 from dynaeval.core.outcome import Outcome, Status
+from dynaeval.metrics._common import WholeOrRegion
 from dynaeval.metrics.registry import region_argument
 from dynaeval.metrics.structural import reusing_whole_map
 from dynaeval.run.stages.base import FrameWork, Stage, Value, metric_outcome
@@ -51,7 +52,10 @@ class FrameMetrics(Stage):
                     continue
                 t0 = time.perf_counter()
                 try:
-                    values.append((name, metric_outcome(name, lambda: fn(pred, gt, kw))))
+                    if isinstance(fn, WholeOrRegion):  # PSNR, SSIM: the region's function
+                        values.append((name, Outcome.of(float(fn.on(kw)(pred, gt)))))
+                    else:
+                        values.append((name, metric_outcome(name, lambda: fn(pred, gt, kw))))
                 except EmptyRegionError as err:
                     values.append((name, Outcome(None, Status.EMPTY_REGION, str(err))))
                 except UndefinedMetricError as err:  # e.g. smaller than SSIM's window

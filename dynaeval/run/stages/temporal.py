@@ -17,7 +17,7 @@ from dynaeval.io.frames import gap_positions
 from dynaeval.metrics.flow import check_flow_size
 from dynaeval.metrics.perceptual import MIN_SIZE
 from dynaeval.metrics.registry import SPECS, temporal_keys
-from dynaeval.metrics.temporal import temporal_metrics
+from dynaeval.metrics.temporal import TemporalRun, temporal_metrics
 from dynaeval.regions.focus import FocusConfig, FrameRegions, FramesDiffer, same_shape
 from dynaeval.regions.packed import union
 from dynaeval.run.stages.base import CameraWork, Stage
@@ -145,14 +145,16 @@ def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], plan
             static_mask=static,
             region_masks=region_masks,
             config=tcfg,
-            flow_cache=prepared.flow_cache() if prepared is not None else None,
-            executor=work.executor.pool,
-            window=work.executor.window,  # pairs in flight, all cameras: 2 x workers
-            on_pair=work.on_pair,
-            gt_flicker=None if static is None or prepared is None
-            else prepared.gt_flicker(pairs[0].camera, static),
             frame_indices=[p.index for p in pairs],
-            gt_pairs=None if prepared is None else prepared.ground_truth_pairs(pairs[0].camera),
+            run=TemporalRun(
+                executor=work.executor.pool,
+                window=work.executor.window,  # pairs in flight, all cameras: 2 x workers
+                on_pair=work.on_pair,
+                flow_cache=prepared.flow_cache() if prepared is not None else None,
+                gt_flicker=None if static is None or prepared is None
+                else prepared.gt_flicker(pairs[0].camera, static),
+                gt_pairs=None if prepared is None else prepared.ground_truth_pairs(pairs[0].camera),
+            ),
         )
     terms = _with_gaps(pairs, {k: _term(v) for k, v in out.items()})
     if small is not None:

@@ -10,7 +10,7 @@ import pytest
 
 import dynaeval
 from dynaeval.io import FrameRef
-from dynaeval.io.cache import FrameCache
+from dynaeval.io.images import FrameCache
 from dynaeval.regions.focus import FocusConfig
 
 from ..helpers import moving_square_scene, write_frames
@@ -45,16 +45,16 @@ def test_score_decodes_every_file_once(tmp_path, monkeypatch):
     gt, frames = moving_square_scene(tmp_path / "gt")
     for cam, seq in frames.items():
         write_frames(tmp_path / "pred", cam, [f // 2 for f in seq])
-    import dynaeval.io.frames as frames_mod
+    import dynaeval.io.images as images_mod
 
     calls: Counter = Counter()
-    real = frames_mod.read_image
+    real = images_mod.decode_file
 
-    def counting(path, **kw):
+    def counting(path):
         calls[str(path)] += 1
-        return real(path, **kw)
+        return real(path)
 
-    monkeypatch.setattr(frames_mod, "read_image", counting)
+    monkeypatch.setattr(images_mod, "decode_file", counting)
     dynaeval.score(tmp_path / "pred", gt, metrics=("psnr", "ssim"), focus=FocusConfig(source="motion"),
                    progress=False)
     assert len(calls) == 16 and set(calls.values()) == {1}

@@ -26,6 +26,7 @@ from dynaeval.metrics.registry import keys_of, temporal_keys
 from dynaeval.metrics.temporal import (
     TEMPORAL_METRICS,
     TemporalConfig,
+    TemporalRun,
     flicker,
     temporal_metrics,
 )
@@ -234,7 +235,7 @@ def test_pairs_on_an_executor_give_the_sequential_numbers(rng, window):
     kw = {"static_mask": np.ones((H, W), bool), "region_masks": boxes, "lpips_fn": mean_abs}
     seq = temporal_metrics(pred, gt, **kw)
     with ThreadPoolExecutor(max_workers=2) as pool:
-        par = temporal_metrics(iter(pred), iter(gt), executor=pool, window=window, **kw)
+        par = temporal_metrics(iter(pred), iter(gt), run=TemporalRun(executor=pool, window=window), **kw)
     assert par == seq
     assert len(seq["tof"]["per_pair"]) == 5 and seq["tof"]["value"] > 0
 
@@ -462,7 +463,8 @@ def test_tlp_from_features_equals_pairwise_lpips_and_runs_the_backbone_once_per_
     counting = CountingFeatures()
     pool = ThreadPoolExecutor(max_workers=workers) if workers else None
     try:
-        got = temporal_metrics(pred, gt, region_masks=boxes, lpips_fn=counting, executor=pool)
+        got = temporal_metrics(pred, gt, region_masks=boxes, lpips_fn=counting,
+                               run=TemporalRun(executor=pool))
     finally:
         if pool:
             pool.shutdown()

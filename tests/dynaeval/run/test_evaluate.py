@@ -458,40 +458,35 @@ def test_without_lpips_tlp_is_recorded_as_off_without_warnings():
     assert not [w for w in res["warnings"] if "tlp" in w.get("metric", "")]
 
 
-def test_a_failing_camera_stops_the_others_and_its_error_is_raised(monkeypatch):
+def test_a_failing_camera_stops_the_others_and_its_error_is_raised():
     import time
     from concurrent.futures import ThreadPoolExecutor
-    from types import SimpleNamespace
 
-    import dynaeval.run.evaluate
     from dynaeval.core.progress import Progress
-    from dynaeval.run.evaluate import _score_one_camera
     from dynaeval.run.executor import cameras_at_once
+    from dynaeval.run.scoring import CameraProgress
 
     frames_of = {"a": 0, "b": 0}
+    progress = Progress({"regions": 6, "frames": 800, "pairs": 4, "video": 2}, enabled=False)
+    fail = [False]
 
-    def fake_score_camera(cam, cam_pairs, run, executor, on_regions, on_frame, on_pair,
-                          on_region_frame=None):
+    def score(cam, cam_pairs, stop=None):  # as dynaeval.run.scoring.score_camera ticks
+        ticks = CameraProgress(progress, cam, stop)
         for _ in range(2 if cam == "a" else 400):
             time.sleep(0.005)
             frames_of[cam] += 1
-            on_frame()
-        if cam == "a" and run.fail:
+            ticks.frame()
+        if cam == "a" and fail[0]:
             raise InputError("frame 0002.png is broken")
+        ticks.done(None)
         return cam
 
-    monkeypatch.setattr(dynaeval.run.evaluate, "score_camera", fake_score_camera)  # as imported there
     cams = {"a": [None] * 3, "b": [None] * 3}
-    progress = Progress({"regions": 6, "frames": 800, "pairs": 4, "video": 2}, enabled=False)
-    run = SimpleNamespace(temporal=None, fail=False)
-
-    score = partial(_score_one_camera, plan=run, executor=None, regions_done=None,
-                    progress=progress)  # as dynaeval.run.evaluate._score_cameras
 
     with ThreadPoolExecutor(max_workers=2) as lanes:
         assert cameras_at_once(lanes, cams, score) == ["a", "b"]
     assert frames_of["b"] == 400
-    frames_of["b"], run.fail = 0, True
+    frames_of["b"], fail[0] = 0, True
     with ThreadPoolExecutor(max_workers=2) as lanes, pytest.raises(InputError, match="0002.png"):
         cameras_at_once(lanes, cams, score)
     assert frames_of["b"] < 100  # stopped at its next frame, not run to its end

@@ -103,6 +103,18 @@ def test_scope_of_a_config_is_what_it_asks():
     assert isinstance(build_plan(config, scope=Scope.of(config)), RunPlan)
 
 
+def test_a_run_plan_is_built_with_every_field_named():
+    """Issue 41: 15 fields, several of one type (three mappings of metrics), were given by
+    position; a swap built a plan that ran."""
+    from dataclasses import fields
+
+    plan = build_plan(ScoreConfig(temporal=False, focus=NONE, progress=False))
+    values = {f.name: getattr(plan, f.name) for f in fields(RunPlan)}
+    with pytest.raises(TypeError):
+        RunPlan(*values.values())
+    assert RunPlan(**values) == plan
+
+
 # ------------------------------------------------------------------------------ executor
 
 
@@ -125,10 +137,10 @@ def test_executor_shares_cache_and_window_between_lanes():
         ex.shutdown(completed=True)
 
 
-def test_each_camera_returns_in_camera_order_and_raises_the_first_failure():
+def test_cameras_at_once_returns_in_camera_order_and_raises_the_first_failure():
     ex = RunWorkers(2, cameras=2, cache_mb=1)
     cams = {"a": [], "b": []}
-    assert ex.each_camera(cams, lambda c, p, stop: c) == ["a", "b"]
+    assert ex.cameras_at_once(cams, lambda c, p, stop: c) == ["a", "b"]
 
     def fails(cam, pairs, stop):  # noqa: ANN202
         if cam == "b":
@@ -137,7 +149,7 @@ def test_each_camera_returns_in_camera_order_and_raises_the_first_failure():
         return cam
 
     with pytest.raises(InputError, match="b is broken"):
-        ex.each_camera(cams, fails)
+        ex.cameras_at_once(cams, fails)
     from concurrent.futures import ThreadPoolExecutor
 
     with ThreadPoolExecutor(2) as lanes:
