@@ -18,7 +18,7 @@ import numpy as np
 
 from dynaeval.core.boxes import clip_boxes
 from dynaeval.core.errors import InputError, did_you_mean
-from dynaeval.core.outcome import Status, note
+from dynaeval.core.outcome import Outcome, Status, note
 from dynaeval.core.runtime import file_sha256
 from dynaeval.core.terminal import raw_stream
 from dynaeval.io import find_frames
@@ -156,18 +156,16 @@ class FrameRegions:
 
     boxes: np.ndarray | None = None
     """(N, 4) int64 expanded, clipped and merged boxes; None when there is no box."""
-    boxes_reason: str | None = None
-    """Why ``boxes`` is None (words for people)."""
-    boxes_status: Status | None = None
-    """Why ``boxes`` is None, as data (``NO_REGION``, ``DISABLED``, ...)."""
+    boxes_missing: Outcome | None = None
+    """Why ``boxes`` is None: a null ``Outcome`` (status ``NO_REGION``, ``DISABLED``, ...; detail
+    the words for people), the very outcome a focused metric of the frame gets; None with boxes."""
     packed_mask: PackedMask | None = None
     """The motion mask, or the given mask (``dynaeval.regions.given``), bit-packed (a camera's
     frames keep theirs until its temporal pass ends: 1/8 of the bool masks); None when there
     is none. ``mask`` unpacks it."""
-    mask_reason: str | None = None
-    """Why ``mask`` is None (words for people)."""
-    mask_status: Status | None = None
-    """Why ``mask`` is None, as data (``EMPTY_REGION``, ``NOT_A_VIDEO``, ...)."""
+    mask_missing: Outcome | None = None
+    """Why ``mask`` is None: a null ``Outcome`` (``EMPTY_REGION``, ``NOT_A_VIDEO``, ...), what a
+    masked metric of the frame gets; None with a mask."""
     raw_boxes: np.ndarray | None = None
     """(N, 4) boxes as found, before expansion (for reports)."""
     records: list[dict] | None = None
@@ -322,10 +320,10 @@ def camera_regions(
                               video=False)
         for r in out:
             r.not_video = err
-            if r.mask_status is Status.NOT_A_VIDEO:
-                r.mask_reason = err.reason()
-            if r.boxes_status is Status.NOT_A_VIDEO:
-                r.boxes_reason = err.reason()
+            if r.mask_missing is not None and r.mask_missing.status is Status.NOT_A_VIDEO:
+                r.mask_missing = Outcome(None, Status.NOT_A_VIDEO, err.reason())
+            if r.boxes_missing is not None and r.boxes_missing.status is Status.NOT_A_VIDEO:
+                r.boxes_missing = Outcome(None, Status.NOT_A_VIDEO, err.reason())
         return out
 
 
@@ -352,7 +350,7 @@ def _camera_regions(camera: str, frames: Sequence[str], load_gt: Callable[[int],
                 r.camera_motion = check
     elif cfg.masked or cfg.kind.from_motion:
         for r in out:
-            r.mask_reason, r.mask_status = NOT_A_VIDEO, Status.NOT_A_VIDEO
+            r.mask_missing = Outcome(None, Status.NOT_A_VIDEO, NOT_A_VIDEO)
     detections = None
     if cfg.kind.detects:
         def detect(i: int):  # noqa: ANN202
@@ -380,7 +378,7 @@ def _camera_regions(camera: str, frames: Sequence[str], load_gt: Callable[[int],
         raw = clip_boxes(raw, h, w)
         r.raw_boxes, r.size = raw, (h, w)
         if len(raw) == 0:
-            r.boxes_reason, r.boxes_status = _NO_BOX_REASON[cfg.source], Status.NO_REGION
+            r.boxes_missing = Outcome(None, Status.NO_REGION, _NO_BOX_REASON[cfg.source])
             continue
         r.boxes = expand_boxes(raw, cfg.expand, h, w)
     return out
@@ -398,9 +396,9 @@ def fit_to(r: FrameRegions, size: tuple[int, int], config: FocusConfig) -> Frame
     h, w = size
     raw = clip_boxes(records_to_boxes(r.records) if r.records is not None else r.raw_boxes, h, w)
     boxes = expand_boxes(raw, config.expand, h, w) if len(raw) else None
-    reason = None if boxes is not None else _NO_BOX_REASON[config.source]
-    return replace(r, raw_boxes=raw, boxes=boxes, boxes_reason=reason, size=(h, w),
-                   boxes_status=None if boxes is not None else Status.NO_REGION)
+    missing = (None if boxes is not None
+               else Outcome(None, Status.NO_REGION, _NO_BOX_REASON[config.source]))
+    return replace(r, raw_boxes=raw, boxes=boxes, boxes_missing=missing, size=(h, w))
 
 
 _NO_BOX_REASON = {
@@ -417,11 +415,9 @@ def _add_motion_masks(out: list[FrameRegions], camera: str, load_gt: Callable[[i
     ``tick()`` after each frame's mask (progress)."""
     if len(out) < MIN_MOTION_FRAMES:
         for r in out:
-            r.mask_status = Status.UNDEFINED
-            r.mask_reason = (
+            r.mask_missing = Outcome(None, Status.UNDEFINED, (
                 f"motion masks need >= {MIN_MOTION_FRAMES} frames of a static camera, "
-                f"camera {camera!r} has {len(out)}"
-            )
+                f"camera {camera!r} has {len(out)}"))
         return
     lazy = LazyFrames(list(range(len(out))), load_gt)
     masks = iter_motion_masks(lazy, MotionConfig(kind=kind), executor)
@@ -433,8 +429,7 @@ def _add_motion_masks(out: list[FrameRegions], camera: str, load_gt: Callable[[i
         if m.any():
             r.packed_mask = PackedMask.pack(m)
         else:
-            r.mask_reason = "no moving pixel in the ground truth"
-            r.mask_status = Status.EMPTY_REGION
+            r.mask_missing = Outcome(None, Status.EMPTY_REGION, "no moving pixel in the ground truth")
     check = _static_check(load_gt, len(out), float(np.mean(fractions)), focus)
     for r in out:
         r.camera_motion = check
@@ -450,18 +445,17 @@ def _static_check(load_gt: Callable[[int], np.ndarray], n: int, mask_fraction: f
 def _frame_boxes(r: FrameRegions, camera: str, name: str, sources: RegionSources,
                  detections: Iterator[Any] | None) -> np.ndarray | tuple | None:
     """The raw boxes of one frame from the focus source (setting ``r.records``), or None with
-    ``r.boxes_reason`` set. ``detections``: ``(frame's (H, W), Detections)``, one per frame, in
+    ``r.boxes_missing`` set. ``detections``: ``(frame's (H, W), Detections)``, one per frame, in
     order; the detector's boxes come back with the frame's size, ``((H, W), boxes)``."""
     kind = sources.config.kind
     if not kind.gives_boxes:
-        r.boxes_reason = "no focus regions requested (--focus none)"
-        r.boxes_status = Status.DISABLED
+        r.boxes_missing = Outcome(None, Status.DISABLED, "no focus regions requested (--focus none)")
         return None
     if kind.reads_file:
         records = sources.boxes.get(frame_key(camera, name))
         if records is None:
-            r.boxes_reason = f"frame {frame_key(camera, name)!r} is not in the boxes file"
-            r.boxes_status = Status.NO_REGION
+            r.boxes_missing = Outcome(None, Status.NO_REGION,
+                                      f"frame {frame_key(camera, name)!r} is not in the boxes file")
             return None
         r.records = list(records)
         return records_to_boxes(records)
@@ -470,7 +464,7 @@ def _frame_boxes(r: FrameRegions, camera: str, name: str, sources: RegionSources
         r.records = found.records()
         return hw, found.boxes
     if r.packed_mask is None:  # motion
-        r.boxes_reason, r.boxes_status = r.mask_reason, r.mask_status
+        r.boxes_missing = r.mask_missing
         return None
 
     return mask_boxes(r.mask, min_area=16)

@@ -12,7 +12,7 @@ from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
 
-from dynaeval.core.outcome import Status
+from dynaeval.core.outcome import Outcome, Status
 from dynaeval.io.masks import THRESHOLD, MaskSet, read_mask
 from dynaeval.regions.focus import FrameRegions
 from dynaeval.regions.packed import PackedMask
@@ -43,8 +43,8 @@ def given_masks(regions: Sequence[FrameRegions], gt_paths: Sequence[Path],
         m = read_mask(path, masks.decode) > THRESHOLD
         reason = None if m.any() else f"the given mask {path} holds no pixel above {THRESHOLD}"
         out.append(replace(r, packed_mask=PackedMask.pack(m) if m.any() else None,
-                           mask_reason=reason,
-                           mask_status=None if m.any() else Status.EMPTY_REGION,
+                           mask_missing=None if m.any() else Outcome(None, Status.EMPTY_REGION,
+                                                                     reason),
                            camera_motion=motion if r.camera_motion is not None else None))
     return out
 

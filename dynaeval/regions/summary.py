@@ -37,7 +37,7 @@ def regions_summary(regions: Sequence[FrameRegions], source: str,
         "frames_with_boxes": sum(r.boxes is not None for r in regions), "boxes": counts,
     }
     fractions = [float(r.mask.mean()) for r in regions if r.packed_mask is not None]
-    if any(r.packed_mask is not None or r.mask_reason for r in regions):
+    if any(r.packed_mask is not None or r.mask_missing is not None for r in regions):
         out["mask_fraction"] = ({"mean": float(np.mean(fractions)), "max": max(fractions)}
                                 if fractions else None)
     if regions and regions[0].camera_motion is not None:

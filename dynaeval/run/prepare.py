@@ -251,9 +251,10 @@ def _save_regions(regions: list[FrameRegions], rel: str, writer: FolderWriter) -
                                          None if packed is None else packed.bits), strict=True):
             if value is not None:
                 arrays[f"{name}{k}"] = value
-        frames.append({"boxes_reason": r.boxes_reason, "mask_reason": r.mask_reason,
-                       "boxes_status": r.boxes_status and r.boxes_status.value,
-                       "mask_status": r.mask_status and r.mask_status.value,
+        boxes, mask = r.boxes_missing, r.mask_missing  # the prepared format keeps both fields
+        frames.append({"boxes_reason": boxes and boxes.detail, "mask_reason": mask and mask.detail,
+                       "boxes_status": boxes and boxes.status.value,
+                       "mask_status": mask and mask.status.value,
                        "records": r.records, "size": r.size,
                        "mask_shape": None if packed is None else list(packed.shape)})
     writer.write(rel, lambda path: np.savez_compressed(path, **arrays))

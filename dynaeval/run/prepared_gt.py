@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from dynaeval.core.errors import InputError
-from dynaeval.core.outcome import Status, note
+from dynaeval.core.outcome import Outcome, Status, note
 from dynaeval.core.version import VERSION
 from dynaeval.io import FramePair
 from dynaeval.io.frames import FrameRef, pairs_by_camera
@@ -114,11 +114,11 @@ class PreparedGT:
                 packed = (None if got["mask"] is None else
                           PackedMask(got["mask"], tuple(f["mask_shape"])))  # kept packed
                 out.append(FrameRegions(
-                    boxes=got["boxes"], boxes_reason=f["boxes_reason"], packed_mask=packed,
-                    mask_reason=f["mask_reason"], raw_boxes=got["raw_boxes"], records=f["records"],
-                    size=None if f["size"] is None else tuple(f["size"]), camera_motion=motion,
-                    boxes_status=_status(f.get("boxes_status")),
-                    mask_status=_status(f.get("mask_status"))))
+                    boxes=got["boxes"], packed_mask=packed,
+                    boxes_missing=_missing(f["boxes_reason"], f.get("boxes_status")),
+                    mask_missing=_missing(f["mask_reason"], f.get("mask_status")),
+                    raw_boxes=got["raw_boxes"], records=f["records"],
+                    size=None if f["size"] is None else tuple(f["size"]), camera_motion=motion))
         return out
 
     def gt_flicker(self, camera: str, static: np.ndarray) -> tuple[float | None, float | None] | None:
@@ -176,9 +176,12 @@ class PreparedGT:
                 for cam, ok in self.reuse.items() if not ok]
 
 
-def _status(value: str | None) -> Status | None:
-    """A ``FrameRegions`` status as stored in the manifest (None: the frame has its region)."""
-    return None if value is None else Status(value)
+def _missing(reason: str | None, status: str | None) -> Outcome | None:
+    """A ``FrameRegions`` region's ``*_missing`` as stored in the manifest (both None: the frame
+    has its region; a reason without a status, a folder of format 2: ``NO_REGION``)."""
+    if reason is None and status is None:
+        return None
+    return Outcome(None, Status.NO_REGION if status is None else Status(status), reason)
 
 
 def open_prepared(path: str | Path, gt_root: Path, pairs: list[FramePair],

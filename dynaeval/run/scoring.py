@@ -277,8 +277,8 @@ def name_regionless_frames(camera: str, pairs: list[FramePair], regions: list[Fr
     whole camera for want of a region gets them as its reason; one scored on the other pairs
     gets them as ``pair_null`` (why its null pairs are null) and one camera warning. Returns the
     terms and the warnings."""
-    missing = [(p.frame, r.boxes_reason) for p, r in zip(pairs, regions, strict=True)
-               if r.boxes is None]
+    missing = [(p.frame, r.boxes_missing and r.boxes_missing.detail)
+               for p, r in zip(pairs, regions, strict=True) if r.boxes is None]
     if not missing or len(pairs) < 2:
         return temporal, []
     why = "; ".join(dict.fromkeys(r or "no box" for _, r in missing))

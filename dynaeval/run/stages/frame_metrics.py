@@ -38,12 +38,10 @@ class FrameMetrics(Stage):
                 if pair.index % plan.every.get(name, 1):
                     continue  # not one of the frames it scores (``every``): no value, not null
                 if region == "focused" and regions.boxes is None:
-                    values.append((name, Outcome(None, regions.boxes_status or Status.NO_REGION,
-                                                 regions.boxes_reason)))
+                    values.append((name, regions.boxes_missing or Outcome(None, Status.NO_REGION)))
                     continue
                 if region == "masked" and regions.packed_mask is None:
-                    values.append((name, Outcome(None, regions.mask_status or Status.NO_REGION,
-                                                 regions.mask_reason)))
+                    values.append((name, regions.mask_missing or Outcome(None, Status.NO_REGION)))
                     continue
                 kw = region_argument(region, name, plan.protocol, regions)
                 if kw is None:

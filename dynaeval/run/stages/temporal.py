@@ -115,7 +115,8 @@ def static_pixels(regions: list[FrameRegions], focus: FocusConfig,
     if moving is not None:
         return ~moving
     nothing_moves = bool(regions) and all(
-        r.mask_status is Status.EMPTY_REGION and r.camera_motion is not None
+        r.mask_missing is not None and r.mask_missing.status is Status.EMPTY_REGION
+        and r.camera_motion is not None
         and r.camera_motion["reason"] is None for r in regions)
     return np.ones(shape[:2], dtype=bool) if nothing_moves else None
 

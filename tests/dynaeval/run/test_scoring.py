@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import dynaeval
-from dynaeval.core.outcome import CameraTerm, Status
+from dynaeval.core.outcome import CameraTerm, Outcome, Status
 from dynaeval.errors import InputError
 from dynaeval.io import FramePair, pair_frames
 from dynaeval.io.images import FrameCache
@@ -245,9 +245,9 @@ def test_the_frames_without_boxes_are_named_by_status_not_by_words():
     ``no-region``, whatever the words, and never for another status."""
     pairs = [FramePair("cam00", f"{t:04d}", t, FrameRef(Path("p")), FrameRef(Path("g")))
              for t in range(3)]
-    regions = [FrameRegions(boxes=None, boxes_reason="no box here"),
+    regions = [FrameRegions(boxes=None, boxes_missing=Outcome(None, Status.NO_REGION, "no box here")),
                FrameRegions(boxes=np.array([[0, 0, 4, 4]])),
-               FrameRegions(boxes=None, boxes_reason="no box here")]
+               FrameRegions(boxes=None, boxes_missing=Outcome(None, Status.NO_REGION, "no box here"))]
     temporal = {
         "focused_tof": CameraTerm.null(Status.NO_REGION, "any words"),
         "focused_warp_error": CameraTerm.null(Status.UNDEFINED, "no frame has a region"),
