@@ -50,6 +50,7 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=3)
     args = ap.parse_args()
     torch.set_num_threads(1)
+    views = load_dataset(args.data).eval
     print("| model | preset | out of place CPU s/view | in place | speed-up | max abs difference |")
     print("|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
@@ -60,7 +61,6 @@ def main() -> None:
                   overrides={"eval_every": 0})
             _, net, _ = load_run(run, spec)
             net.eval()
-            views = load_dataset(args.data).eval
             times: dict[bool, list[float]] = {True: [], False: []}
             images = {}
             for _ in range(args.repeats):

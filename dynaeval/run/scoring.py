@@ -181,7 +181,7 @@ class CameraProgress:
     ``Stopped`` raised once it is set."""
 
     def __init__(self, progress: Progress, camera: str, stop: threading.Event | None,
-                 frames: int = 0) -> None:
+                 frames: int) -> None:
         self.progress, self.camera, self.stop, self.frames = progress, camera, stop, frames
         self.pairs, self.regions = 0, 0.0
         progress.set_note(f"camera {camera}")

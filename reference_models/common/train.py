@@ -189,15 +189,19 @@ def _progress_bar(tqdm, cfg: TrainConfig, step: int, spent: float, show: bool):
     ends the run (a bar of 100,000 steps said 6.5 hours for a 30-minute run)."""
     if not cfg.minutes:
         return tqdm(total=cfg.iters, initial=step, disable=not show, unit="it", dynamic_ncols=True)
-    total = 60.0 * cfg.minutes
-    return tqdm(total=round(total), initial=round(_progress(step, spent, cfg) * total),
+    return tqdm(total=round(60.0 * cfg.minutes), initial=_bar_position(step, spent, cfg),
                 disable=not show, unit="cpu-s" if cfg.clock == "cpu" else "s", dynamic_ncols=True,
                 bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} {unit} [{elapsed}<{remaining}{postfix}]")
 
 
+def _bar_position(step: int, spent: float, cfg: TrainConfig) -> int:
+    """Where the bar stands: ``step`` without a time budget, else the budget's seconds used."""
+    return step if not cfg.minutes else round(_progress(step, spent, cfg) * 60.0 * cfg.minutes)
+
+
 def _advance(bar, cfg: TrainConfig, step: int, spent: float) -> None:
-    """Move the bar to ``step`` (no budget) or to the share of the budget used."""
-    target = step if not cfg.minutes else round(_progress(step, spent, cfg) * 60.0 * cfg.minutes)
+    """Move the bar forward to ``_bar_position``."""
+    target = _bar_position(step, spent, cfg)
     if target > bar.n:
         bar.update(target - bar.n)
 
@@ -457,7 +461,6 @@ def _loop(model: DynamicRadianceModel, data: Dataset, cfg: TrainConfig, out: Pat
     weights = {"tv": cfg.tv, "time_smooth": cfg.time_smooth, "time_l1": cfg.time_l1,
                "window_l1": cfg.window_l1, "interlevel": cfg.interlevel, "distortion": cfg.distortion}
     log_file = (out / "log.jsonl").open("a")
-    bar = _progress_bar(tqdm, cfg, step, cpu_seconds if cfg.clock == "cpu" else seconds, progress)
     record: dict = {}
     window_t, window_n, acc_loss, acc_psnr = 0.0, 0, 0.0, 0.0
 
@@ -469,6 +472,8 @@ def _loop(model: DynamicRadianceModel, data: Dataset, cfg: TrainConfig, out: Pat
 
     def budget() -> float:
         return cpu_seconds if cfg.clock == "cpu" else seconds
+
+    bar = _progress_bar(tqdm, cfg, step, budget(), progress)
 
     while _progress(step, budget(), cfg) < 1.0:
         t0, c0 = time.perf_counter(), time.process_time()

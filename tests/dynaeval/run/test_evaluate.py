@@ -471,7 +471,7 @@ def test_a_failing_camera_stops_the_others_and_its_error_is_raised():
     fail = [False]
 
     def score(cam, cam_pairs, stop=None):  # as dynaeval.run.scoring.score_camera ticks
-        ticks = CameraProgress(progress, cam, stop)
+        ticks = CameraProgress(progress, cam, stop, frames=len(cam_pairs))
         for _ in range(2 if cam == "a" else 400):
             time.sleep(0.005)
             frames_of[cam] += 1
