@@ -86,8 +86,7 @@ class RenderConfig:
 def _mlp(n_in: int, hidden: int, n_out: int, layers: int) -> nn.Sequential:
     """Linear layers with ReLU between them; each ReLU writes over its Linear's output (nothing
     else reads it; autograd's ReLU backward needs only the result): equal values and gradients,
-    one activation-sized buffer fewer per layer (render 1.01-1.07x with the training and render
-    allocator setting, 1.27x without it: ``benchmarks/render_relu.py``)."""
+    one activation-sized buffer fewer per layer (render 1.01-1.07x: ``benchmarks/render_relu.py``)."""
     mods: list[nn.Module] = []
     for i in range(layers):
         mods += [nn.Linear(n_in if i == 0 else hidden, hidden), nn.ReLU(inplace=True)]
