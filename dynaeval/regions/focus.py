@@ -1,8 +1,9 @@
 """Regions of one camera for scoring: boxes (detector, boxes file or motion) and motion masks.
 
 Regions come from the **ground truth only**, so that every method scored on a scene is scored on
-the same pixels. ``camera_regions`` returns one ``FrameRegions`` per frame of a camera; a frame with
-no box (or no moving pixel) carries the reason instead, and its focused (masked) metrics are null.
+the same pixels. ``camera_regions`` returns a camera's ``CameraRegions``: one ``FrameRegions`` per
+frame (a frame with no box, or no moving pixel, carries the reason instead, and its focused
+(masked) metrics are null) and the facts of the camera as a whole (no video, its static check).
 """
 
 from __future__ import annotations
@@ -40,7 +41,7 @@ from dynaeval.regions.sources import (
     FocusSource,
     focus_source,
 )
-from dynaeval.regions.static_camera import camera_motion, moving_camera_reason
+from dynaeval.regions.static_camera import CameraMotion, static_check
 
 FOCUS_SOURCES = tuple(SOURCE_KINDS)
 """The names of the focus sources (``dynaeval.regions.sources``), in ``--focus`` order."""
@@ -177,19 +178,26 @@ class FrameRegions:
     weights: np.ndarray | None = None
     """(H, W) float32 weights in [0, 1] of a given mask (``dynaeval.regions.given``), for the
     protocols that use them (``Protocol.masks``); None without given masks."""
-    not_video: FramesDiffer | None = None
-    """Set on every frame of a camera whose frames differ in shape (the first difference; its
-    ``reason()`` is the text): no motion mask, no temporal term; None for a video."""
-    camera_motion: dict[str, Any] | None = None
-    """Set (the same dict) on every frame of a camera that got motion masks:
-    ``{"global_motion_px", "reason"}``, the reason (``static_camera.moving_camera_reason``) not
-    None when the camera does not look static."""
 
     @property
     def mask(self) -> np.ndarray | None:
         """(H, W) bool motion (or given) mask, unpacked from ``packed_mask`` on each access (a
         new array); None when there is none."""
         return None if self.packed_mask is None else self.packed_mask.unpack()
+
+
+@dataclass
+class CameraRegions:
+    """The regions of one camera: each frame's, and the facts of the camera as a whole."""
+
+    frames: list[FrameRegions]
+    """One ``FrameRegions`` per frame, in the camera's frame order."""
+    not_video: FramesDiffer | None = None
+    """The camera's frames differ in shape (the first difference; its ``reason()`` is the
+    text): no motion mask, no temporal term; None for a video."""
+    motion: CameraMotion | None = None
+    """The camera's static check (``static_camera.static_check``), made when it gets motion
+    masks or given ones (a video of at least ``MIN_MOTION_FRAMES`` frames); None otherwise."""
 
 
 @dataclass
@@ -213,7 +221,7 @@ class RegionSources:
     given_masks: bool = False
     """The run's masks are given (``--masks``; ``dynaeval.regions.given``): they replace the
     motion masks wherever a mask is used, so motion masks are found only for ``--focus motion``
-    boxes (a camera still gets its static check, ``FrameRegions.camera_motion``)."""
+    boxes (a camera still gets its static check, ``CameraRegions.motion``)."""
 
 
 def open_sources(config: FocusConfig) -> RegionSources:
@@ -289,7 +297,7 @@ def camera_regions(
     executor: Executor | None = None,
     paths: Sequence[object] | None = None,
     on_frame: Callable[[float], None] | None = None,
-) -> list[FrameRegions]:
+) -> CameraRegions:
     """Regions of every frame of one camera, computed from its ground truth.
 
     Args:
@@ -308,9 +316,10 @@ def camera_regions(
             shape is found again, frame by frame: its calls may add up to more).
 
     Returns:
-        One ``FrameRegions`` per frame. When the frames differ in shape (not a video: a static
-        scene's test set, photos), every frame's boxes are found and clipped on its own, there
-        is no motion mask (reason ``NOT_A_VIDEO``) and every ``FrameRegions.not_video`` says so.
+        The camera's regions, one ``FrameRegions`` per frame. When the frames differ in shape
+        (not a video: a static scene's test set, photos), every frame's boxes are found and
+        clipped on its own, there is no motion mask (reason ``NOT_A_VIDEO``) and
+        ``CameraRegions.not_video`` says so.
     """
     try:
         return _camera_regions(camera, frames, load_gt, sources, executor, paths, on_frame,
@@ -318,36 +327,34 @@ def camera_regions(
     except FramesDiffer as err:
         out = _camera_regions(camera, frames, load_gt, sources, executor, paths, on_frame,
                               video=False)
-        for r in out:
-            r.not_video = err
+        for r in out.frames:
             if r.mask_missing is not None and r.mask_missing.status is Status.NOT_A_VIDEO:
                 r.mask_missing = Outcome(None, Status.NOT_A_VIDEO, err.reason())
             if r.boxes_missing is not None and r.boxes_missing.status is Status.NOT_A_VIDEO:
                 r.boxes_missing = Outcome(None, Status.NOT_A_VIDEO, err.reason())
-        return out
+        return replace(out, not_video=err)
 
 
 def _camera_regions(camera: str, frames: Sequence[str], load_gt: Callable[[int], np.ndarray],
                     sources: RegionSources, executor: Executor | None,
                     paths: Sequence[object] | None, on_frame: Callable[[float], None] | None,
-                    *, video: bool) -> list[FrameRegions]:
+                    *, video: bool) -> CameraRegions:
     """``camera_regions``; ``video``: the frames are checked to share frame 0's shape
     (``FramesDiffer`` otherwise) and get motion masks; False: each frame on its own."""
     cfg = sources.config
     first = load_gt(0).shape
     load = same_shape(load_gt, first) if video else load_gt
     out = [FrameRegions() for _ in frames]
-    motion = (cfg.kind.from_motion or (cfg.masked and not sources.given_masks)) and video
-    passes = int(motion and len(out) >= MIN_MOTION_FRAMES) + int(cfg.kind.detects)
+    check = None  # the camera's CameraMotion
+    find_masks = (cfg.kind.from_motion or (cfg.masked and not sources.given_masks)) and video
+    passes = int(find_masks and len(out) >= MIN_MOTION_FRAMES) + int(cfg.kind.detects)
     tick = None if on_frame is None or not passes else (lambda: on_frame(1 / passes))
-    if motion:
-        _add_motion_masks(out, camera, load, cfg.motion_kind, executor, cfg.source, tick)
+    if find_masks:
+        check = _add_motion_masks(out, camera, load, cfg.motion_kind, executor, cfg.source, tick)
     elif cfg.masked and video:  # given masks replace the motion masks: none found (they were,
         # then dropped), the camera's static check only (its note: regions.given)
         if len(out) >= MIN_MOTION_FRAMES:
-            check = _static_check(load, len(out), None, cfg.source)
-            for r in out:
-                r.camera_motion = check
+            check = static_check(load, len(out), None, cfg.source)
     elif cfg.masked or cfg.kind.from_motion:
         for r in out:
             r.mask_missing = Outcome(None, Status.NOT_A_VIDEO, NOT_A_VIDEO)
@@ -378,10 +385,10 @@ def _camera_regions(camera: str, frames: Sequence[str], load_gt: Callable[[int],
         raw = clip_boxes(raw, h, w)
         r.raw_boxes, r.size = raw, (h, w)
         if len(raw) == 0:
-            r.boxes_missing = Outcome(None, Status.NO_REGION, _NO_BOX_REASON[cfg.source])
+            r.boxes_missing = Outcome(None, Status.NO_REGION, cfg.kind.no_box)
             continue
         r.boxes = expand_boxes(raw, cfg.expand, h, w)
-    return out
+    return CameraRegions(out, motion=check)
 
 
 def fit_to(r: FrameRegions, size: tuple[int, int], config: FocusConfig) -> FrameRegions:
@@ -397,28 +404,22 @@ def fit_to(r: FrameRegions, size: tuple[int, int], config: FocusConfig) -> Frame
     raw = clip_boxes(records_to_boxes(r.records) if r.records is not None else r.raw_boxes, h, w)
     boxes = expand_boxes(raw, config.expand, h, w) if len(raw) else None
     missing = (None if boxes is not None
-               else Outcome(None, Status.NO_REGION, _NO_BOX_REASON[config.source]))
+               else Outcome(None, Status.NO_REGION, config.kind.no_box))
     return replace(r, raw_boxes=raw, boxes=boxes, boxes_missing=missing, size=(h, w))
-
-
-_NO_BOX_REASON = {
-    "detector": "the detector found no object in the ground truth",
-    "boxes": "the boxes file lists no box for this frame",
-    "motion": "no moving region in the ground truth",
-}
 
 
 def _add_motion_masks(out: list[FrameRegions], camera: str, load_gt: Callable[[int], np.ndarray],
                       kind: str, executor: Executor | None, focus: str = "detector",
-                      tick: Callable[[], None] | None = None) -> None:
+                      tick: Callable[[], None] | None = None) -> CameraMotion | None:
     """Set each frame's motion mask, or the reason it has none (too few frames, no motion);
-    ``tick()`` after each frame's mask (progress)."""
+    ``tick()`` after each frame's mask (progress). Returns the camera's static check (None
+    with too few frames)."""
     if len(out) < MIN_MOTION_FRAMES:
         for r in out:
             r.mask_missing = Outcome(None, Status.UNDEFINED, (
                 f"motion masks need >= {MIN_MOTION_FRAMES} frames of a static camera, "
                 f"camera {camera!r} has {len(out)}"))
-        return
+        return None
     lazy = LazyFrames(list(range(len(out))), load_gt)
     masks = iter_motion_masks(lazy, MotionConfig(kind=kind), executor)
     fractions = []
@@ -430,16 +431,7 @@ def _add_motion_masks(out: list[FrameRegions], camera: str, load_gt: Callable[[i
             r.packed_mask = PackedMask.pack(m)
         else:
             r.mask_missing = Outcome(None, Status.EMPTY_REGION, "no moving pixel in the ground truth")
-    check = _static_check(load_gt, len(out), float(np.mean(fractions)), focus)
-    for r in out:
-        r.camera_motion = check
-
-
-def _static_check(load_gt: Callable[[int], np.ndarray], n: int, mask_fraction: float,
-                  focus: str) -> dict[str, Any]:
-    """``FrameRegions.camera_motion`` of a camera (``dynaeval.regions.static_camera``)."""
-    px = camera_motion(load_gt, n)
-    return {"global_motion_px": px, "reason": moving_camera_reason(px, mask_fraction, focus)}
+    return static_check(load_gt, len(out), float(np.mean(fractions)), focus)
 
 
 def _frame_boxes(r: FrameRegions, camera: str, name: str, sources: RegionSources,
@@ -524,10 +516,10 @@ def detect_ground_truth(
             cache = FrameCache(2**30)  # the motion pass reads every frame twice
             regions = camera_regions(cam.name, names, lambda i, r=refs, c=cache: c.read(r[i]),
                                      cache.read(refs[0]).shape[:2], sources)
-            moving = regions[0].camera_motion if regions else None
-            if warnings is not None and moving is not None and moving["reason"]:
-                warnings.append(note(moving["reason"], camera=cam.name))
-            for name, reg in zip(names, regions, strict=True):
+            moving = regions.motion
+            if warnings is not None and moving is not None and moving.reason:
+                warnings.append(note(moving.reason, camera=cam.name))
+            for name, reg in zip(names, regions.frames, strict=True):
                 boxes = reg.raw_boxes if reg.raw_boxes is not None else np.zeros((0, 4), int)
                 mapping[frame_key(cam.name, name)] = [
                     {"class": "motion", "id": i, "box": [int(v) for v in b]}

@@ -14,16 +14,16 @@ from pathlib import Path
 
 from dynaeval.core.outcome import Outcome, Status
 from dynaeval.io.masks import THRESHOLD, MaskSet, read_mask
-from dynaeval.regions.focus import FrameRegions
+from dynaeval.regions.focus import CameraRegions, FrameRegions
 from dynaeval.regions.packed import PackedMask
-from dynaeval.regions.static_camera import moving_camera_reason
+from dynaeval.regions.static_camera import CameraMotion, moving_camera_reason
 
 
-def given_masks(regions: Sequence[FrameRegions], gt_paths: Sequence[Path],
-                masks: MaskSet, focus: str = "none") -> list[FrameRegions]:
+def given_masks(regions: CameraRegions, gt_paths: Sequence[Path],
+                masks: MaskSet, focus: str = "none") -> CameraRegions:
     """``regions`` with each frame's mask replaced by its given mask (weights > ``THRESHOLD``),
     or None with the reason when the given mask holds no such pixel, and the camera's
-    moving-camera note (``FrameRegions.camera_motion``) said for given masks: masked_* are
+    moving-camera note (``CameraRegions.motion``) said for given masks: masked_* are
     theirs, so only flicker's static pixels (and ``motion`` boxes) are touched by a moving
     camera (it said "masked_* values are close to the whole-frame ones"). The same for
     regions found here and read from a prepared ground truth.
@@ -32,21 +32,19 @@ def given_masks(regions: Sequence[FrameRegions], gt_paths: Sequence[Path],
         gt_paths: the ground-truth file of each frame (its mask is found from it).
         focus: the run's focus source (``motion`` boxes come from motion masks).
     """
-    motion = regions[0].camera_motion if regions else None
-    if motion is not None:  # one dict shared by the camera's frames, as found
-        px = motion["global_motion_px"]
-        motion = {"global_motion_px": px,
-                  "reason": moving_camera_reason(px, None, focus, given_masks=True)}
+    motion = regions.motion
+    if motion is not None:
+        px = motion.global_motion_px
+        motion = CameraMotion(px, moving_camera_reason(px, None, focus, given_masks=True))
     out = []
-    for r, gt in zip(regions, gt_paths, strict=True):
+    for r, gt in zip(regions.frames, gt_paths, strict=True):
         path = masks.path_of(gt)
         m = read_mask(path, masks.decode) > THRESHOLD
         reason = None if m.any() else f"the given mask {path} holds no pixel above {THRESHOLD}"
         out.append(replace(r, packed_mask=PackedMask.pack(m) if m.any() else None,
                            mask_missing=None if m.any() else Outcome(None, Status.EMPTY_REGION,
-                                                                     reason),
-                           camera_motion=motion if r.camera_motion is not None else None))
-    return out
+                                                                     reason)))
+    return replace(regions, frames=out, motion=motion)
 
 
 def with_weights(r: FrameRegions, gt_path: Path, masks: MaskSet) -> FrameRegions:

@@ -2,11 +2,12 @@
 
 A kind says what it is once, as data its users read: whether it gives boxes (the ``focused_*``
 variants), runs the detector on each ground-truth frame, reads a boxes file, makes its boxes from
-the motion masks, gives boxes with classes (object presence, ``--classes``), and what the run's
-"no box anywhere" headline calls what found nothing. ``dynaeval.regions.focus`` (opening the
-sources, each frame's boxes), the run (plan, scoring, the temporal stage, ``evaluate``) and the
-results (the headline) branch on these facts, never on the name (issue 41: the name was compared
-as a string literal at ~17 sites; ``tests/dynaeval/test_architecture.py`` holds it).
+the motion masks, gives boxes with classes (object presence, ``--classes``), why a frame has no
+box, and what the run's "no box anywhere" headline calls what found nothing.
+``dynaeval.regions.focus`` (opening the sources, each frame's boxes), the run (plan, scoring, the
+temporal stage, ``evaluate``) and the results (the headline) branch on these facts, never on the
+name (issue 41: the name was compared as a string literal at ~17 sites;
+``tests/dynaeval/test_architecture.py`` holds it).
 
 Adding a kind: a subclass here, registered in ``SOURCE_KINDS``, and where its boxes come from in
 ``regions.focus`` (``open_sources``, ``_frame_boxes``); docs/architecture.md "Where do I add X".
@@ -39,6 +40,8 @@ class FocusSource:
     moving camera spoils them; a video is needed)."""
     classed: ClassVar[bool] = False
     """Its boxes carry object classes: object presence can run."""
+    no_box: ClassVar[str] = ""
+    """Why a frame has no box when this source found none there (the focused metrics' null)."""
 
     def finder(self, bundled_detector: bool) -> str:
         """What found the boxes, as ``dynaeval.core.outcome.no_box_reason`` names it."""
@@ -50,6 +53,7 @@ class DetectorSource(FocusSource):
 
     name = spec = "detector"
     detects = classed = True
+    no_box = "the detector found no object in the ground truth"
 
     def finder(self, bundled_detector: bool) -> str:
         return "bundled" if bundled_detector else "detector"
@@ -60,6 +64,7 @@ class MotionSource(FocusSource):
 
     name = spec = "motion"
     from_motion = True
+    no_box = "no moving region in the ground truth"
 
 
 class BoxesFileSource(FocusSource):
@@ -68,6 +73,7 @@ class BoxesFileSource(FocusSource):
     name = "boxes"
     spec = "boxes:FILE"
     reads_file = classed = True
+    no_box = "the boxes file lists no box for this frame"
 
 
 class NoFocus(FocusSource):

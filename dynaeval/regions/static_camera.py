@@ -23,6 +23,7 @@ the fit is the check that holds, the area a second one (flicker, exposure change
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -124,6 +125,26 @@ def camera_motion(load: Callable[[int], np.ndarray], n_frames: int) -> float | N
         found.append(_grey_motion(ga, gb, scale))
     found = [v for v in found if v is not None]
     return float(np.median(found)) if found else None
+
+
+@dataclass(frozen=True)
+class CameraMotion:
+    """The static-camera check of one camera, found once from its ground truth (the results'
+    ``regions.cameras.<camera>.global_motion_px``, and the camera's note when it moves)."""
+
+    global_motion_px: float | None
+    """``camera_motion``: the median global motion in px per frame; None: no pair gave one."""
+    reason: str | None
+    """``moving_camera_reason``: why the camera's motion masks cannot be trusted; None when it
+    looks static."""
+
+
+def static_check(load: Callable[[int], np.ndarray], n_frames: int, mask_fraction: float | None,
+                 focus: str) -> CameraMotion:
+    """The ``CameraMotion`` of a camera of ``n_frames`` frames (``load(i)``, ``(H, W, C)``
+    float32 in [0, 1]); ``mask_fraction``, ``focus``: as ``moving_camera_reason`` takes them."""
+    px = camera_motion(load, n_frames)
+    return CameraMotion(px, moving_camera_reason(px, mask_fraction, focus))
 
 
 def moving_camera_reason(motion_px: float | None, mask_fraction: float | None,

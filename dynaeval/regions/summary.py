@@ -13,10 +13,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 if TYPE_CHECKING:
-    from dynaeval.regions.focus import FrameRegions
+    from dynaeval.regions.focus import CameraRegions
 
 
-def regions_summary(regions: Sequence[FrameRegions], source: str,
+def regions_summary(camera: CameraRegions, source: str,
                     classes: Sequence[str] = ()) -> dict[str, Any]:
     """What one camera's regions hold, for the results' ``regions.cameras``: ``n_frames``,
     ``frames_with_boxes`` (frames with at least one box in the image), ``boxes`` (raw boxes per
@@ -24,6 +24,7 @@ def regions_summary(regions: Sequence[FrameRegions], source: str,
     motion masks, ``mask_fraction`` (mean and max share of the frame's pixels marked moving, over
     the frames with a mask)."""
     counts: dict[str, int] = dict.fromkeys(classes, 0)
+    regions = camera.frames
     for r in regions:
         if r.raw_boxes is None:
             continue
@@ -40,8 +41,8 @@ def regions_summary(regions: Sequence[FrameRegions], source: str,
     if any(r.packed_mask is not None or r.mask_missing is not None for r in regions):
         out["mask_fraction"] = ({"mean": float(np.mean(fractions)), "max": max(fractions)}
                                 if fractions else None)
-    if regions and regions[0].camera_motion is not None:
-        out["global_motion_px"] = regions[0].camera_motion["global_motion_px"]
+    if camera.motion is not None:
+        out["global_motion_px"] = camera.motion.global_motion_px
     return out
 
 

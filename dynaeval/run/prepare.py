@@ -42,7 +42,7 @@ import json
 import threading
 from collections.abc import Iterable
 from concurrent.futures import Future, ThreadPoolExecutor
-from dataclasses import replace
+from dataclasses import asdict, replace
 from pathlib import Path
 from typing import Any
 
@@ -77,7 +77,7 @@ from dynaeval.metrics.flow import (
 from dynaeval.metrics.static_flicker import TemporalStd, check_static, static_mean
 from dynaeval.metrics.temporal import region_item_mask
 from dynaeval.metrics.temporal_pairs import GroundTruthPair, ground_truth_pair, pair_region
-from dynaeval.regions.focus import FrameRegions, open_sources
+from dynaeval.regions.focus import CameraRegions, open_sources
 from dynaeval.regions.packed import PackedMask
 from dynaeval.run.config import ScoreConfig
 from dynaeval.run.executor import RunWorkers
@@ -227,7 +227,7 @@ def _prepare_camera(i: int, cam: str, pairs: list[FramePair], plan: RunPlan, exe
     progress.advance("regions", len(pairs))
     entry: dict[str, Any] = {"frames": [[p.frame, frame_rel(p.gt, gt_dir)] for p in pairs],
                              "regions": None, "flows": None, "gt_pairs": None, "flicker": None}
-    if regions and regions[0].not_video is None:  # no video: computed again when scored
+    if regions.frames and regions.not_video is None:  # no video: computed again when scored
         entry["regions"] = _save_regions(regions, f"regions/{i}.npz", writer)
         if plan.config.temporal:
             entry["flows"], entry["gt_pairs"] = _save_flows(
@@ -239,13 +239,13 @@ def _prepare_camera(i: int, cam: str, pairs: list[FramePair], plan: RunPlan, exe
     return entry
 
 
-def _save_regions(regions: list[FrameRegions], rel: str, writer: FolderWriter) -> dict[str, Any]:
+def _save_regions(regions: CameraRegions, rel: str, writer: FolderWriter) -> dict[str, Any]:
     """Write the arrays of a camera's regions as ``rel`` (npz, masks bit-packed as
     ``FrameRegions`` holds them); returns the JSON part (reasons, records, sizes, the camera's
     motion check)."""
     arrays: dict[str, np.ndarray] = {}
     frames = []
-    for k, r in enumerate(regions):
+    for k, r in enumerate(regions.frames):
         packed = r.packed_mask
         for name, value in zip(REGION_FIELDS, (r.boxes, r.raw_boxes,
                                          None if packed is None else packed.bits), strict=True):
@@ -259,10 +259,11 @@ def _save_regions(regions: list[FrameRegions], rel: str, writer: FolderWriter) -
                        "mask_shape": None if packed is None else list(packed.shape)})
     writer.write(rel, lambda path: np.savez_compressed(path, **arrays))
     return {"file": rel, "frames": manifest_value(frames),
-            "camera_motion": manifest_value(regions[0].camera_motion)}
+            "camera_motion": manifest_value(None if regions.motion is None
+                                            else asdict(regions.motion))}
 
 
-def _save_flows(pairs: list[FramePair], regions: list[FrameRegions], plan: RunPlan,
+def _save_flows(pairs: list[FramePair], regions: CameraRegions, plan: RunPlan,
                 executor: RunWorkers, cache: Any, writer: FolderWriter,
                 progress: Any) -> tuple[list[list[str]], list[dict[str, Any]]] | None:
     """The ground-truth flows of every consecutive pair (forward, backward) as
@@ -376,7 +377,7 @@ class _GrayFrames:
         return got
 
 
-def _gt_flicker(pairs: list[FramePair], regions: list[FrameRegions], plan: RunPlan,
+def _gt_flicker(pairs: list[FramePair], regions: CameraRegions, plan: RunPlan,
                 cache: Any) -> dict[str, Any] | None:
     """The ground truth's ``S`` of the flicker terms (``static_mean`` of its temporal std on the
     camera's static pixels, whole and inside the union of the frames' regions, as

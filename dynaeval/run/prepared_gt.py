@@ -36,8 +36,9 @@ from dynaeval.io.prepared import MANIFEST, PreparedFiles, file_digest, read_mani
 from dynaeval.metrics.flow import FlowCache, FlowConfig
 from dynaeval.metrics.protocols import get_protocol
 from dynaeval.metrics.temporal_pairs import GroundTruthPair
-from dynaeval.regions.focus import FrameRegions
+from dynaeval.regions.focus import CameraRegions, FrameRegions
 from dynaeval.regions.packed import PackedMask
+from dynaeval.regions.static_camera import CameraMotion
 from dynaeval.run.config import ScoreConfig
 
 __all__ = ["REGION_FIELDS", "PreparedGT", "frame_rel", "manifest_value", "open_prepared",
@@ -101,12 +102,12 @@ class PreparedGT:
         stored = self.decoded_files.get(str(Path(path).resolve()))
         return None if stored is None else self.files.load(stored, mmap=True)
 
-    def regions(self, camera: str) -> list[FrameRegions] | None:
+    def regions(self, camera: str) -> CameraRegions | None:
         """The prepared regions of ``camera``, or None when they are computed again."""
         if not self.reuse.get(camera):
             return None
         entry = self.manifest["cameras"][camera]["regions"]
-        motion = entry["camera_motion"]  # one dict shared by the camera's frames, as computed
+        motion = entry["camera_motion"]  # the camera's static check, as computed
         out = []
         with self.files.load(entry["file"]) as arrays:
             for k, f in enumerate(entry["frames"]):
@@ -118,8 +119,8 @@ class PreparedGT:
                     boxes_missing=_missing(f["boxes_reason"], f.get("boxes_status")),
                     mask_missing=_missing(f["mask_reason"], f.get("mask_status")),
                     raw_boxes=got["raw_boxes"], records=f["records"],
-                    size=None if f["size"] is None else tuple(f["size"]), camera_motion=motion))
-        return out
+                    size=None if f["size"] is None else tuple(f["size"])))
+        return CameraRegions(out, motion=None if motion is None else CameraMotion(**motion))
 
     def gt_flicker(self, camera: str, static: np.ndarray) -> tuple[float | None, float | None] | None:
         """The ground truth's ``S`` on ``camera``'s static pixels ``static``, whole and inside

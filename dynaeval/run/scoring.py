@@ -25,7 +25,7 @@ from dynaeval.core.validation import values_known_in
 from dynaeval.io import FramePair
 from dynaeval.io.images import FrameCache
 from dynaeval.metrics.registry import METRICS
-from dynaeval.regions.focus import FrameRegions, camera_regions, fit_to
+from dynaeval.regions.focus import CameraRegions, FrameRegions, camera_regions, fit_to
 from dynaeval.regions.given import given_masks, with_weights
 from dynaeval.regions.summary import regions_summary
 from dynaeval.run.executor import RunWorkers, Stopped
@@ -51,8 +51,8 @@ class CameraScores:
 
 def camera_regions_of(camera: str, pairs: list[FramePair], plan: RunPlan, executor: RunWorkers,
                       cache: FrameCache, on_frame: Callable[[float], None] | None = None
-                      ) -> list[FrameRegions]:
-    """The regions of every frame of a camera, from its ground truth (timed as ``regions``);
+                      ) -> CameraRegions:
+    """The regions of a camera and its every frame, from its ground truth (timed as ``regions``);
     ``on_frame(share)``: progress within the camera (``regions.focus.camera_regions``)."""
     t0 = time.perf_counter()
     regions = plan.prepared.regions(camera) if plan.prepared is not None else None
@@ -77,7 +77,7 @@ def camera_regions_of(camera: str, pairs: list[FramePair], plan: RunPlan, execut
     return regions
 
 
-def _summary_of(regions: list[FrameRegions], plan: RunPlan) -> dict[str, Any] | None:
+def _summary_of(regions: CameraRegions, plan: RunPlan) -> dict[str, Any] | None:
     """The camera's ``regions_summary`` (None when it has neither boxes nor masks)."""
     focus = plan.focus
     if not focus.kind.gives_boxes and not focus.masked:
@@ -222,7 +222,7 @@ def score_camera(camera: str, pairs: list[FramePair], stop: threading.Event | No
                  on_regions: Callable | None = None) -> CameraScores:
     """Regions, per-frame values and camera-level terms of one camera (its frames in order).
 
-    ``on_regions(camera, pairs, regions)`` is called before the frames are scored; the frames,
+    ``on_regions(camera, pairs, frame_regions)`` is called before the frames are scored; the frames,
     temporal pairs and the video step advance ``progress`` (``CameraProgress``; ``stop``: set
     when another camera scored at the same time has failed). Cameras may be scored at the same
     time with one ``executor`` (its pool is shared; nothing here depends on order). Without
@@ -234,24 +234,24 @@ def score_camera(camera: str, pairs: list[FramePair], stop: threading.Event | No
     regions = camera_regions_of(camera, pairs, plan, executor, cache, ticks.region_frame)
     ticks.regions_found()
     if on_regions is not None:
-        on_regions(camera, pairs, regions)
+        on_regions(camera, pairs, regions.frames)
     stages = active_stages(plan)
     score = partial(score_frame, plan=plan, cache=cache, executor=executor, stages=stages,
                     on_frame=ticks.frame)
     if executor.pool is not None:
-        outputs = list(executor.pool.map(score, pairs, regions))
+        outputs = list(executor.pool.map(score, pairs, regions.frames))
     else:
         ahead = ReadAhead(plan, cache, pairs) if len(pairs) > 1 else None
         try:
             outputs = [score(p, r, frames=None if ahead is None else ahead.take(i))
-                       for i, (p, r) in enumerate(zip(pairs, regions, strict=True))]
+                       for i, (p, r) in enumerate(zip(pairs, regions.frames, strict=True))]
         finally:
             if ahead is not None:
                 ahead.close()
     rows = [row for row, _ in outputs]
     warnings = [w for _, ws in outputs for w in ws]
-    cam = CameraWork(camera, pairs, regions, cache, executor,
-                     differ=regions[0].not_video if regions else None, on_pair=ticks.pair)
+    cam = CameraWork(camera, pairs, regions, cache, executor, differ=regions.not_video,
+                     on_pair=ticks.pair)
     temporal = None
     for stage in stages:
         terms = stage.camera(plan, cam)
@@ -260,11 +260,10 @@ def score_camera(camera: str, pairs: list[FramePair], stop: threading.Event | No
     differ = cam.differ
     if differ is not None:
         warnings.insert(0, _not_video_warning(camera, pairs, differ))
-    motion = regions[0].camera_motion if regions else None
-    if motion is not None and motion["reason"] is not None:
-        warnings.insert(0, note(motion["reason"], camera=camera))
+    if regions.motion is not None and regions.motion.reason is not None:
+        warnings.insert(0, note(regions.motion.reason, camera=camera))
     if temporal is not None and differ is None:
-        temporal, named = name_regionless_frames(camera, pairs, regions, temporal)
+        temporal, named = name_regionless_frames(camera, pairs, regions.frames, temporal)
         warnings.extend(named)
     ticks.done(len(pairs) - 1 if plan.temporal is not None else None)
     return CameraScores(rows, warnings, temporal, _summary_of(regions, plan))

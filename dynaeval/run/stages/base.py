@@ -22,7 +22,7 @@ from dynaeval.io import FramePair
 from dynaeval.io.images import FrameCache
 from dynaeval.io.frames import gap_positions
 from dynaeval.metrics.registry import METRICS, PLUGIN_METRICS
-from dynaeval.regions.focus import FrameRegions
+from dynaeval.regions.focus import CameraRegions, FrameRegions
 
 if TYPE_CHECKING:
     from dynaeval.run.executor import RunWorkers
@@ -58,8 +58,8 @@ class CameraWork:
     name: str
     pairs: list[FramePair]
     """Its frames in order."""
-    regions: list[FrameRegions]
-    """Their regions (same order), from the ground truth."""
+    regions: CameraRegions
+    """Its regions (``frames`` in the same order), from the ground truth."""
     cache: FrameCache
     """The camera's frame cache."""
     executor: RunWorkers

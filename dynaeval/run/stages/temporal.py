@@ -18,7 +18,7 @@ from dynaeval.metrics.flow import check_flow_size
 from dynaeval.metrics.perceptual import MIN_SIZE
 from dynaeval.metrics.registry import SPECS, temporal_keys
 from dynaeval.metrics.temporal import TemporalRun, temporal_metrics
-from dynaeval.regions.focus import FocusConfig, FrameRegions, FramesDiffer, same_shape
+from dynaeval.regions.focus import CameraRegions, FocusConfig, FramesDiffer, same_shape
 from dynaeval.regions.packed import union
 from dynaeval.run.stages.base import CameraWork, Stage
 
@@ -39,18 +39,17 @@ class Temporal(Stage):
         # the camera's pairs run on the pool (flows dominate: 3 per pair); the frames are
         # decoded here meanwhile (and, with cameras at once, the other camera's work goes on)
         t0 = time.perf_counter()
-        terms, work.differ = _temporal_or_reason(work.name, work.pairs, work.regions, plan, work,
-                                                 work.differ)
+        terms, work.differ = _temporal_or_reason(plan, work)
         work.executor.add_time({"temporal": time.perf_counter() - t0})
         return terms
 
 
-def _temporal_or_reason(camera: str, pairs: list[FramePair], regions: list[FrameRegions],
-                        plan: RunPlan, work: CameraWork,
-                        differ: Any) -> tuple[dict[str, CameraTerm], Any]:
+def _temporal_or_reason(plan: RunPlan, work: CameraWork) -> tuple[dict[str, CameraTerm], Any]:
     """The camera's temporal terms, or every term null with the reason: frames that differ in
-    shape (``differ``: the ``FramesDiffer`` found by the regions, or found here), frames too
-    small for optical flow. InputErrors that name no file are raised naming the camera."""
+    shape (``work.differ``: the ``FramesDiffer`` found by the regions; or found here, returned
+    beside the terms), frames too small for optical flow. InputErrors that name no file are
+    raised naming the camera."""
+    camera, pairs, differ = work.name, work.pairs, work.differ
     def nulls(status: Status, reason: str) -> dict[str, CameraTerm]:
         return dict.fromkeys(temporal_keys(), CameraTerm.null(status, reason))
 
@@ -62,7 +61,7 @@ def _temporal_or_reason(camera: str, pairs: list[FramePair], regions: list[Frame
     except UndefinedMetricError as err:
         return nulls(Status.UNDEFINED, f"temporal terms of camera {camera!r}: {err}"), None
     try:
-        return temporal_of_camera(pairs, regions, plan, work, shape), None
+        return temporal_of_camera(pairs, work.regions, plan, work, shape), None
     except FramesDiffer as err:
         return nulls(Status.NOT_A_VIDEO, err.reason()), err
     except InputError as err:
@@ -103,7 +102,7 @@ def _small_for_tlp(plan: RunPlan, h: int, w: int) -> str | None:
             f"got {w}x{h}")
 
 
-def static_pixels(regions: list[FrameRegions], focus: FocusConfig,
+def static_pixels(regions: CameraRegions, focus: FocusConfig,
                   shape: tuple[int, ...]) -> np.ndarray | None:
     """The camera's static pixels, ``(H, W) = shape[:2]`` bool: never moving in any frame's
     motion mask. A static camera whose motion masks are all empty (nothing moves: a fact, not a
@@ -111,23 +110,24 @@ def static_pixels(regions: list[FrameRegions], focus: FocusConfig,
     frames that differ in shape), or a camera that does not look static with no moving pixel."""
     if not focus.masked:
         return None
-    moving = union(r.packed_mask for r in regions if r.packed_mask is not None)
+    frames = regions.frames
+    moving = union(r.packed_mask for r in frames if r.packed_mask is not None)
     if moving is not None:
         return ~moving
-    nothing_moves = bool(regions) and all(
+    looks_static = regions.motion is not None and regions.motion.reason is None
+    nothing_moves = bool(frames) and looks_static and all(
         r.mask_missing is not None and r.mask_missing.status is Status.EMPTY_REGION
-        and r.camera_motion is not None
-        and r.camera_motion["reason"] is None for r in regions)
+        for r in frames)
     return np.ones(shape[:2], dtype=bool) if nothing_moves else None
 
 
-def region_items(regions: list[FrameRegions], focus: FocusConfig) -> list | None:
+def region_items(regions: CameraRegions, focus: FocusConfig) -> list | None:
     """Each frame's focus region for the temporal terms (its boxes; None for a frame without),
     or None when the run has no focus (``focus: none``)."""
-    return [r.boxes for r in regions] if focus.kind.gives_boxes else None
+    return [r.boxes for r in regions.frames] if focus.kind.gives_boxes else None
 
 
-def temporal_of_camera(pairs: list[FramePair], regions: list[FrameRegions], plan: RunPlan,
+def temporal_of_camera(pairs: list[FramePair], regions: CameraRegions, plan: RunPlan,
                        work: CameraWork, shape: tuple[int, ...]) -> dict[str, CameraTerm]:
     """The temporal terms of one camera (``dynaeval.metrics.temporal.temporal_metrics``' entries
     as ``CameraTerm``),

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -29,7 +29,7 @@ class Video(Stage):
 
     def camera(self, plan: RunPlan, work: CameraWork) -> dict[str, CameraTerm]:
         t0 = time.perf_counter()
-        out = video_metrics_of(work.name, work.pairs, work.regions, plan, work, work.differ)
+        out = video_metrics_of(plan, work)
         work.executor.add_time({name: (time.perf_counter() - t0) / len(plan.camera_fns)
                                 for name in plan.camera_fns})
         return out
@@ -56,11 +56,11 @@ def camera_fps(pairs: list[FramePair], fps: float) -> float:
     return found if found else fps
 
 
-def video_metrics_of(camera: str, pairs: list[FramePair], regions: list, plan: RunPlan,
-                     work: CameraWork, differ: Any) -> dict[str, CameraTerm]:
+def video_metrics_of(plan: RunPlan, work: CameraWork) -> dict[str, CameraTerm]:
     """The video metrics (``jod``, ``focused_jod``) of one camera by result key: null with the
-    reason for frames that differ in shape or are not consecutive, and for a focused window
-    with no box in any frame."""
+    reason for frames that differ in shape (``work.differ``) or are not consecutive, and for a
+    focused window with no box in any frame."""
+    camera, pairs, differ = work.name, work.pairs, work.differ
     status, reason = (
         (Status.NOT_A_VIDEO, differ.reason()) if differ is not None else
         (Status.NOT_CONSECUTIVE,
@@ -74,7 +74,7 @@ def video_metrics_of(camera: str, pairs: list[FramePair], regions: list, plan: R
     gt = _Clip(pairs, lambda p: plan.read_gt(p, cache))
     out: dict[str, CameraTerm] = {}
     for key, (region, fn) in plan.camera_fns.items():
-        kw = {"boxes": [r.boxes for r in regions]} if region == "focused" else {}
+        kw = {"boxes": [r.boxes for r in work.regions.frames]} if region == "focused" else {}
         try:
             out[key] = CameraTerm(metric_outcome(key, lambda: fn(pred, gt, fps, kw)))
         except (EmptyRegionError, UndefinedMetricError) as err:

@@ -58,8 +58,8 @@ def test_frame_regions_hold_no_full_size_mask():
                          (H, W), src)
     want = list(iter_motion_masks(LazyFrames(list(range(len(frames))), lambda i: frames[i]),
                                   MotionConfig()))
-    assert sum(r.packed_mask is not None for r in out) >= len(frames) - 1  # the square moves
-    for r, m in zip(out, want, strict=True):
+    assert sum(r.packed_mask is not None for r in out.frames) >= len(frames) - 1  # the square moves
+    for r, m in zip(out.frames, want, strict=True):
         if r.packed_mask is not None:
             np.testing.assert_array_equal(r.mask, m)  # the masks themselves are unchanged
         # nothing a frame keeps is a full-size array: the mask is packed, 8 pixels a byte

@@ -129,7 +129,7 @@ def test_an_input_error_inside_a_frame_names_camera_frame_and_files(tmp_path):
     regions = camera_regions_of(".", pairs, run, executor, FrameCache(0))
     with pytest.raises(InputError, match=r"pred/0001\.png: camera '\.' frame '0001' \(ground "
                                          r"truth .*gt/0001\.png\): float images must be in"):
-        score_frame(pairs[1], regions[1], run, FrameCache(0), executor)
+        score_frame(pairs[1], regions.frames[1], run, FrameCache(0), executor)
 
 
 def test_a_detector_error_names_the_ground_truth_file(tmp_path):
