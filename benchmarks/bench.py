@@ -412,7 +412,7 @@ def bench_sequence(height: int, width: int, repeats: int, with_lpips: bool) -> l
         add("temporal_metrics" + (" (with tLP)" if with_lpips else " (no tLP)"), impl,
             lambda kw=kw: temporal_metrics(iter(preds), iter(gts), static_mask=static,
                                            region_masks=region, config=tcfg, **kw),
-            frames, value_of=lambda r: float(r["warp_error"]["value"]))
+            frames, value_of=lambda r: float(r["warp_error"].outcome.value))
     try:
         from dynaeval.regions.detector import DEFAULT_DETECTOR, Detector
 

@@ -94,7 +94,8 @@ class CameraTerm:
     """One camera-level term (a temporal term such as ``warp_error``, or a video metric such as
     ``jod``) of one camera, as the results document takes it: the camera's outcome and, for the
     terms scored per pair of consecutive frames, each pair's value and why a null one is null.
-    Built by the run's camera stages (``dynaeval.run.stages``), read by
+    Built by the temporal engine (``dynaeval.metrics.temporal.temporal_metrics``) and the run's
+    video stage (``dynaeval.run.stages.video``), read by
     ``dynaeval.report.results.place_temporal``."""
 
     outcome: Outcome

@@ -42,7 +42,7 @@ import numpy as np
 
 from dynaeval.core.boxes import as_boxes, boxes_to_mask
 from dynaeval.core.errors import InputError
-from dynaeval.core.outcome import Outcome, Status
+from dynaeval.core.outcome import CameraTerm, Outcome, Status
 from dynaeval.metrics.flow import FlowCache, FlowConfig
 from dynaeval.metrics.pair_kernels import frame_prep
 from dynaeval.metrics.registry import METRICS, SPECS, keys_of, temporal_keys
@@ -269,7 +269,7 @@ class _CameraTerms:
                                                self.gt_flicker)
             self.flicker.update(cur.pred, cur.gt)
 
-    def entry(self, focused: bool, n_frames: int, has_regions: bool) -> dict:
+    def entry(self, focused: bool, n_frames: int, has_regions: bool) -> CameraTerm:
         """The entry of ``flicker`` or (``focused``) ``focused_flicker`` (over the union of the
         regions of the frames that have one)."""
         if n_frames < 2:
@@ -286,7 +286,7 @@ class _CameraTerms:
         if terms is None:
             return _null(Status.EMPTY_REGION, "no static pixel: the static mask is empty"
                          if region is None else "no static pixel inside the regions")
-        return {"value": None, "status": Status.OK.value, "reason": None, "per_pair": [], **terms}
+        return CameraTerm(Outcome(terms["value"], Status.OK), parts=_parts(terms))
 
 
 def temporal_metrics(
@@ -299,7 +299,7 @@ def temporal_metrics(
     lpips_fn: LpipsFn | None = None,
     frame_indices: Sequence[int] | None = None,
     run: TemporalRun | None = None,
-) -> dict[str, dict]:
+) -> dict[str, CameraTerm]:
     """All temporal metrics of one camera's sequence, streaming over consecutive pairs.
 
     ``pred_frames``, ``gt_frames``: iterables of T paired frames ``(H, W, 3)``, float32 in
@@ -321,15 +321,16 @@ def temporal_metrics(
     progress, a shared flow cache, the ground truth's terms computed beforehand); the numbers do
     not depend on it. Default: sequential, from the frames alone.
 
-    Returns ``{key: {"value": float | None, "reason": str | None, "per_pair": [float | None]}}``
-    for the keys ``temporal_keys()``: ``warp_error, tof, tlp, flicker`` and their
-    ``focused_`` variants. ``value`` is the mean of the defined per-pair values (pair i = frames
-    ``(i, i+1)``); None exactly when ``reason`` says why (fewer than 2 frames, no static pixels,
-    empty regions, LPIPS missing). ``warp_error`` (per pair ``|E(pred) - E(gt)|``, ``E`` =
-    :func:`warping_error`) and ``flicker`` entries (and their focused variants) also carry
-    ``"pred"`` and ``"gt"`` (the two terms, means over pairs) and ``"signed"`` (the mean of
-    ``pred - gt`` without the absolute value; > 0: the prediction is less stable than the ground
-    truth). Flicker has no per-pair values (``per_pair == []``).
+    Returns ``{key: CameraTerm}`` (``dynaeval.core.outcome``) for the keys
+    ``temporal_keys()``: ``warp_error, tof, tlp, flicker`` and their ``focused_`` variants.
+    ``term.outcome.value`` is the mean of the defined per-pair values ``term.per_pair`` (pair i =
+    frames ``(i, i+1)``, None where undefined); None exactly when the outcome's ``status`` and
+    ``detail`` say why (fewer than 2 frames, no static pixels, empty regions, LPIPS missing).
+    ``warp_error`` (per pair ``|E(pred) - E(gt)|``, ``E`` = :func:`warping_error`) and
+    ``flicker`` terms (and their focused variants) also carry ``term.parts``: ``"pred"`` and
+    ``"gt"`` (the two terms, means over pairs) and ``"signed"`` (the mean of ``pred - gt``
+    without the absolute value; > 0: the prediction is less stable than the ground truth).
+    Flicker has no per-pair values (``per_pair == ()``).
     Convention: undefined -> null with a reason, never an exception; bad input (shapes, NaN)
     raises InputError.
     """
@@ -406,7 +407,7 @@ def _mean_or_reason(values: list, empty_reason: str) -> tuple[float | None, str 
 
 
 def _pair_entry(key: str, pairs: _PairFold, n_frames: int, has_regions: bool,
-                regionless: list[int], gaps: int = 0) -> dict:
+                regionless: list[int], gaps: int = 0) -> CameraTerm:
     """The entry of a per-pair metric (warp_error, tof, tlp and their focused variants);
     ``regionless``: the frames given no region (their pairs' focused values are None);
     ``gaps``: neighbours that are not consecutive frames (no pair)."""
@@ -430,26 +431,30 @@ def _pair_entry(key: str, pairs: _PairFold, n_frames: int, has_regions: bool,
               f"{', '.join(map(str, regionless))})", Status.NO_REGION)
     )
     value, reason = _mean_or_reason(pairs.per_pair[key], empty)
-    entry = {"value": value, "status": (Status.OK if reason is None else status).value,
-             "reason": reason, "per_pair": pairs.per_pair[key]}
-    if key in pairs.parts:
-        for part in ("signed", "pred", "gt"):
-            entry[part] = _mean_or_reason(pairs.parts[key][part], empty)[0]
-    return entry
+    parts = ({} if key not in pairs.parts else
+             _parts({k: _mean_or_reason(v, empty)[0] for k, v in pairs.parts[key].items()}))
+    return CameraTerm(Outcome(value, Status.OK if reason is None else status, reason),
+                      tuple(pairs.per_pair[key]), parts=parts)
 
 
-def _null(status: Status, reason: str, per_pair: list | None = None) -> dict:
-    """The entry of a term null for the whole camera (``per_pair``: its per-pair values, all
-    None, when it has them)."""
-    return {"value": None, "status": status.value, "reason": reason, "per_pair": per_pair or []}
+def _parts(means: dict[str, float | None]) -> dict[str, float | None]:
+    """A term's ``CameraTerm.parts`` from the means of its sides (``signed``, ``pred``, ``gt``;
+    other keys of ``means`` left out), in that order."""
+    return {k: means[k] for k in ("signed", "pred", "gt")}
+
+
+def _null(status: Status, reason: str, per_pair: list | None = None) -> CameraTerm:
+    """A term null for the whole camera (``per_pair``: its per-pair values, all None, when it
+    has them)."""
+    return CameraTerm(Outcome(None, status, reason), tuple(per_pair or ()))
 
 
 def _results(
     pairs: _PairFold, camera: _CameraTerms, n_frames: int, has_regions: bool,
     regionless: list[int], gaps: int = 0,
-) -> dict[str, dict]:
-    """Every temporal result key -> its entry, in the registry's report order."""
-    out: dict[str, dict] = {}
+) -> dict[str, CameraTerm]:
+    """Every temporal result key -> its term, in the registry's report order."""
+    out: dict[str, CameraTerm] = {}
     for key in temporal_keys():
         info = METRICS[key]
         if info.kind == "camera":

@@ -256,8 +256,8 @@ def score(pred: list[np.ndarray], gt: Sequence, cache: FlowCache) -> dict[str, f
         lpips_fn=_lpips_fn,
         run=TemporalRun(flow_cache=cache),
     )
-    row.update({k: v["value"] for k, v in res.items()})
-    row["signed"] = res["warp_error"]["signed"]
+    row.update({k: term.outcome.value for k, term in res.items()})
+    row["signed"] = res["warp_error"].parts["signed"]
     return row
 
 

@@ -140,7 +140,7 @@ def score(pred: list[np.ndarray], gt: Sequence, models: dict[str, object]) -> di
         "flip": _flip_mean(pred, gt.frames),
     }
     res = temporal_metrics(pred, gt.frames, static_mask=gt.static, config=TemporalConfig(tlp=False))
-    row.update({k: res[k]["value"] for k in ("warp_error", "tof", "flicker")})
+    row.update({k: res[k].outcome.value for k in ("warp_error", "tof", "flicker")})
     h, w = gt.frames[0].shape[:2]
     window = focus_window(gt.boxes, h, w)
     for name, metric in models.items():

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from dynaeval.core.errors import InputError, UndefinedMetricError
-from dynaeval.core.outcome import CameraTerm, Outcome, Status
+from dynaeval.core.outcome import CameraTerm, Status
 from dynaeval.core.validation import values_known_in
 from dynaeval.io import FramePair
 from dynaeval.io.frames import gap_positions
@@ -83,16 +83,6 @@ def _with_gaps(pairs: list[FramePair], terms: dict[str, CameraTerm]) -> dict[str
     return {k: replace(t, gaps=reasons) if t.per_pair else t for k, t in terms.items()}
 
 
-def _term(entry: dict) -> CameraTerm:
-    """The term of one entry of ``temporal_metrics``' output (``{"value", "status", "reason",
-    "per_pair", "signed"?, "pred"?, "gt"?}``)."""
-    value = entry.get("value")
-    status = Status(entry.get("status") or (Status.OK if value is not None else Status.UNDEFINED))
-    parts = {k: entry[k] for k in ("signed", "pred", "gt") if k in entry}
-    return CameraTerm(Outcome(value, status, entry.get("reason")),
-                      tuple(entry.get("per_pair") or ()), parts=parts)
-
-
 def _small_for_tlp(plan: RunPlan, h: int, w: int) -> str | None:
     """Why tLP is undefined for frames of (h, w), or None (LPIPS's backbone has a minimum)."""
     net = plan.temporal.lpips_net
@@ -129,10 +119,9 @@ def region_items(regions: CameraRegions, focus: FocusConfig) -> list | None:
 
 def temporal_of_camera(pairs: list[FramePair], regions: CameraRegions, plan: RunPlan,
                        work: CameraWork, shape: tuple[int, ...]) -> dict[str, CameraTerm]:
-    """The temporal terms of one camera (``dynaeval.metrics.temporal.temporal_metrics``' entries
-    as ``CameraTerm``),
-    its ground truth of ``shape`` (the first frame's); tLP null with the reason when the frames
-    are smaller than LPIPS accepts."""
+    """The temporal terms of one camera (``dynaeval.metrics.temporal.temporal_metrics``), its
+    ground truth of ``shape`` (the first frame's), with the reasons of the gaps of missing
+    frames; tLP null with the reason when the frames are smaller than LPIPS accepts."""
     cache, prepared = work.cache, plan.prepared
     static = static_pixels(regions, plan.focus, shape)
     region_masks = region_items(regions, plan.focus)  # a frame's None: its pairs' focused: None
@@ -157,7 +146,7 @@ def temporal_of_camera(pairs: list[FramePair], regions: CameraRegions, plan: Run
                 gt_pairs=None if prepared is None else prepared.ground_truth_pairs(pairs[0].camera),
             ),
         )
-    terms = _with_gaps(pairs, {k: _term(v) for k, v in out.items()})
+    terms = _with_gaps(pairs, out)
     if small is not None:
         terms.update(dict.fromkeys(SPECS["tlp"].keys(), CameraTerm.null(Status.UNDEFINED, small)))
     return terms

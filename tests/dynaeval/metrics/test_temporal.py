@@ -218,9 +218,9 @@ def test_ground_truth_against_itself_is_exactly_zero_for_every_metric(rng):
     )
     assert list(res) == ALL_NAMES
     for name, entry in res.items():
-        assert entry["value"] == 0.0 and entry["reason"] is None, name
+        assert entry.outcome.value == 0.0 and entry.outcome.detail is None, name
         if name != "flicker" and name != "focused_flicker":
-            assert entry["per_pair"] == [0.0, 0.0, 0.0], name
+            assert entry.per_pair == (0.0, 0.0, 0.0), name
 
 
 @pytest.mark.parametrize("window", [1, 2, 5])
@@ -237,7 +237,7 @@ def test_pairs_on_an_executor_give_the_sequential_numbers(rng, window):
     with ThreadPoolExecutor(max_workers=2) as pool:
         par = temporal_metrics(iter(pred), iter(gt), run=TemporalRun(executor=pool, window=window), **kw)
     assert par == seq
-    assert len(seq["tof"]["per_pair"]) == 5 and seq["tof"]["value"] > 0
+    assert len(seq["tof"].per_pair) == 5 and seq["tof"].outcome.value > 0
 
 
 def test_flow_cache_is_shared_safely_between_threads(rng):
@@ -260,7 +260,7 @@ def test_ground_truth_is_zero_without_a_shared_cache_for_every_flow_method(rng):
     for method in ("dis", "farneback"):
         cfg = TemporalConfig(flow=FlowConfig(method=method), tlp=False)
         res = temporal_metrics(gt, gt, config=cfg)
-        assert res["warp_error"]["value"] == 0.0 and res["tof"]["value"] == 0.0
+        assert res["warp_error"].outcome.value == 0.0 and res["tof"].outcome.value == 0.0
 
 
 def test_region_boxes_and_masks_give_the_same_focused_values(rng):
@@ -273,8 +273,8 @@ def test_region_boxes_and_masks_give_the_same_focused_values(rng):
     a = temporal_metrics(pred, gt, region_masks=boxes, lpips_fn=mean_abs)
     b = temporal_metrics(pred, gt, region_masks=masks, lpips_fn=mean_abs)
     for name in ALL_NAMES:
-        assert a[name]["value"] == b[name]["value"], name
-    assert a["focused_warp_error"]["value"] != a["warp_error"]["value"]
+        assert a[name].outcome.value == b[name].outcome.value, name
+    assert a["focused_warp_error"].outcome.value != a["warp_error"].outcome.value
 
 
 def test_warp_error_summary_is_pred_minus_gt_mean_of_pairs(rng):
@@ -282,10 +282,10 @@ def test_warp_error_summary_is_pred_minus_gt_mean_of_pairs(rng):
     pred = [g + rng.normal(0, 0.05, g.shape).astype(np.float32) for g in gt]
     res = temporal_metrics(pred, gt, config=TemporalConfig(tlp=False))
     e = res["warp_error"]
-    assert e["signed"] == pytest.approx(e["pred"] - e["gt"], abs=1e-12)
-    assert e["value"] == pytest.approx(np.mean(e["per_pair"]), abs=1e-12)
-    assert e["value"] > 0 and len(e["per_pair"]) == 3
-    assert e["value"] >= abs(e["signed"])
+    assert e.parts["signed"] == pytest.approx(e.parts["pred"] - e.parts["gt"], abs=1e-12)
+    assert e.outcome.value == pytest.approx(np.mean(e.per_pair), abs=1e-12)
+    assert e.outcome.value > 0 and len(e.per_pair) == 3
+    assert e.outcome.value >= abs(e.parts["signed"])
 
 
 def test_warp_error_and_flicker_are_absolute_differences(rng):
@@ -294,8 +294,9 @@ def test_warp_error_and_flicker_are_absolute_differences(rng):
     steady = [gt[0]] * 4  # a prediction steadier than its ground truth
     res = temporal_metrics(steady, gt, static_mask=np.ones((H, W), bool), lpips_fn=mean_abs)
     for name in ("warp_error", "flicker"):
-        assert res[name]["signed"] < 0 and res[name]["value"] == pytest.approx(-res[name]["signed"])
-    assert flicker(steady, gt, np.ones((H, W), bool)) == res["flicker"]["value"]
+        term = res[name]
+        assert term.parts["signed"] < 0 and term.outcome.value == pytest.approx(-term.parts["signed"])
+    assert flicker(steady, gt, np.ones((H, W), bool)) == res["flicker"].outcome.value
 
 
 def test_brightness_flicker_moves_the_metrics_monotonically(rng):
@@ -305,7 +306,7 @@ def test_brightness_flicker_moves_the_metrics_monotonically(rng):
     for amp in (0.0, 0.03, 0.06, 0.12):
         pred = [g * (1 + amp * (-1) ** t) for t, g in enumerate(gt)]
         res = temporal_metrics(pred, gt, static_mask=static, lpips_fn=mean_abs)
-        rows.append([res[n]["value"] for n in ("warp_error", "tlp", "flicker")])
+        rows.append([res[n].outcome.value for n in ("warp_error", "tlp", "flicker")])
     rows = np.array(rows)
     assert np.all(rows[0] == 0)
     assert np.all(np.diff(rows, axis=0) > 0), rows
@@ -322,31 +323,31 @@ def test_temporally_varying_noise_is_told_apart_from_static_noise_of_equal_psnr(
     mask = np.ones((H, W), bool)
     s = temporal_metrics(static_noise, gt, static_mask=mask, lpips_fn=mean_abs)
     v = temporal_metrics(varying, gt, static_mask=mask, lpips_fn=mean_abs)
-    assert s["flicker"]["value"] == pytest.approx(0.0, abs=1e-6)
-    assert v["flicker"]["value"] > 0.02
-    assert v["warp_error"]["value"] > s["warp_error"]["value"] + 1e-3
-    assert v["tlp"]["value"] > s["tlp"]["value"]
+    assert s["flicker"].outcome.value == pytest.approx(0.0, abs=1e-6)
+    assert v["flicker"].outcome.value > 0.02
+    assert v["warp_error"].outcome.value > s["warp_error"].outcome.value + 1e-3
+    assert v["tlp"].outcome.value > s["tlp"].outcome.value
 
 
 def test_single_frame_gives_null_with_a_reason_for_every_metric(rng):
     frame = texture(rng)[:H, :W]
     res = temporal_metrics([frame], [frame], static_mask=np.ones((H, W), bool), lpips_fn=mean_abs)
     for name, entry in res.items():
-        assert entry["value"] is None and "at least 2 frames, got 1" in entry["reason"], name
+        assert entry.outcome.value is None and "at least 2 frames, got 1" in entry.outcome.detail, name
     res = temporal_metrics([], [], lpips_fn=mean_abs)
-    assert res["tof"]["reason"] == "needs at least 2 frames, got 0"
-    assert res["tof"]["status"] == "undefined"
+    assert res["tof"].outcome.detail == "needs at least 2 frames, got 0"
+    assert res["tof"].outcome.status == "undefined"
 
 
 def test_all_dynamic_mask_gives_null_flicker_with_a_reason(rng):
     gt = panning(texture(rng), 3)
     res = temporal_metrics(gt, gt, static_mask=np.zeros((H, W), bool), lpips_fn=mean_abs)
-    assert res["flicker"]["value"] is None
-    assert res["flicker"]["reason"] == "no static pixel: the static mask is empty"
-    assert res["flicker"]["status"] == "empty-region"
+    assert res["flicker"].outcome.value is None
+    assert res["flicker"].outcome.detail == "no static pixel: the static mask is empty"
+    assert res["flicker"].outcome.status == "empty-region"
     res = temporal_metrics(gt, gt, lpips_fn=mean_abs)
-    assert res["flicker"]["reason"].startswith("no static mask given")
-    assert res["focused_tof"]["reason"].startswith("no region masks given")
+    assert res["flicker"].outcome.detail.startswith("no static mask given")
+    assert res["focused_tof"].outcome.detail.startswith("no region masks given")
 
 
 def test_empty_regions_give_null_per_pair_and_a_reason(rng):
@@ -356,20 +357,20 @@ def test_empty_regions_give_null_per_pair_and_a_reason(rng):
         gt, gt, static_mask=np.ones((H, W), bool), region_masks=empty, lpips_fn=mean_abs
     )
     for name in ("focused_warp_error", "focused_tof", "focused_tlp"):
-        assert res[name]["value"] is None and res[name]["per_pair"] == [None, None], name
-        assert res[name]["reason"] == "every pair's region was empty"
-        assert res[name]["status"] == "empty-region"
-    assert res["focused_flicker"]["reason"] == "no static pixel inside the regions"
+        assert res[name].outcome.value is None and res[name].per_pair == (None, None), name
+        assert res[name].outcome.detail == "every pair's region was empty"
+        assert res[name].outcome.status == "empty-region"
+    assert res["focused_flicker"].outcome.detail == "no static pixel inside the regions"
     # one pair with a region is enough for a value
     some = [np.zeros((0, 4)), np.zeros((0, 4)), np.array([[0, 0, 20, 20]])]
     res = temporal_metrics(gt, gt, region_masks=some, lpips_fn=mean_abs)
-    assert res["focused_tof"]["per_pair"] == [None, 0.0] and res["focused_tof"]["value"] == 0.0
+    assert res["focused_tof"].per_pair == (None, 0.0) and res["focused_tof"].outcome.value == 0.0
 
 
 def test_tlp_is_null_with_the_reason_when_lpips_is_off_or_missing(rng, monkeypatch):
     gt = panning(texture(rng), 2)
     res = temporal_metrics(gt, gt, config=TemporalConfig(tlp=False))
-    assert res["tlp"]["value"] is None and "disabled" in res["tlp"]["reason"]
+    assert res["tlp"].outcome.value is None and "disabled" in res["tlp"].outcome.detail
 
     import dynaeval.metrics.temporal as temporal
 
@@ -378,18 +379,18 @@ def test_tlp_is_null_with_the_reason_when_lpips_is_off_or_missing(rng, monkeypat
 
     monkeypatch.setattr(temporal, "default_lpips", missing)
     res = temporal_metrics(gt, gt)
-    assert res["tlp"]["reason"] == "LPIPS unavailable: ImportError: no module named lpips"
-    assert res["tlp"]["status"] == "unavailable"
-    assert res["tof"]["value"] == 0.0
+    assert res["tlp"].outcome.detail == "LPIPS unavailable: ImportError: no module named lpips"
+    assert res["tlp"].outcome.status == "unavailable"
+    assert res["tof"].outcome.value == 0.0
 
     def no_weights(a, b):
         raise WeightsUnavailableError("alexnet-owt-7be5be79.pth is not in ~/.cache/torch")
 
     res = temporal_metrics(gt, gt, lpips_fn=no_weights, region_masks=[np.ones((H, W), bool)] * 2)
     for name in ("tlp", "focused_tlp"):
-        assert res[name]["value"] is None and res[name]["per_pair"] == []
-        assert res[name]["reason"].startswith("LPIPS unavailable: WeightsUnavailableError: alexnet")
-    assert res["focused_tof"]["value"] == 0.0
+        assert res[name].outcome.value is None and res[name].per_pair == ()
+        assert res[name].outcome.detail.startswith("LPIPS unavailable: WeightsUnavailableError: alexnet")
+    assert res["focused_tof"].outcome.value == 0.0
 
 
 def test_sequence_api_rejects_bad_input(rng):
@@ -470,7 +471,7 @@ def test_tlp_from_features_equals_pairwise_lpips_and_runs_the_backbone_once_per_
             pool.shutdown()
     for name in ("tlp", "focused_tlp"):
         assert got[name] == plain[name], name
-    assert plain["tlp"]["value"] > 0
+    assert plain["tlp"].outcome.value > 0
     assert counting.calls == 2 * 5  # pred and gt of each frame, not 4 per pair
 
 
@@ -504,20 +505,20 @@ def test_frames_left_out_make_no_pair_but_the_pairs_around_them_are_scored():
     sub = ([pred[i] for i in kept], [gt[i] for i in kept])
     gapped = temporal_metrics(*sub, static_mask=static, lpips_fn=mean_abs, frame_indices=kept)
     for key in ("warp_error", "tof", "tlp"):
-        want = [full[key]["per_pair"][k] for k in (0, 1, 4)]
-        got = gapped[key]["per_pair"]
+        want = [full[key].per_pair[k] for k in (0, 1, 4)]
+        got = gapped[key].per_pair
         assert got[2] is None and [got[k] for k in (0, 1, 3)] == pytest.approx(want, rel=1e-9)
-        assert gapped[key]["value"] == pytest.approx(np.mean(want), rel=1e-9)
+        assert gapped[key].outcome.value == pytest.approx(np.mean(want), rel=1e-9)
     plain = temporal_metrics(*sub, static_mask=static, lpips_fn=mean_abs)
-    assert gapped["flicker"]["value"] == plain["flicker"]["value"]
+    assert gapped["flicker"].outcome.value == plain["flicker"].outcome.value
 
 
 def test_no_consecutive_frames_at_all_is_null_with_the_reason_and_bad_positions_raise():
     rng = np.random.default_rng(8)
     gt = panning(texture(rng), 3)
     res = temporal_metrics(gt, gt, lpips_fn=mean_abs, frame_indices=[0, 2, 4])
-    assert res["tof"]["value"] is None and res["tof"]["per_pair"] == []
-    assert "no two of the 3 frames are consecutive" in res["tof"]["reason"]
+    assert res["tof"].outcome.value is None and res["tof"].per_pair == ()
+    assert "no two of the 3 frames are consecutive" in res["tof"].outcome.detail
     with pytest.raises(InputError, match="frame_indices must increase: frame 1 is at 0"):
         temporal_metrics(gt, gt, lpips_fn=mean_abs, frame_indices=[1, 0, 2])
     with pytest.raises(InputError, match="frame_indices has 2 items, fewer than the frames"):
