@@ -57,12 +57,12 @@ from dynaeval.io.dycheck import (
 from dynaeval.io.frames import Pairing, pair_frames
 from dynaeval.io.kplanes import (
     STACK_PARTS,
-    describe_stack,
-    pair_stack,
     StackedFrameRef,
     check_stack,
+    describe_stack,
     is_stack_file,
     latest_stacks,
+    pair_stack,
 )
 from dynaeval.io.layout_3dgs import GT_DIR, PRED_DIR, family_protocol, find_3dgs
 

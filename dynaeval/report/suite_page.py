@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from dynaeval.report.html import REPORT_CSS, figure_uri, crop_window, read_frame, tiles_uri
+from dynaeval.report.html import REPORT_CSS, crop_window, figure_uri, read_frame, tiles_uri
 from dynaeval.report.leaderboard import COSTS, TABLE_CSS, render
 from dynaeval.report.table import fmt
 

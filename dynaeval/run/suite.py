@@ -63,8 +63,8 @@ from dynaeval.core.errors import InputError, did_you_mean
 from dynaeval.core.progress import Progress
 from dynaeval.core.version import VERSION
 from dynaeval.io.atomic import check_writable, write_text_atomic
-from dynaeval.io.lock import LOCK_NAME, hold_folder
 from dynaeval.io.jsonfile import MAX_DEPTH, nesting_depth
+from dynaeval.io.lock import LOCK_NAME, hold_folder
 from dynaeval.io.prepared import (
     FORMAT_VERSION,
     file_digest,

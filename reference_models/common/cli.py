@@ -21,7 +21,6 @@ from reference_models.common.importance import SAMPLING
 from reference_models.common.stadium import train_stadium
 from reference_models.common.train import ModelSpec, render_run, train
 
-
 _DEVICE_HELP = ("where the model runs: cpu (default), cuda (an error without a GPU) or auto (cuda "
                 "when torch sees one, else cpu); a run trained on one renders on any")
 

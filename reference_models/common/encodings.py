@@ -15,8 +15,12 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
-from reference_models.common.plane_kernels import (plane_product, plane_tv, uses_fused_lookup,
-                                                   uses_fused_tv)
+from reference_models.common.plane_kernels import (
+    plane_product,
+    plane_tv,
+    uses_fused_lookup,
+    uses_fused_tv,
+)
 
 
 class _SquaredDifferenceMean(torch.autograd.Function):

@@ -19,8 +19,8 @@ import numpy as np
 from dynaeval.core.errors import EmptyRegionError, InputError, UndefinedMetricError
 from dynaeval.core.outcome import VALUE_LIMIT, CameraTerm, Outcome, Status
 from dynaeval.io import FramePair
-from dynaeval.io.images import FrameCache
 from dynaeval.io.frames import gap_positions
+from dynaeval.io.images import FrameCache
 from dynaeval.metrics.registry import METRICS, PLUGIN_METRICS
 from dynaeval.regions.focus import CameraRegions, FrameRegions
 

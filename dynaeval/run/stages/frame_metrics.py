@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from functools import partial
 from typing import TYPE_CHECKING
 
 from dynaeval.core.errors import EmptyRegionError, InputError, UndefinedMetricError
@@ -53,7 +54,7 @@ class FrameMetrics(Stage):
                     if isinstance(fn, WholeOrRegion):  # PSNR, SSIM: the region's function
                         values.append((name, Outcome.of(float(fn.on(kw)(pred, gt)))))
                     else:
-                        values.append((name, metric_outcome(name, lambda: fn(pred, gt, kw))))
+                        values.append((name, metric_outcome(name, partial(fn, pred, gt, kw))))
                 except EmptyRegionError as err:
                     values.append((name, Outcome(None, Status.EMPTY_REGION, str(err))))
                 except UndefinedMetricError as err:  # e.g. smaller than SSIM's window

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from functools import partial
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -76,7 +77,7 @@ def video_metrics_of(plan: RunPlan, work: CameraWork) -> dict[str, CameraTerm]:
     for key, (region, fn) in plan.camera_fns.items():
         kw = {"boxes": [r.boxes for r in work.regions.frames]} if region == "focused" else {}
         try:
-            out[key] = CameraTerm(metric_outcome(key, lambda: fn(pred, gt, fps, kw)))
+            out[key] = CameraTerm(metric_outcome(key, partial(fn, pred, gt, fps, kw)))
         except (EmptyRegionError, UndefinedMetricError) as err:
             status = Status.EMPTY_REGION if isinstance(err, EmptyRegionError) else Status.UNDEFINED
             out[key] = CameraTerm.null(status, str(err))

@@ -9,8 +9,14 @@ import pytest
 
 from dynaeval.core.outcome import CameraTerm, Outcome, Status
 from dynaeval.errors import InputError
-from dynaeval.report import RunRecord, build_results, load_results, schema_path
-from dynaeval.report import strict, write_json_atomic
+from dynaeval.report import (
+    RunRecord,
+    build_results,
+    load_results,
+    schema_path,
+    strict,
+    write_json_atomic,
+)
 
 
 def _doc(rows, names=("psnr",)):

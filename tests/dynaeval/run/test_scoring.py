@@ -14,8 +14,8 @@ import dynaeval
 from dynaeval.core.outcome import CameraTerm, Outcome, Status
 from dynaeval.errors import InputError
 from dynaeval.io import FramePair, pair_frames
-from dynaeval.io.images import FrameCache
 from dynaeval.io.frames import FrameRef
+from dynaeval.io.images import FrameCache
 from dynaeval.metrics.flow import MIN_FLOW_SIZE as TEMPORAL_MIN_SIZE
 from dynaeval.regions.focus import NOT_A_VIDEO, FocusConfig, FrameRegions
 from dynaeval.run.evaluate import ScoreConfig

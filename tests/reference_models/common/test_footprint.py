@@ -6,8 +6,13 @@ import torch
 
 from dynaeval.errors import InputError
 from reference_models.common.data import Views
-from reference_models.common.footprint import (covered_asks, exit_distance, footprint_resolution,
-                                               pixel_samples, pixel_steps)
+from reference_models.common.footprint import (
+    covered_asks,
+    exit_distance,
+    footprint_resolution,
+    pixel_samples,
+    pixel_steps,
+)
 
 
 def _views(width: int, height: int, eye=(0.0, 0.0, 1.0), fx: float = 100.0) -> Views:

@@ -3,8 +3,11 @@
 import pytest
 import torch
 
-from reference_models.common.encodings import (PlaneEncoding, grid_sample_product,
-                                              squared_difference_mean)
+from reference_models.common.encodings import (
+    PlaneEncoding,
+    grid_sample_product,
+    squared_difference_mean,
+)
 from reference_models.common.plane_kernels import plane_product, plane_tv, uses_fused_lookup
 
 RTOL, ATOL = 1e-5, 1e-5
