@@ -163,30 +163,14 @@ def unavailable_reason(title: str, why: str) -> str:
 NO_REGIONS = "no focus box in any of the"
 """How the headline of a run without any box begins (``no_box_reason``)."""
 
-_NO_BOX_WHO = {"bundled": "the bundled synthetic-scene detector found none",
-               "detector": "the detector found none", "boxes": "the boxes file lists none",
-               "motion": "the motion masks hold no moving region"}
-_NO_BOX_FIX = {
-    "bundled": ("the bundled detector knows only dynaeval's synthetic scenes: for real footage "
-                "fetch a COCO detector (dynaeval detector fetch retinanet, then --detector "
-                "retinanet) or score with --focus motion"),
-    "detector": ("check --classes (the detector keeps: {classes}) and that the footage is what "
-                 "the detector was trained on, or score with --focus motion"),
-    "boxes": ("check that the file's keys are '<camera>/<frame>' of these frames (dynaeval "
-              "detect GT -o boxes.json writes them)"),
-    "motion": ("motion boxes need a static camera and moving objects: score with --focus "
-               "detector or --focus boxes:FILE"),
-}
 
-
-def no_box_reason(finder: str, n_frames: int, classes: str, *, presence: bool) -> str:
+def no_box_reason(who: str, fix: str, n_frames: int, *, presence: bool) -> str:
     """The text of the run-level ``NO_REGION`` headline: no box in any of ``n_frames`` frames,
-    what found none (``finder``: ``bundled``, ``detector``, ``boxes``, ``motion``), that every
-    focused (and, with ``presence``, presence) value is null, and the fix (``classes``: those the
-    detector keeps)."""
+    what found none (``who``), that every focused (and, with ``presence``, presence) value is
+    null, and the ``fix`` (the focus source's words: ``FocusSource.nothing_found``)."""
     nulls = "focused_* value" + (" and presence value" if presence else "")
-    return (f"{NO_REGIONS} {n_frames} ground-truth frames: {_NO_BOX_WHO[finder]}, so every "
-            f"{nulls} is null. Fix: {_NO_BOX_FIX[finder].format(classes=classes)}")
+    return (f"{NO_REGIONS} {n_frames} ground-truth frames: {who}, so every {nulls} is null. "
+            f"Fix: {fix}")
 
 
 def warning(status: Status | str, detail: str | None = None, *, camera: str | None = None,

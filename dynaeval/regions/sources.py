@@ -42,10 +42,15 @@ class FocusSource:
     """Its boxes carry object classes: object presence can run."""
     no_box: ClassVar[str] = ""
     """Why a frame has no box when this source found none there (the focused metrics' null)."""
+    none_found: ClassVar[str] = "the focus source found none"
+    """The run's no-box headline (``dynaeval.core.outcome.no_box_reason``): what found none."""
+    none_found_fix: ClassVar[str] = "check the focus source, or score with --focus none"
+    """The headline's fix."""
 
-    def finder(self, bundled_detector: bool) -> str:
-        """What found the boxes, as ``dynaeval.core.outcome.no_box_reason`` names it."""
-        return self.name
+    def nothing_found(self, bundled_detector: bool, classes: str) -> tuple[str, str]:
+        """``(what found none, the fix)`` for the run's no-box headline; ``bundled_detector``:
+        the boxes came from the detector shipped with dynaeval; ``classes``: those kept."""
+        return self.none_found, self.none_found_fix
 
 
 class DetectorSource(FocusSource):
@@ -54,9 +59,16 @@ class DetectorSource(FocusSource):
     name = spec = "detector"
     detects = classed = True
     no_box = "the detector found no object in the ground truth"
+    none_found = "the detector found none"
 
-    def finder(self, bundled_detector: bool) -> str:
-        return "bundled" if bundled_detector else "detector"
+    def nothing_found(self, bundled_detector: bool, classes: str) -> tuple[str, str]:
+        if bundled_detector:
+            return ("the bundled synthetic-scene detector found none",
+                    "the bundled detector knows only dynaeval's synthetic scenes: for real "
+                    "footage fetch a COCO detector (dynaeval detector fetch retinanet, then "
+                    "--detector retinanet) or score with --focus motion")
+        return (self.none_found, f"check --classes (the detector keeps: {classes}) and that the "
+                "footage is what the detector was trained on, or score with --focus motion")
 
 
 class MotionSource(FocusSource):
@@ -65,6 +77,9 @@ class MotionSource(FocusSource):
     name = spec = "motion"
     from_motion = True
     no_box = "no moving region in the ground truth"
+    none_found = "the motion masks hold no moving region"
+    none_found_fix = ("motion boxes need a static camera and moving objects: score with --focus "
+                      "detector or --focus boxes:FILE")
 
 
 class BoxesFileSource(FocusSource):
@@ -74,6 +89,9 @@ class BoxesFileSource(FocusSource):
     spec = "boxes:FILE"
     reads_file = classed = True
     no_box = "the boxes file lists no box for this frame"
+    none_found = "the boxes file lists none"
+    none_found_fix = ("check that the file's keys are '<camera>/<frame>' of these frames "
+                      "(dynaeval detect GT -o boxes.json writes them)")
 
 
 class NoFocus(FocusSource):

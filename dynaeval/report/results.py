@@ -234,11 +234,10 @@ def no_regions_warning(regions: dict[str, Any] | None) -> dict[str, str] | None:
     cams = list(regions["cameras"].values())
     if any(c["frames_with_boxes"] for c in cams):
         return None
-    finder = kind.finder(bool(regions.get("bundled_detector")))
     classes = ", ".join(dict.fromkeys(c for cam in cams for c in cam["boxes"])) or "?"
+    who, fix = kind.nothing_found(bool(regions.get("bundled_detector")), classes)
     return warning(Status.NO_REGION, reason=no_box_reason(
-        finder, sum(c["n_frames"] for c in cams), classes,
-        presence=kind.classed))
+        who, fix, sum(c["n_frames"] for c in cams), presence=kind.classed))
 
 
 def is_no_regions_warning(w: dict) -> bool:

@@ -9,6 +9,7 @@ import pytest
 
 from dynaeval.core.outcome import CameraTerm, Outcome, Status
 from dynaeval.errors import InputError
+from dynaeval.regions import sources
 from dynaeval.report import (
     RunRecord,
     build_results,
@@ -17,6 +18,7 @@ from dynaeval.report import (
     strict,
     write_json_atomic,
 )
+from dynaeval.report.results import no_regions_warning
 
 
 def _doc(rows, names=("psnr",)):
@@ -143,3 +145,48 @@ def test_the_sides_of_a_temporal_term_reach_the_results():
         version="0", temporal=temporal,
     ))
     assert doc["temporal_parts"] == {"a": {"warp_error": parts}}
+
+
+def _no_box_regions(source: str, bundled: bool = False) -> dict:
+    return {"source": source, "bundled_detector": bundled,
+            "cameras": {"c": {"frames_with_boxes": 0, "n_frames": 3, "boxes": {"person": 0}}}}
+
+
+@pytest.mark.parametrize(("source", "bundled", "who", "fix"), [
+    ("detector", True, "the bundled synthetic-scene detector found none",
+     "the bundled detector knows only dynaeval's synthetic scenes: for real footage fetch a COCO "
+     "detector (dynaeval detector fetch retinanet, then --detector retinanet) or score with "
+     "--focus motion"),
+    ("detector", False, "the detector found none",
+     "check --classes (the detector keeps: person) and that the footage is what the detector was "
+     "trained on, or score with --focus motion"),
+    ("boxes", False, "the boxes file lists none",
+     "check that the file's keys are '<camera>/<frame>' of these frames (dynaeval detect GT -o "
+     "boxes.json writes them)"),
+    ("motion", False, "the motion masks hold no moving region",
+     "motion boxes need a static camera and moving objects: score with --focus detector or "
+     "--focus boxes:FILE"),
+])
+def test_the_no_box_headline_says_what_found_none_and_the_fix(source, bundled, who, fix):
+    """The words of each source (issue 41 moved them from dicts keyed by name in core/outcome.py
+    onto the source's class; these are the texts before the move)."""
+    presence = "" if source == "motion" else " and presence value"
+    got = no_regions_warning(_no_box_regions(source, bundled))
+    assert got["status"] == "no-region" and got["reason"] == (
+        f"no focus box in any of the 3 ground-truth frames: {who}, so every focused_* value"
+        f"{presence} is null. Fix: {fix}")
+    assert no_regions_warning(_no_box_regions("none")) is None
+
+
+def test_a_new_focus_source_gets_the_no_box_headline_without_an_edit_elsewhere(monkeypatch):
+    """A kind added in ``SOURCE_KINDS`` alone: its headline has its own words (the dicts keyed
+    by source name raised KeyError for it)."""
+
+    class ToyBoxes(sources.BoxesFileSource):
+        name = spec = "toyboxes"
+        none_found = "the toy file lists none"
+
+    monkeypatch.setitem(sources.SOURCE_KINDS, "toyboxes", ToyBoxes())
+    got = no_regions_warning(_no_box_regions("toyboxes"))
+    assert "frames: the toy file lists none, so every" in got["reason"]
+    assert got["reason"].endswith(f"Fix: {sources.BoxesFileSource.none_found_fix}")
