@@ -645,3 +645,53 @@ def test_the_layout_name_rule_sees_the_results_read_back(tmp_path):
     code.write_text('a = layout["name"] == "kplanes"\nb = layout.get("name") in ("3dgs",)\n'
                     'c = layout.name != "dycheck"\nd = layout["root"] == "x"\n')
     assert len(_source_literal_compares(code, _layout_name)) == 3
+
+
+SOURCE_NAMES = frozenset({"detector", "motion", "boxes", "none", "bundled"})
+
+
+def _keyed_dicts(path: Path) -> tuple[list[str], list[str]]:
+    """Dict literals in ``path`` that stand for a type: ``(by focus source, value and reason)``:
+    those keyed by two or more focus-source names (``{"detector": ..., "motion": ...}``: what
+    each kind says, outside its class), and those with a ``"value"`` key beside ``"status"`` or
+    ``"reason"`` (a value and why it is missing, outside ``Outcome``)."""
+    by_source, value_reason = [], []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if not isinstance(node, ast.Dict):
+            continue
+        keys = {k.value for k in node.keys if isinstance(k, ast.Constant)}
+        if len(keys & SOURCE_NAMES) >= 2:
+            by_source.append(f"{path}:{node.lineno}")
+        if "value" in keys and keys & {"status", "reason"}:
+            value_reason.append(f"{path}:{node.lineno}")
+    return by_source, value_reason
+
+
+def test_what_a_focus_source_says_is_said_by_its_class():
+    """Issue 41: a frame's no-box words (``regions/focus.py``) and the run's no-box headline
+    (``core/outcome.py``) were dicts keyed by source name, which a new kind did not have (a
+    KeyError); each is a fact of the kind's class in ``regions/sources.py``."""
+    bad = [hit for p in _sources() if p.name != "sources.py" for hit in _keyed_dicts(p)[0]]
+    assert not bad, "a dict keyed by focus-source names:\n" + "\n".join(bad)
+
+
+def test_a_value_and_its_reason_travel_as_an_outcome_until_the_results_document():
+    """Issue 41: one shape for a value and why it is missing (``core.outcome.Outcome``, a camera's
+    ``CameraTerm``) from the metric to the results document: no ``{"value", "status", "reason"}``
+    dict outside the layer that writes the document (``report/``) and the module that makes its
+    warnings (``core/outcome.py``). The temporal engine returned such dicts until then."""
+    allowed = {PACKAGE / "core" / "outcome.py"}
+    bad = [hit for p in _sources() if p not in allowed and PACKAGE / "report" not in p.parents
+           for hit in _keyed_dicts(p)[1]]
+    assert not bad, "a value with its reason in a dict, not an Outcome:\n" + "\n".join(bad)
+
+
+def test_the_keyed_dict_rules_catch_what_main_did(tmp_path):
+    code = tmp_path / "m.py"
+    code.write_text(  # regions/focus.py, core/outcome.py and metrics/temporal.py before
+        '_NO_BOX_REASON = {"detector": "a", "boxes": "b", "motion": "c"}\n'
+        '_NO_BOX_WHO = {"bundled": "a", "detector": "b"}\n'
+        'e = {"value": None, "status": s.value, "reason": r, "per_pair": []}\n'
+        'ok = {"detector": 1, "x": 2}\nalso = {"value": 1, "signed": 2}\n')
+    by_source, value_reason = _keyed_dicts(code)
+    assert len(by_source) == 2 and len(value_reason) == 1
