@@ -316,20 +316,26 @@ def detect_layout(pred: str | Path, gt: str | Path | None = None, *,
             return RenderLayout("kplanes", pred, pred, pred, sequence=video)
     if same and not found:  # PRED and GT are one ordinary folder: a self-check, scored as given
         return RenderLayout("folders", pred, pred)
+    raise _no_single_layout(pred, found)
+
+
+def _no_single_layout(pred: Path, found: list[RenderLayout]) -> InputError:
+    """The error of a folder that holds no known render layout (``found`` empty: the known ones
+    listed) or several (``found``: each named)."""
     known = "; ".join([*(f"{n}: {p}/ + {g}/" for n, (p, g) in LAYOUTS.items()),
                        "3dgs: MODEL/<split>/ours_<N>/renders/ + gt/",
                        "dycheck: renders/novel_view/<split>/<frame>.png",
                        "kplanes: a log folder with step<N>.mp4 or step<N>-<i>.png, or one such "
                        "file"])
     if not found:
-        raise InputError(
+        return InputError(
             f"one folder was given but it holds no known render layout ({known}), neither directly "
             "nor in a sub-folder; pass PRED and GT folders instead",
             path=pred,
         )
     listing = ", ".join(f"{f.root.relative_to(pred).as_posix() or '.'} ({f.name})" for f in found
                         if f.root is not None)
-    raise InputError(
+    return InputError(
         f"several render layouts found: {listing}; point at one of these folders", path=pred
     )
 

@@ -345,33 +345,13 @@ def _camera_regions(camera: str, frames: Sequence[str], load_gt: Callable[[int],
     first = load_gt(0).shape
     load = same_shape(load_gt, first) if video else load_gt
     out = [FrameRegions() for _ in frames]
-    check = None  # the camera's CameraMotion
     find_masks = (cfg.kind.from_motion or (cfg.masked and not sources.given_masks)) and video
     passes = int(find_masks and len(out) >= MIN_MOTION_FRAMES) + int(cfg.kind.detects)
     tick = None if on_frame is None or not passes else (lambda: on_frame(1 / passes))
-    if find_masks:
-        check = _add_motion_masks(out, camera, load, cfg.motion_kind, executor, cfg.source, tick)
-    elif cfg.masked and video:  # given masks replace the motion masks: none found (they were,
-        # then dropped), the camera's static check only (its note: regions.given)
-        if len(out) >= MIN_MOTION_FRAMES:
-            check = static_check(load, len(out), None, cfg.source)
-    elif cfg.masked or cfg.kind.from_motion:
-        for r in out:
-            r.mask_missing = Outcome(None, Status.NOT_A_VIDEO, NOT_A_VIDEO)
-    detections = None
-    if cfg.kind.detects:
-        def detect(i: int):  # noqa: ANN202
-            frame = load(i)
-            try:
-                return frame.shape[:2], sources.detector(frame)
-            except InputError as err:
-                if err.path is not None or paths is None:
-                    raise
-                raise InputError(f"camera {camera!r} frame {frames[i]!r}: {err}",
-                                 path=str(paths[i])) from err
-
-        indices = range(len(frames))
-        detections = executor.map(detect, indices) if executor else map(detect, indices)
+    check = _camera_masks(out, camera, load, sources, executor, tick, find_masks=find_masks,
+                          video=video)
+    detections = (_detections(camera, frames, load, sources, executor, paths)
+                  if cfg.kind.detects else None)
     for i, (name, r) in enumerate(zip(frames, out, strict=True)):
         raw = _frame_boxes(r, camera, name, sources, detections)
         if detections is not None and tick is not None:
@@ -389,6 +369,45 @@ def _camera_regions(camera: str, frames: Sequence[str], load_gt: Callable[[int],
             continue
         r.boxes = expand_boxes(raw, cfg.expand, h, w)
     return CameraRegions(out, motion=check)
+
+
+def _camera_masks(out: list[FrameRegions], camera: str, load: Callable[[int], np.ndarray],
+                  sources: RegionSources, executor: Executor | None,
+                  tick: Callable[[], None] | None, *, find_masks: bool,
+                  video: bool) -> CameraMotion | None:
+    """Set the frames' motion masks (``find_masks``) or why they have none; returns the
+    camera's static check (None when it has none: too few frames, no video, no mask asked)."""
+    cfg = sources.config
+    if find_masks:
+        return _add_motion_masks(out, camera, load, cfg.motion_kind, executor, cfg.source, tick)
+    if cfg.masked and video:  # given masks replace the motion masks: none found (they were,
+        # then dropped), the camera's static check only (its note: regions.given)
+        enough = len(out) >= MIN_MOTION_FRAMES
+        return static_check(load, len(out), None, cfg.source) if enough else None
+    if cfg.masked or cfg.kind.from_motion:
+        for r in out:
+            r.mask_missing = Outcome(None, Status.NOT_A_VIDEO, NOT_A_VIDEO)
+    return None
+
+
+def _detections(camera: str, frames: Sequence[str], load: Callable[[int], np.ndarray],
+                sources: RegionSources, executor: Executor | None,
+                paths: Sequence[object] | None) -> Iterator[tuple[tuple[int, int], Any]]:
+    """The detector's ``(frame's (H, W), Detections)`` of each frame in order, computed on
+    ``executor`` when given (lazily, as the frames are taken); an InputError of the detector
+    names the frame and its file."""
+    def detect(i: int) -> tuple[tuple[int, int], Any]:
+        frame = load(i)
+        try:
+            return frame.shape[:2], sources.detector(frame)
+        except InputError as err:
+            if err.path is not None or paths is None:
+                raise
+            raise InputError(f"camera {camera!r} frame {frames[i]!r}: {err}",
+                             path=str(paths[i])) from err
+
+    indices = range(len(frames))
+    return executor.map(detect, indices) if executor else map(detect, indices)
 
 
 def fit_to(r: FrameRegions, size: tuple[int, int], config: FocusConfig) -> FrameRegions:

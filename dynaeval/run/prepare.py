@@ -138,14 +138,7 @@ def prepare(gt_dir: str | Path, out: str | Path, config: ScoreConfig | None = No
         for sub in ("regions", "flows", "visible", "frames"):
             (tmp / sub).mkdir()
         with FolderWriter(tmp) as writer:  # files written and hashed beside the work
-            for p in pairing.pairs:  # a video file once, not once per frame
-                rel = frame_rel(p.gt, gt_dir).split("#")[0]
-                if rel not in manifest["files"]:
-                    digest = manifest["files"][rel] = file_digest(p.gt.path)
-                    stored = None if p.gt.index is not None else _save_decoded(
-                        p.gt.path, digest, writer, kept)
-                    if stored is not None:  # 8-bit (videos, 16-bit, float: decoded as usual)
-                        manifest["decoded"][rel] = stored
+            _save_files(pairing.pairs, gt_dir, manifest, writer, kept)
             for i, (cam, pairs) in enumerate(cams.items()):
                 progress.set_note(f"camera {cam}")
                 manifest["cameras"][cam] = _prepare_camera(i, cam, pairs, plan, executor, gt_dir,
@@ -167,6 +160,22 @@ def prepare(gt_dir: str | Path, out: str | Path, config: ScoreConfig | None = No
         progress.close(completed)
         executor.shutdown(completed=True)  # as before: pending work runs to its end
     return manifest
+
+
+def _save_files(pairs: list[FramePair], gt_dir: Path, manifest: dict[str, Any],
+                writer: FolderWriter, kept: KeptDecodings) -> None:
+    """Each ground-truth file's digest into ``manifest["files"]`` (a video file once, not once
+    per frame) and, for an 8-bit image, its decoding (``_save_decoded``) into
+    ``manifest["decoded"]`` (videos, 16-bit and float images are decoded as usual)."""
+    for p in pairs:
+        rel = frame_rel(p.gt, gt_dir).split("#")[0]
+        if rel in manifest["files"]:
+            continue
+        digest = manifest["files"][rel] = file_digest(p.gt.path)
+        stored = None if p.gt.index is not None else _save_decoded(p.gt.path, digest, writer,
+                                                                   kept)
+        if stored is not None:
+            manifest["decoded"][rel] = stored
 
 
 def _save_decoded(path: Path, digest: str, writer: FolderWriter,
