@@ -193,6 +193,30 @@ def find_frames(root: str | Path, *, role: str = "input") -> dict[str, Camera]:
         raise InputError(f"{role} folder not found", path=root)
     if not root.is_dir():
         raise InputError(f"{role} must be a folder of frames (or of camera folders)", path=root)
+    images, videos = _frame_files(root, role)
+    cameras: dict[str, Camera] = {}
+    for name, stems in images.items():
+        ordered = sorted(stems, key=natural_key)
+        cameras[name] = Camera(name, [(s, FrameRef(stems[s])) for s in ordered])
+    for name, path in videos.items():
+        if name in cameras:
+            folder = root / name
+            raise InputError(
+                f"camera {name!r} is both a folder of images ({folder}/) and a video file "
+                f"({path}); {KEEP_ONE}", path=path)
+        cameras[name] = _video_camera(name, path)
+    if not cameras:
+        raise InputError(
+            f"no {role} frames found (looked for {', '.join(sorted(IMAGE_EXTENSIONS | VIDEO_EXTENSIONS))})",
+            path=root,
+        )
+    return {k: cameras[k] for k in sorted(cameras, key=natural_key)}
+
+
+def _frame_files(root: Path, role: str) -> tuple[dict[str, dict[str, Path]], dict[str, Path]]:
+    """The frame files below ``root``: ``images`` {camera: {frame name: file}} and ``videos``
+    {camera: file}, hidden entries skipped, symbolic links followed (refused if broken or
+    looping)."""
     images: dict[str, dict[str, Path]] = {}
     videos: dict[str, Path] = {}
 
@@ -210,50 +234,44 @@ def find_frames(root: str | Path, *, role: str = "input") -> dict[str, Camera]:
             above[os.path.join(dirpath, d)] = _enter(Path(dirpath) / d, above[dirpath], role)
         rel = Path(dirpath).relative_to(root).as_posix()
         for name in sorted(filenames):
-            if name.startswith("."):
-                continue
-            path = Path(dirpath) / name
-            _check_target(path, role)
-            stem, ext = frame_name_parts(path)
-            if ext in IMAGE_EXTENSIONS:
-                cam = images.setdefault(rel, {})
-                if stem in cam:
-                    raise InputError(
-                        f"two {role} files share the frame name {stem!r}: {cam[stem].name} and "
-                        f"{name}; {KEEP_ONE}",
-                        path=Path(dirpath),
-                    )
-                if ext in TYPED_HEADERS:
-                    check_pixel_type(path)
-                cam[stem] = path
-            elif ext in VIDEO_EXTENSIONS:
-                cam_name = (Path(rel) / path.stem).as_posix() if rel != "." else path.stem
-                if cam_name in videos:
-                    raise InputError(
-                        f"two {role} videos of camera {cam_name!r}: {videos[cam_name]} and "
-                        f"{path}; {KEEP_ONE}", path=path)
-                videos[cam_name] = path
-    cameras: dict[str, Camera] = {}
-    for name, stems in images.items():
-        ordered = sorted(stems, key=natural_key)
-        cameras[name] = Camera(name, [(s, FrameRef(stems[s])) for s in ordered])
-    for name, path in videos.items():
-        if name in cameras:
-            folder = Path(root) / name
+            if not name.startswith("."):
+                _add_frame_file(Path(dirpath) / name, rel, role, images, videos)
+    return images, videos
+
+
+def _add_frame_file(path: Path, rel: str, role: str, images: dict[str, dict[str, Path]],
+                    videos: dict[str, Path]) -> None:
+    """None; files ``path`` (in camera folder ``rel``) under its camera in ``images`` or
+    ``videos``, refusing a second file of one frame or a second video of one camera."""
+    _check_target(path, role)
+    stem, ext = frame_name_parts(path)
+    if ext in IMAGE_EXTENSIONS:
+        cam = images.setdefault(rel, {})
+        if stem in cam:
             raise InputError(
-                f"camera {name!r} is both a folder of images ({folder}/) and a video file "
-                f"({path}); {KEEP_ONE}", path=path)
-        scan = scan_video(path)
-        problem = scan.problem()
-        cameras[name] = Camera(name, [(str(i), FrameRef(path, i)) for i in range(scan.n_frames)],
-                               True, [note(f"{path}: {problem}", camera=name)] if problem
-                               else [])
-    if not cameras:
-        raise InputError(
-            f"no {role} frames found (looked for {', '.join(sorted(IMAGE_EXTENSIONS | VIDEO_EXTENSIONS))})",
-            path=root,
-        )
-    return {k: cameras[k] for k in sorted(cameras, key=natural_key)}
+                f"two {role} files share the frame name {stem!r}: {cam[stem].name} and "
+                f"{path.name}; {KEEP_ONE}",
+                path=path.parent,
+            )
+        if ext in TYPED_HEADERS:
+            check_pixel_type(path)
+        cam[stem] = path
+    elif ext in VIDEO_EXTENSIONS:
+        cam_name = (Path(rel) / path.stem).as_posix() if rel != "." else path.stem
+        if cam_name in videos:
+            raise InputError(
+                f"two {role} videos of camera {cam_name!r}: {videos[cam_name]} and "
+                f"{path}; {KEEP_ONE}", path=path)
+        videos[cam_name] = path
+
+
+def _video_camera(name: str, path: Path) -> Camera:
+    """Camera ``name``: one frame per frame of the video file ``path``, with a warning when the
+    file is damaged."""
+    scan = scan_video(path)
+    problem = scan.problem()
+    return Camera(name, [(str(i), FrameRef(path, i)) for i in range(scan.n_frames)],
+                  True, [note(f"{path}: {problem}", camera=name)] if problem else [])
 
 
 def _listing(items: Iterable[str], limit: int = 8) -> str:
@@ -273,6 +291,39 @@ def pair_frames(
     """
     pred = find_frames(pred_root, role="prediction")
     gt = find_frames(gt_root, role="ground truth")
+    _check_every_camera_has_ground_truth(pred, gt, pred_root)
+    pairs: list[FramePair] = []
+    skipped: list[dict] = []
+    warnings: list[dict] = []
+    for cam_name, pcam in pred.items():
+        gcam = gt[cam_name]
+        if pcam.is_video or gcam.is_video:
+            matched, missing = _match_by_position(pcam, gcam)
+        else:
+            matched, missing = _match_by_name(pcam, gcam, pred_root)
+        if missing and not allow_missing:
+            raise InputError(
+                f"camera {cam_name!r}: ground-truth frames with no prediction: {_listing(missing)} "
+                f"(pass --allow-missing to score the {len(matched)} frames present)",
+                path=Path(pred_root) / cam_name,
+            )
+        skipped.extend({"camera": cam_name, "frame": name} for name in missing)
+        warnings.extend([*pcam.warnings, *gcam.warnings])
+        for index, (gt_name, gt_ref), pred_ref in matched:
+            pairs.append(FramePair(cam_name, gt_name, index, pred_ref, gt_ref))
+    unscored = [c for c in gt if c not in pred]
+    return Pairing(pairs=pairs, unscored_cameras=unscored, skipped=skipped, warnings=warnings)
+
+
+_Matched = list[tuple[int, tuple[str, FrameRef], FrameRef]]
+"""A camera's matched frames: (ground-truth index, (ground-truth name, its reference),
+prediction reference)."""
+
+
+def _check_every_camera_has_ground_truth(pred: dict[str, Camera], gt: dict[str, Camera],
+                                         pred_root: str | Path) -> None:
+    """None; raises InputError listing the prediction cameras with no ground-truth camera, with
+    a hint when one side is a flat folder and the other is not."""
     extra_cams = [c for c in pred if c not in gt]
     if extra_cams:
         hint = ""
@@ -287,49 +338,41 @@ def pair_frames(
             f"prediction cameras with no ground-truth camera: {_listing(extra_cams)}{hint}",
             path=pred_root,
         )
-    pairs: list[FramePair] = []
-    skipped: list[dict] = []
-    warnings: list[dict] = []
-    for cam_name, pcam in pred.items():
-        gcam = gt[cam_name]
-        if pcam.is_video or gcam.is_video:
-            n = len(pcam.frames)
-            if n > len(gcam.frames):
-                raise InputError(
-                    f"camera {cam_name!r}: the prediction has {n} frames, the ground truth only "
-                    f"{len(gcam.frames)}",
-                    path=pcam.frames[0][1].path,
-                )
-            matched = [(i, gcam.frames[i], pcam.frames[i][1]) for i in range(n)]
-            missing = [name for name, _ in gcam.frames[n:]]
-        else:
-            gt_index = {name: i for i, (name, _) in enumerate(gcam.frames)}
-            no_gt = [name for name, _ in pcam.frames if name not in gt_index]
-            if no_gt:
-                raise InputError(
-                    f"camera {cam_name!r}: predictions with no ground-truth frame: "
-                    f"{_listing(no_gt)}",
-                    path=Path(pred_root) / cam_name,
-                )
-            pred_refs = dict(pcam.frames)
-            matched = [
-                (i, gcam.frames[i], pred_refs[name])
-                for i, (name, _) in enumerate(gcam.frames)
-                if name in pred_refs
-            ]
-            missing = [name for name, _ in gcam.frames if name not in pred_refs]
-        if missing and not allow_missing:
-            raise InputError(
-                f"camera {cam_name!r}: ground-truth frames with no prediction: {_listing(missing)} "
-                f"(pass --allow-missing to score the {len(matched)} frames present)",
-                path=Path(pred_root) / cam_name,
-            )
-        skipped.extend({"camera": cam_name, "frame": name} for name in missing)
-        warnings.extend([*pcam.warnings, *gcam.warnings])
-        for index, (gt_name, gt_ref), pred_ref in matched:
-            pairs.append(FramePair(cam_name, gt_name, index, pred_ref, gt_ref))
-    unscored = [c for c in gt if c not in pred]
-    return Pairing(pairs=pairs, unscored_cameras=unscored, skipped=skipped, warnings=warnings)
+
+
+def _match_by_position(pcam: Camera, gcam: Camera) -> tuple[_Matched, list[str]]:
+    """The matched frames of a camera where either side is a video (the n-th with the n-th), and
+    the ground-truth frame names past the prediction's last."""
+    n = len(pcam.frames)
+    if n > len(gcam.frames):
+        raise InputError(
+            f"camera {pcam.name!r}: the prediction has {n} frames, the ground truth only "
+            f"{len(gcam.frames)}",
+            path=pcam.frames[0][1].path,
+        )
+    matched = [(i, gcam.frames[i], pcam.frames[i][1]) for i in range(n)]
+    return matched, [name for name, _ in gcam.frames[n:]]
+
+
+def _match_by_name(pcam: Camera, gcam: Camera,
+                   pred_root: str | Path) -> tuple[_Matched, list[str]]:
+    """The matched frames of a camera of images (by frame name, extension ignored), and the
+    ground-truth frame names with no prediction."""
+    gt_index = {name: i for i, (name, _) in enumerate(gcam.frames)}
+    no_gt = [name for name, _ in pcam.frames if name not in gt_index]
+    if no_gt:
+        raise InputError(
+            f"camera {pcam.name!r}: predictions with no ground-truth frame: "
+            f"{_listing(no_gt)}",
+            path=Path(pred_root) / pcam.name,
+        )
+    pred_refs = dict(pcam.frames)
+    matched = [
+        (i, gcam.frames[i], pred_refs[name])
+        for i, (name, _) in enumerate(gcam.frames)
+        if name in pred_refs
+    ]
+    return matched, [name for name, _ in gcam.frames if name not in pred_refs]
 
 
 def pairs_by_camera(pairs: list[FramePair]) -> dict[str, list[FramePair]]:

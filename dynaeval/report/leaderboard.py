@@ -390,15 +390,42 @@ def build_leaderboard(
     """
     if not paths:
         raise InputError("leaderboard needs at least one results file")
+    bootstrap = _checked_bootstrap(bootstrap)
+    str_paths = [str(p) for p in paths]
+    docs = [load_results(p) for p in str_paths]
+    forced = _check(docs, str_paths, force)
+    names, info, sort = _table_metrics(docs, metrics, sort)
+    rows, methods, scenes = _board_rows(docs, str_paths, names, bootstrap)
+    _row_costs(rows, costs or {}, run_costs or {})
+    return strict({
+        "schema": SCHEMA, "dynaeval_version": VERSION, "methods": methods, "scenes": scenes,
+        "metrics": info, "settings": docs[0]["settings"], "forced": forced,
+        "bootstrap": bootstrap.describe(),
+        "overall": "mean of per-scene means (every scene weighs the same)",
+        "sources": _sources(docs, str_paths), "rows": rows,
+        "ranking": _ranking(rows, {n: info[n] for n in names if n in info}, sort),
+        **_cost_sections(methods, costs, run_costs or {}),
+        "notes": _coverage_notes(rows, methods),
+    })
+
+
+def _checked_bootstrap(bootstrap: BootstrapConfig | None) -> BootstrapConfig:
+    """The bootstrap settings (the defaults for None); raises InputError for a replicate count
+    under 1 or a confidence outside (0, 1)."""
     bootstrap = bootstrap or BootstrapConfig()
     if bootstrap.n_boot < 1 or not 0 < bootstrap.confidence < 1:
         raise InputError(
             f"bootstrap needs n_boot >= 1 and 0 < confidence < 1, got {bootstrap.n_boot} and "
             f"{bootstrap.confidence}"
         )
-    str_paths = [str(p) for p in paths]
-    docs = [load_results(p) for p in str_paths]
-    forced = _check(docs, str_paths, force)
+    return bootstrap
+
+
+def _table_metrics(docs: list[dict[str, Any]], metrics: list[str] | None,
+                   sort: str | None) -> tuple[list[str], dict[str, Any], str]:
+    """The table's metric names, {name: its ``metrics`` entry of the first file that has it},
+    and the metric that ranks (``sort``, default ``_default_sort``); raises InputError for an
+    unknown one."""
     names = _selected_metrics(docs, metrics)
     info: dict[str, Any] = {}
     for d in docs:
@@ -409,32 +436,37 @@ def build_leaderboard(
     if sort not in names:
         raise InputError(f"cannot sort by {sort!r}: not a metric of the table{did_you_mean(sort, names)}; "
                          f"available: {', '.join(names)}")
-    rows, methods, scenes = _board_rows(docs, str_paths, names, bootstrap)
-    run_costs = run_costs or {}
-    _row_costs(rows, costs or {}, run_costs)
-    ranking = _ranking(rows, {n: info[n] for n in names if n in info}, sort)
+    return names, info, sort
+
+
+def _sources(docs: list[dict[str, Any]], paths: list[str]) -> list[dict[str, str]]:
+    """``sources``: each file with its method, scene, dynaeval version and time of scoring."""
+    return [{"file": p, "method": d["method"], "scene": d["scene"],
+             "dynaeval_version": d["dynaeval_version"], "created": d["created"]}
+            for d, p in zip(docs, paths, strict=True)]
+
+
+def _cost_sections(methods: list[str], costs: dict[str, dict[str, float]] | None,
+                   run_costs: dict[tuple[str, str], RunCosts]) -> dict[str, Any]:
+    """``costs`` (the figures given, per method) and ``cost_sources`` (the run folders that
+    said theirs), each only when there is one."""
+    return {
+        **({"costs": {m: dict(costs[m]) for m in methods if costs.get(m)}} if costs else {}),
+        **({"cost_sources": [{"method": m, "scene": sc, "file": rc.source}
+                              for (m, sc), rc in run_costs.items() if rc.costs]}
+           if any(rc.costs for rc in run_costs.values()) else {}),
+    }
+
+
+def _coverage_notes(rows: list[dict[str, Any]], methods: list[str]) -> list[str]:
+    """``notes``: one when the methods cover different sets of scenes, else none."""
     covered = {m: sorted(r["scene"] for r in rows if r["method"] == m and r["scene"] != ALL_SCENES)
                for m in methods}
     notes = []
     if len({tuple(v) for v in covered.values()}) > 1:
         notes.append("methods cover different scenes: their (all) rows average different scene "
                      "sets and are not comparable")
-    return strict({
-        "schema": SCHEMA, "dynaeval_version": VERSION, "methods": methods, "scenes": scenes,
-        "metrics": info, "settings": docs[0]["settings"], "forced": forced,
-        "bootstrap": bootstrap.describe(),
-        "overall": "mean of per-scene means (every scene weighs the same)",
-        "sources": [{"file": p, "method": d["method"], "scene": d["scene"],
-                     "dynaeval_version": d["dynaeval_version"], "created": d["created"]}
-                    for d, p in zip(docs, str_paths, strict=True)],
-        "rows": rows,
-        "ranking": ranking,
-        **({"costs": {m: dict(costs[m]) for m in methods if costs.get(m)}} if costs else {}),
-        **({"cost_sources": [{"method": m, "scene": sc, "file": rc.source}
-                              for (m, sc), rc in run_costs.items() if rc.costs]}
-           if any(rc.costs for rc in run_costs.values()) else {}),
-        "notes": notes,
-    })
+    return notes
 
 
 # -- rendering --------------------------------------------------------------------------------

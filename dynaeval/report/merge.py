@@ -43,6 +43,41 @@ def merge_results(paths: list[str | Path]) -> dict[str, Any]:
     if not paths:
         raise InputError("merge needs the results files of the shards")
     docs = [(Path(p), load_results(p)) for p in paths]
+    _check_shards(docs)
+    first = docs[0][1]
+    shards = [doc for _, doc in docs]
+    rows = _merged_rows(shards)
+    frame_names = {k for r in rows for k in r if k not in FRAME_FIELDS}
+    warnings = _merged_warnings(shards)
+    skipped = sorted((s for doc in shards for s in doc["inputs"]["skipped_frames"]),
+                     key=lambda s: (natural_key(s["camera"]), natural_key(s["frame"])))
+    pairs = _merged_temporal_pairs(shards, skipped, first["settings"], warnings)
+    return build_results(RunRecord(
+        rows=rows,
+        metric_names=[n for n in first["metrics"] if n in frame_names],
+        method=first["method"],
+        scene=first["scene"],
+        pred_dir=first["inputs"]["pred"],
+        gt_dir=first["inputs"]["gt"],
+        settings=first["settings"],
+        unscored_cameras=first["inputs"]["unscored_cameras"],
+        skipped=skipped,
+        warnings=warnings,
+        timing=_summed_timing(shards),
+        version=first["dynaeval_version"],
+        camera_values={
+            cam: {k: v for k, v in entry.items() if k != "n_frames" and k not in frame_names}
+            for doc in shards for cam, entry in doc["cameras"].items()
+        },
+        regions=_merged_regions(shards),
+        temporal_parts={c: t for doc in shards for c, t in doc.get("temporal_parts", {}).items()},
+        inputs_extra={"temporal_pairs": pairs} if pairs else None,
+    ))
+
+
+def _check_shards(docs: list[tuple[Path, dict[str, Any]]]) -> None:
+    """None; raises InputError unless the ``(path, results)`` pairs are every shard of one split
+    of one run, each once, with known metrics, self-consistent rows and cameras of their own."""
     first_path, first = docs[0]
     counts = set()
     seen: dict[int, Path] = {}
@@ -56,28 +91,10 @@ def merge_results(paths: list[str | Path]) -> dict[str, Any]:
             raise InputError(f"shard {shard['index']}/{shard['count']} given twice: also "
                              f"{seen[shard['index']]}", path=path)
         seen[shard["index"]] = path
-        unknown = next((n for n in doc["metrics"] if n not in METRICS), None)
-        if unknown is not None:
-            raise InputError(f"metric {unknown!r} (in 'metrics') is not one this dynaeval knows, "
-                             "and merge takes each metric's direction and unit from its registry: "
-                             "install the package that adds it (a plugin?) or remove it",
-                             path=path)
+        _check_metrics_known(path, doc)
         _check_rows(path, doc)
-        cameras = [*doc["inputs"]["cameras"], *(f["camera"] for f in doc["frames"])]
-        for cam in dict.fromkeys(cameras):
-            if cam in owner:
-                raise InputError(f"camera {cam!r} is in two shards: {owner[cam]} and {path}; "
-                                 "shards of one run never overlap (score each I/N once)",
-                                 path=path)
-            owner[cam] = path
-        for key in ("method", "scene", "settings", "dynaeval_version"):
-            if doc[key] != first[key]:
-                raise InputError(f"shards of different runs: '{key}' differs from {first_path}",
-                                 path=path)
-        for key in ("pred", "gt", "unscored_cameras"):
-            if doc["inputs"][key] != first["inputs"][key]:
-                raise InputError(f"shards of different runs: inputs.{key} differs from "
-                                 f"{first_path}", path=path)
+        _claim_cameras(path, doc, owner)
+        _check_same_run(path, doc, first_path, first)
     if len(counts) != 1:
         raise InputError(f"shards of different splits: I/N with N in {sorted(counts)}")
     (count,) = counts
@@ -85,45 +102,69 @@ def merge_results(paths: list[str | Path]) -> dict[str, Any]:
     if missing:
         raise InputError(f"shards missing: {', '.join(f'{i}/{count}' for i in missing)}")
 
-    rows = [dict(f) for _, doc in docs for f in doc["frames"]]
-    restore_infinite(rows, [w for _, doc in docs for w in doc["warnings"]])
+
+def _check_metrics_known(path: Path, doc: dict[str, Any]) -> None:
+    """None; raises InputError naming the first metric of the shard the registry does not know."""
+    unknown = next((n for n in doc["metrics"] if n not in METRICS), None)
+    if unknown is not None:
+        raise InputError(f"metric {unknown!r} (in 'metrics') is not one this dynaeval knows, "
+                         "and merge takes each metric's direction and unit from its registry: "
+                         "install the package that adds it (a plugin?) or remove it",
+                         path=path)
+
+
+def _claim_cameras(path: Path, doc: dict[str, Any], owner: dict[str, Path]) -> None:
+    """None; records the shard's cameras in ``owner`` (camera -> file), raises InputError for a
+    camera another shard already holds."""
+    cameras = [*doc["inputs"]["cameras"], *(f["camera"] for f in doc["frames"])]
+    for cam in dict.fromkeys(cameras):
+        if cam in owner:
+            raise InputError(f"camera {cam!r} is in two shards: {owner[cam]} and {path}; "
+                             "shards of one run never overlap (score each I/N once)",
+                             path=path)
+        owner[cam] = path
+
+
+def _check_same_run(path: Path, doc: dict[str, Any], first_path: Path,
+                    first: dict[str, Any]) -> None:
+    """None; raises InputError naming the field where the shard's run differs from the first's."""
+    for key in ("method", "scene", "settings", "dynaeval_version"):
+        if doc[key] != first[key]:
+            raise InputError(f"shards of different runs: '{key}' differs from {first_path}",
+                             path=path)
+    for key in ("pred", "gt", "unscored_cameras"):
+        if doc["inputs"][key] != first["inputs"][key]:
+            raise InputError(f"shards of different runs: inputs.{key} differs from "
+                             f"{first_path}", path=path)
+
+
+def _merged_rows(docs: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Copies of the shards' frame rows, infinite values put back, in natural camera then frame
+    index order."""
+    rows = [dict(f) for doc in docs for f in doc["frames"]]
+    restore_infinite(rows, [w for doc in docs for w in doc["warnings"]])
     rows.sort(key=lambda r: (natural_key(r["camera"]), r["index"]))
-    frame_names = {k for r in rows for k in r if k not in FRAME_FIELDS}
-    metric_names = [n for n in first["metrics"] if n in frame_names]
-    camera_values = {
-        cam: {k: v for k, v in entry.items() if k != "n_frames" and k not in frame_names}
-        for _, doc in docs for cam, entry in doc["cameras"].items()
-    }
+    return rows
+
+
+def _merged_warnings(docs: list[dict[str, Any]]) -> list[dict]:
+    """The shards' warnings: every camera's, and each run-level one once but for those
+    ``build_results`` makes again."""
     warnings: list[dict] = []
-    for _, doc in docs:
+    for doc in docs:
         for w in doc["warnings"]:
             if "camera" in w or (not _made_again(w, doc) and w not in warnings):
                 warnings.append(w)
+    return warnings
+
+
+def _summed_timing(docs: list[dict[str, Any]]) -> dict[str, float]:
+    """Seconds per phase, summed over the shards."""
     timing: dict[str, float] = {}
-    for _, doc in docs:
+    for doc in docs:
         for k, v in doc["timing"].items():
             timing[k] = timing.get(k, 0.0) + v
-    skipped = sorted((s for _, doc in docs for s in doc["inputs"]["skipped_frames"]),
-                     key=lambda s: (natural_key(s["camera"]), natural_key(s["frame"])))
-    pairs = _merged_temporal_pairs([doc for _, doc in docs], skipped, first["settings"], warnings)
-    return build_results(RunRecord(
-        rows=rows,
-        metric_names=metric_names,
-        method=first["method"],
-        scene=first["scene"],
-        pred_dir=first["inputs"]["pred"],
-        gt_dir=first["inputs"]["gt"],
-        settings=first["settings"],
-        unscored_cameras=first["inputs"]["unscored_cameras"],
-        skipped=skipped,
-        warnings=warnings,
-        timing=timing,
-        version=first["dynaeval_version"],
-        camera_values=camera_values,
-        regions=_merged_regions([doc for _, doc in docs]),
-        temporal_parts={c: t for _, doc in docs for c, t in doc.get("temporal_parts", {}).items()},
-        inputs_extra={"temporal_pairs": pairs} if pairs else None,
-    ))
+    return timing
 
 
 def _check_rows(path: Path, doc: dict[str, Any]) -> None:

@@ -310,39 +310,66 @@ def build_results(record: RunRecord) -> dict[str, Any]:
     has a box, one headline warning (``no_regions_warning``) replaces the null-summary warnings
     of the focused and presence metrics.
     """
-    rows, settings, regions, temporal = (record.rows, record.settings, record.regions,
-                                         record.temporal)
     warnings = list(record.warnings)
     unmarked = [w for w in warnings if "status" not in w]
     if unmarked:
         raise ValueError(f"warning without a status: {unmarked[0]} (a bug: make warnings with "
                          "dynaeval.core.outcome.warning or note)")
+    camera_values = _camera_values(record, warnings)
+    names = _frame_metric_names(record)
+    found = _summaries(record.rows, names, camera_values, warnings, switched_off(record.settings))
+    warnings = _run_warnings(warnings, found.warnings, record.regions, record.settings)
+    doc = _document(record, found, [*names, *found.camera_only], warnings)
+    parts = {**(record.temporal_parts or {}), **parts_of(record.temporal or {})}
+    if parts:
+        doc["temporal_parts"] = parts
+    return strict(doc)
+
+
+def _camera_values(record: RunRecord, warnings: list[dict]) -> dict[str, dict[str, float | None]]:
+    """{camera: {key: value}} of the camera-level values: those given and ``temporal``'s, whose
+    per-pair values ``place_temporal`` puts into the rows (its warnings appended to
+    ``warnings``)."""
     camera_values = {c: dict(v) for c, v in (record.camera_values or {}).items()}
-    if temporal:
-        placed, more = place_temporal(rows, temporal)
+    if record.temporal:
+        placed, more = place_temporal(record.rows, record.temporal)
         warnings.extend(more)
         for cam, values in placed.items():
             camera_values.setdefault(cam, {}).update(values)
+    return camera_values
+
+
+def _frame_metric_names(record: RunRecord) -> list[str]:
+    """The per-frame result keys: ``metric_names``, then any other value key of the rows (a
+    float or None), in the order met."""
     names = list(record.metric_names)
-    for row in rows:
+    for row in record.rows:
         for k, v in row.items():
             if k not in FRAME_FIELDS and k not in names and (v is None or isinstance(v, float)):
                 names.append(k)
-    found = _summaries(rows, names, camera_values, warnings, switched_off(settings))
-    cameras, summary, counts, camera_only = (found.cameras, found.summary, found.counts,
-                                             found.camera_only)
+    return names
+
+
+def _run_warnings(warnings: list[dict], nulls: list[dict], regions: dict[str, Any] | None,
+                  settings: dict[str, Any]) -> list[dict]:
+    """The document's warnings: the run's, then those of its null summaries (``nulls``) but
+    for those the no-box headline explains (the headline then first) or tLP switched off."""
     headline = no_regions_warning(regions)
-    nulls = [w for w in found.warnings
+    nulls = [w for w in nulls
              if headline is None or not _explained_by_no_regions(w["metric"], regions)]
     warnings = _without_disabled_tlp([*warnings, *nulls], settings)
-    if headline is not None:
-        warnings = [headline, *warnings]
-    metric_names = [*names, *camera_only]
+    return [headline, *warnings] if headline is not None else warnings
+
+
+def _document(record: RunRecord, found: _Summaries, metric_names: list[str],
+              warnings: list[dict]) -> dict[str, Any]:
+    """The results document but its ``temporal_parts``: non-finite frame values None, the
+    rest as found (strict JSON is made by the caller)."""
     frames = [
         {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in r.items()}
-        for r in rows
+        for r in record.rows
     ]
-    doc = {
+    return {
         "schema": SCHEMA,
         "dynaeval_version": record.version,
         "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
@@ -351,29 +378,25 @@ def build_results(record: RunRecord) -> dict[str, Any]:
         "inputs": {
             "pred": record.pred_dir,
             "gt": record.gt_dir,
-            "n_frames": len(rows),
-            "cameras": list(cameras),
+            "n_frames": len(record.rows),
+            "cameras": list(found.cameras),
             "unscored_cameras": list(record.unscored_cameras),
             "skipped_frames": list(record.skipped),
             **({"shard": {"index": record.shard[0], "count": record.shard[1]}}
                if record.shard else {}),
             **(record.inputs_extra or {}),
         },
-        "settings": settings,
+        "settings": record.settings,
         "metrics": {n: _direction(n) for n in metric_names},
         "frames": frames,
-        "cameras": cameras,
-        "summary": summary,
+        "cameras": found.cameras,
+        "summary": found.summary,
         "summary_status": found.status,
-        "counts": counts,
+        "counts": found.counts,
         "timing": {k: round(v, 6) for k, v in record.timing.items()},
         "warnings": warnings,
-        **({"regions": regions} if regions is not None else {}),
+        **({"regions": record.regions} if record.regions is not None else {}),
     }
-    parts = {**(record.temporal_parts or {}), **parts_of(temporal or {})}
-    if parts:
-        doc["temporal_parts"] = parts
-    return strict(doc)
 
 
 def parts_of(temporal: dict[str, dict[str, CameraTerm]]) -> dict[str, dict[str, dict]]:
