@@ -11,6 +11,7 @@ import re
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from os import PathLike
+from pathlib import Path
 from typing import Any
 
 from dynaeval.core.errors import InputError, did_you_mean
@@ -143,27 +144,33 @@ class ScoreConfig:
         self.metric_options = _check_metric_options(self.metric_options, self.metrics)
 
         self.fps = check_fps(self.fps)  # refusals name the key, the value and what it must be
-        if isinstance(self.data_range, bool) or self.data_range != 1.0:
-            raise InputError(
-                f"data_range must be 1.0 when scoring files, got {self.data_range!r}: dynaeval "
-                "reads every frame into [0, 1] (uint8 / 255, uint16 / 65535, float files as "
-                "stored); to score 0-255 arrays, call the metric functions with data_range=255 "
-                "(dynaeval.metrics.psnr(pred, gt, data_range=255))")
+        _check_data_range(self.data_range)
         _check_choice("quantize", self.quantize, QUANTIZE_MODES)
         _check_choice("background", self.background, BACKGROUNDS)
         _check_choice("lpips_backend", self.lpips_backend, LPIPS_BACKENDS)
         if self.lpips_net is not None:
             _check_choice("lpips_net", self.lpips_net, LPIPS_NETS)
-        if self.iteration is not None and (isinstance(self.iteration, bool) or not isinstance(
-                self.iteration, int) or self.iteration < 0):
-            raise InputError(f"iteration must be an integer >= 0 or None, got {self.iteration!r}")
-        if self.split is not None and (not isinstance(self.split, str) or "/" in self.split
-                                       or self.split in ("", ".", "..")):
-            raise InputError(f"split must be a folder name such as 'test' or 'train', got "
-                             f"{self.split!r}")
+        _check_render_folder(self.iteration, self.split)
         if not (self.device in DEVICES or (isinstance(self.device, str)
                                            and re.fullmatch(r"cuda:\d+", self.device))):
             raise InputError(f"device must be cpu, cuda, cuda:N or auto, got {self.device!r}")
+        self._check_switches_names_and_counts()
+        self.focus = _checked_focus(self.focus, self.device)
+
+        FlowConfig(method=self.flow)  # raises InputError for an unknown method
+        if self.frames_are_video is not None and not isinstance(self.frames_are_video, bool):
+            raise InputError(f"frames_are_video must be True, False or None (the layout "
+                             f"decides), got {self.frames_are_video!r}")
+        if self.masks is not None and not isinstance(self.masks, (str, PathLike)):
+            raise InputError(f"masks must be a folder path or None, got {self.masks!r}")
+        self._check_protocol()
+        self.prepared = _checked_prepared(self.prepared)
+        self.shard = _checked_shard(self.shard)
+        self.require_metrics()  # last: the values it reads are checked
+
+    def _check_switches_names_and_counts(self) -> None:
+        """None; raises InputError unless the switches are booleans, ``method`` and ``scene``
+        non-empty strings or None, and ``workers`` and ``cache_mb`` integers at least 1 and 0."""
         for name in ("allow_missing", "presence", "temporal", "progress"):
             value = getattr(self, name)
             if not isinstance(value, bool):  # "false" or "no" read as true before
@@ -180,39 +187,15 @@ class ScoreConfig:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < low:
                 raise InputError(f"{name} must be an integer >= {low}, got {value!r}")
-        if isinstance(self.focus, str):  # the CLI's form, read as the CLI reads it
-            self.focus = FocusConfig.parse(self.focus, option="focus", device=self.device)
-        if not isinstance(self.focus, FocusConfig):
-            raise InputError(f"focus must be a FocusConfig or one of the CLI's strings detector, "
-                             f"motion, none, boxes:FILE, got {self.focus!r} "
-                             f"({type(self.focus).__name__})")
-        focus_source(self.focus.source)
 
-        FlowConfig(method=self.flow)  # raises InputError for an unknown method
-        if self.frames_are_video is not None and not isinstance(self.frames_are_video, bool):
-            raise InputError(f"frames_are_video must be True, False or None (the layout "
-                             f"decides), got {self.frames_are_video!r}")
-        if self.masks is not None and not isinstance(self.masks, (str, PathLike)):
-            raise InputError(f"masks must be a folder path or None, got {self.masks!r}")
+    def _check_protocol(self) -> None:
+        """None; raises InputError for an unknown protocol or an LPIPS net, background or 8-bit
+        step the protocol fixes otherwise."""
         _check_choice("protocol", self.protocol, PROTOCOL_NAMES)
         protocol = get_protocol(self.protocol)
         protocol.check_lpips_net(self.resolved_lpips_net())
         protocol.check_background(self.background)
         self.resolved_quantize()  # raises when the protocol fixes another 8-bit step
-        if self.prepared is not None:
-            from pathlib import Path
-
-            if not isinstance(self.prepared, str | Path) or not (Path(self.prepared) / "manifest.json").is_file():
-                raise InputError(f"prepared must be a folder written by 'dynaeval prepare' (with a "
-                                 f"manifest.json), got {self.prepared!r}")
-            self.prepared = str(self.prepared)
-        if self.shard is not None:
-            if not isinstance(self.shard, str | tuple | list):
-                raise InputError(f"shard must be 'I/N' or (I, N), got {self.shard!r} "
-                                 f"({type(self.shard).__name__})")
-            spec = self.shard if isinstance(self.shard, str) else "/".join(map(str, self.shard))
-            self.shard = parse_shard(spec)
-        self.require_metrics()  # last: the values it reads are checked
 
     def require_metrics(self, names: tuple[str, ...] | list[str] | None = None) -> None:
         """Refuse, before any work, metrics asked for by name that cannot run on this machine
@@ -237,6 +220,63 @@ class ScoreConfig:
     def resolved_quantize(self) -> str:
         """The 8-bit step of the run: the protocol's unless a compatible one was asked for."""
         return get_protocol(self.protocol).resolve_quantize(self.quantize)
+
+
+def _check_data_range(data_range: object) -> None:
+    """None; raises InputError unless ``data_range`` is 1.0 (files are read into [0, 1])."""
+    if isinstance(data_range, bool) or data_range != 1.0:
+        raise InputError(
+            f"data_range must be 1.0 when scoring files, got {data_range!r}: dynaeval "
+            "reads every frame into [0, 1] (uint8 / 255, uint16 / 65535, float files as "
+            "stored); to score 0-255 arrays, call the metric functions with data_range=255 "
+            "(dynaeval.metrics.psnr(pred, gt, data_range=255))")
+
+
+def _check_render_folder(iteration: object, split: object) -> None:
+    """None; raises InputError unless the 3DGS-family render folder's ``iteration`` is an
+    integer >= 0 or None and its ``split`` a folder name or None."""
+    if iteration is not None and (isinstance(iteration, bool) or not isinstance(
+            iteration, int) or iteration < 0):
+        raise InputError(f"iteration must be an integer >= 0 or None, got {iteration!r}")
+    if split is not None and (not isinstance(split, str) or "/" in split
+                              or split in ("", ".", "..")):
+        raise InputError(f"split must be a folder name such as 'test' or 'train', got "
+                         f"{split!r}")
+
+
+def _checked_focus(focus: object, device: str) -> FocusConfig:
+    """The focus as a ``FocusConfig`` (the CLI's string read as ``--focus`` reads it, the
+    detector on ``device``); raises InputError for anything else or an unknown source."""
+    if isinstance(focus, str):  # the CLI's form, read as the CLI reads it
+        focus = FocusConfig.parse(focus, option="focus", device=device)
+    if not isinstance(focus, FocusConfig):
+        raise InputError(f"focus must be a FocusConfig or one of the CLI's strings detector, "
+                         f"motion, none, boxes:FILE, got {focus!r} "
+                         f"({type(focus).__name__})")
+    focus_source(focus.source)
+    return focus
+
+
+def _checked_prepared(prepared: object) -> str | None:
+    """The prepared folder as a string, or None; raises InputError for a path that is not a
+    folder written by ``dynaeval prepare``."""
+    if prepared is None:
+        return None
+    if not isinstance(prepared, str | Path) or not (Path(prepared) / "manifest.json").is_file():
+        raise InputError(f"prepared must be a folder written by 'dynaeval prepare' (with a "
+                         f"manifest.json), got {prepared!r}")
+    return str(prepared)
+
+
+def _checked_shard(shard: object) -> tuple[int, int] | None:
+    """``(I, N)`` of a shard given as ``"I/N"`` or a pair (``parse_shard``), or None."""
+    if shard is None:
+        return None
+    if not isinstance(shard, str | tuple | list):
+        raise InputError(f"shard must be 'I/N' or (I, N), got {shard!r} "
+                         f"({type(shard).__name__})")
+    spec = shard if isinstance(shard, str) else "/".join(map(str, shard))
+    return parse_shard(spec)
 
 
 def _check_choice(name: str, value: object, choices: tuple[str, ...]) -> None:
