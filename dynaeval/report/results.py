@@ -315,7 +315,12 @@ def build_results(record: RunRecord) -> dict[str, Any]:
     if unmarked:
         raise ValueError(f"warning without a status: {unmarked[0]} (a bug: make warnings with "
                          "dynaeval.core.outcome.warning or note)")
-    camera_values = _camera_values(record, warnings)
+    camera_values = {c: dict(v) for c, v in (record.camera_values or {}).items()}
+    if record.temporal:  # the per-pair values go into the rows, the camera-level ones here
+        placed, more = place_temporal(record.rows, record.temporal)
+        warnings.extend(more)
+        for cam, values in placed.items():
+            camera_values.setdefault(cam, {}).update(values)
     names = _frame_metric_names(record)
     found = _summaries(record.rows, names, camera_values, warnings, switched_off(record.settings))
     warnings = _run_warnings(warnings, found.warnings, record.regions, record.settings)
@@ -324,19 +329,6 @@ def build_results(record: RunRecord) -> dict[str, Any]:
     if parts:
         doc["temporal_parts"] = parts
     return strict(doc)
-
-
-def _camera_values(record: RunRecord, warnings: list[dict]) -> dict[str, dict[str, float | None]]:
-    """{camera: {key: value}} of the camera-level values: those given and ``temporal``'s, whose
-    per-pair values ``place_temporal`` puts into the rows (its warnings appended to
-    ``warnings``)."""
-    camera_values = {c: dict(v) for c, v in (record.camera_values or {}).items()}
-    if record.temporal:
-        placed, more = place_temporal(record.rows, record.temporal)
-        warnings.extend(more)
-        for cam, values in placed.items():
-            camera_values.setdefault(cam, {}).update(values)
-    return camera_values
 
 
 def _frame_metric_names(record: RunRecord) -> list[str]:
