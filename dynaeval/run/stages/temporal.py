@@ -61,7 +61,7 @@ def _temporal_or_reason(plan: RunPlan, work: CameraWork) -> tuple[dict[str, Came
     except UndefinedMetricError as err:
         return nulls(Status.UNDEFINED, f"temporal terms of camera {camera!r}: {err}"), None
     try:
-        return temporal_of_camera(pairs, work.regions, plan, work, shape), None
+        return temporal_of_camera(plan, work, shape), None
     except FramesDiffer as err:
         return nulls(Status.NOT_A_VIDEO, err.reason()), err
     except InputError as err:
@@ -117,12 +117,13 @@ def region_items(regions: CameraRegions, focus: FocusConfig) -> list | None:
     return [r.boxes for r in regions.frames] if focus.kind.gives_boxes else None
 
 
-def temporal_of_camera(pairs: list[FramePair], regions: CameraRegions, plan: RunPlan,
-                       work: CameraWork, shape: tuple[int, ...]) -> dict[str, CameraTerm]:
-    """The temporal terms of one camera (``dynaeval.metrics.temporal.temporal_metrics``), its
-    ground truth of ``shape`` (the first frame's), with the reasons of the gaps of missing
-    frames; tLP null with the reason when the frames are smaller than LPIPS accepts."""
-    cache, prepared = work.cache, plan.prepared
+def temporal_of_camera(plan: RunPlan, work: CameraWork,
+                       shape: tuple[int, ...]) -> dict[str, CameraTerm]:
+    """The temporal terms of the camera of ``work`` (``dynaeval.metrics.temporal
+    .temporal_metrics``), its ground truth of ``shape`` (the first frame's), with the reasons
+    of the gaps of missing frames; tLP null with the reason when the frames are smaller than
+    LPIPS accepts."""
+    pairs, regions, cache, prepared = work.pairs, work.regions, work.cache, plan.prepared
     static = static_pixels(regions, plan.focus, shape)
     region_masks = region_items(regions, plan.focus)  # a frame's None: its pairs' focused: None
     small = _small_for_tlp(plan, *shape[:2])
